@@ -1,0 +1,42 @@
+"""holecli: measure drilled holes (center, diameter, surface normal) in 3D laser scans.
+
+Public API::
+
+    from holecli import load_points, detect
+    detection = detect(load_points("scan.ply"))
+    for hole in detection.holes:
+        print(hole.center, hole.diameter, hole.normal)
+"""
+
+from holecli.errors import HoleCliError, LoadError, PointsError, SpecError
+from holecli.results import Detection, Hole, Plane
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Detection",
+    "Hole",
+    "HoleCliError",
+    "LoadError",
+    "Plane",
+    "PointsError",
+    "SpecError",
+    "__version__",
+    "detect",
+    "load_points",
+    "read_cloud",
+]
+
+
+def __getattr__(name):
+    # Deferred so that ``import holecli`` stays cheap: io pulls in the readers (and open3d lazily),
+    # pipeline pulls in scipy.
+    if name in ("load_points", "read_cloud"):
+        from holecli import io
+
+        return getattr(io, name)
+    if name == "detect":
+        from holecli.pipeline import detect
+
+        return detect
+    raise AttributeError(f"module 'holecli' has no attribute {name!r}")

@@ -1,0 +1,3 @@
+from holecli.cli import main
+
+main()
