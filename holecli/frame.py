@@ -1,0 +1,102 @@
+"""Rotation of a cloud into the frame of its plane, and back.
+
+The paper's Eq. (9)/(10) is not a rotation matrix as printed (METHOD.md, errata); this module uses the
+standard Rodrigues formula ``R = I + sin(t) K + (1 - cos(t)) K^2``, with ``K`` the cross-product matrix of
+the unit axis, and treats the two degenerate normals (+z and -z) explicitly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from holecli.errors import PointsError
+
+_Z = np.array([0.0, 0.0, 1.0])
+# Below this sine the axis n x z is numerically undefined and n is taken as +z or -z.
+_PARALLEL_SINE = 1e-12
+
+
+def _unit(vector, name):
+    vector = np.asarray(vector, dtype=np.float64).reshape(-1)
+    if vector.shape != (3,) or not np.all(np.isfinite(vector)):
+        raise PointsError(f"{name} must be a finite 3-vector, got {vector!r}")
+    norm = np.linalg.norm(vector)
+    if norm == 0.0:
+        raise PointsError(f"{name} must not be the zero vector")
+    return vector / norm
+
+
+def cross_matrix(axis):
+    """The matrix ``K`` with ``K @ v == np.cross(axis, v)``."""
+    x, y, z = axis
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def rotation_to_z(normal):
+    """Rotation matrix that turns ``normal`` onto the z axis.
+
+    Parameters
+    ----------
+    normal : (3,) float
+        Direction to rotate; need not be unit length.
+
+    Returns
+    -------
+    (3, 3) float ndarray
+        Proper rotation ``R`` (``R @ R.T == I``, ``det R == 1``) with ``R @ n == (0, 0, 1)`` for the
+        unit vector ``n`` along ``normal``. For ``n == +z`` it is the identity; for ``n == -z`` it is the
+        half turn about the x axis.
+    """
+    n = _unit(normal, "normal")
+    axis = np.cross(n, _Z)
+    sine = np.linalg.norm(axis)
+    cosine = float(np.dot(n, _Z))
+    if sine < _PARALLEL_SINE:
+        if cosine > 0:
+            return np.eye(3)
+        return np.diag([1.0, -1.0, -1.0])
+    k = cross_matrix(axis / sine)
+    return np.eye(3) + sine * k + (1.0 - cosine) * (k @ k)
+
+
+def plane_basis(normal):
+    """Orthonormal in-plane axes ``(e1, e2)`` of the frame of :func:`rotation_to_z`.
+
+    The rows of ``rotation_to_z(normal)`` are ``e1, e2, n``: in-plane coordinates of a point ``p`` are
+    ``(p - origin) @ e1`` and ``(p - origin) @ e2``.
+    """
+    rotation = rotation_to_z(normal)
+    return rotation[0], rotation[1]
+
+
+def to_plane_frame(points, origin, rotation):
+    """Coordinates of ``points`` (n, 3) in the frame centred on ``origin`` and rotated by ``rotation``."""
+    return (np.asarray(points, dtype=np.float64) - origin) @ rotation.T
+
+
+def from_plane_frame(local, origin, rotation):
+    """Inverse of :func:`to_plane_frame`."""
+    return np.asarray(local, dtype=np.float64) @ rotation + origin
+
+
+def slide_onto_plane(points, origin, normal, direction):
+    """Move each point along ``direction`` until it lies on the plane ``(origin, normal)``.
+
+    A laser triangulation sensor's range noise lies along its viewing ray; sliding along that ray,
+    rather than projecting orthogonally, keeps the noise out of the in-plane coordinates.
+
+    Raises
+    ------
+    PointsError
+        When ``direction`` is (nearly) parallel to the plane.
+    """
+    n = _unit(normal, "normal")
+    d = _unit(direction, "view direction")
+    along = float(np.dot(d, n))
+    if abs(along) < 0.05:
+        raise PointsError(
+            f"view direction {d.round(4).tolist()} is within 3 degrees of the surface plane; "
+            "points cannot be slid onto it"
+        )
+    heights = (np.asarray(points, dtype=np.float64) - origin) @ n
+    return points - np.outer(heights / along, d)
