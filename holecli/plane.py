@@ -73,3 +73,71 @@ def fit_plane_svd(points):
     normal = orient_normal(vt[2])
     rms = float(singular[2] / np.sqrt(len(points)))
     return PlaneFit(point=centroid, normal=normal, rms=rms)
+
+
+def _hypothesis_normals(sample, rng, count):
+    triples = rng.integers(0, len(sample), size=(count, 3))
+    a, b, c = sample[triples[:, 0]], sample[triples[:, 1]], sample[triples[:, 2]]
+    normals = np.cross(b - a, c - a)
+    lengths = np.linalg.norm(normals, axis=1)
+    good = lengths > 1e-12 * max(float(np.max(lengths)), 1e-300)
+    return a[good], normals[good] / lengths[good, None]
+
+
+def fit_plane_robust(points, *, rng=0, sample=2000, hypotheses=96, quantile=0.3, clip=4.0, max_rounds=20):
+    """Plane of the dominant surface, ignoring bore-wall, countersink, inside-hole and outlier points.
+
+    RANSAC hypotheses from point triples are scored by the ``quantile`` of their absolute residuals
+    (least quantile of squares: no threshold to choose); the residual scale of the best one sets the
+    inlier band, and the hypothesis with the most inliers in that band wins (the dominant face when
+    the scan holds several). The plane is then refined by SVD on the points within ``clip`` robust
+    standard deviations (1.4826 * MAD) until the inlier set stops changing.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    rng : numpy.random.Generator or int
+        Random source for the hypotheses (results do not depend on it beyond round-off).
+
+    Returns
+    -------
+    PlaneFit
+        With ``inliers`` set and ``rms`` the rms distance of the inliers.
+    """
+    points = np.asarray(points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3 or len(points) < 3:
+        raise PointsError(f"a plane needs an (n >= 3, 3) array, got shape {points.shape}")
+    rng = np.random.default_rng(rng)
+    origin = points.mean(axis=0)
+    local = points - origin
+    # Round-off floor for the band: far below any real noise, far above float error.
+    extent = float(np.max(np.ptp(local, axis=0)))
+    floor = 1e-9 * (extent + float(np.max(np.abs(origin))))
+    subset = local[rng.choice(len(local), size=sample, replace=False)] if len(local) > sample else local
+    anchors, normals = _hypothesis_normals(subset, rng, hypotheses)
+    if len(normals) == 0:
+        raise PointsError("the points are collinear (or coincide): no plane is defined")
+    residuals = np.abs(np.einsum("hj,sj->hs", normals, subset) - np.sum(normals * anchors, axis=1)[:, None])
+    k = max(2, int(quantile * subset.shape[0]))
+    quantiles = np.partition(residuals, k, axis=1)[:, k]
+    # |r| at quantile q of a normal distribution is sigma * z((1 + q) / 2): 0.385 sigma for q = 0.3.
+    from scipy.special import ndtri
+
+    sigma = max(float(quantiles.min()) / float(ndtri((1.0 + quantile) / 2.0)), floor)
+    counts = np.sum(residuals <= clip * sigma, axis=1)
+    best = int(np.argmax(counts))
+    normal, offset = normals[best], float(normals[best] @ anchors[best])
+    inliers = np.abs(local @ normal - offset) <= clip * sigma
+    for _ in range(max_rounds):
+        if inliers.sum() < 3:
+            raise PointsError("no plane holds enough of the points")
+        fit = fit_plane_svd(local[inliers])
+        normal, offset = fit.normal, float(fit.normal @ fit.point)
+        distance = local @ normal - offset
+        sigma = max(1.4826 * float(np.median(np.abs(distance[inliers]))), floor)
+        new_inliers = np.abs(distance) <= clip * sigma
+        if np.array_equal(new_inliers, inliers):
+            break
+        inliers = new_inliers
+    fit = fit_plane_svd(local[inliers])
+    return PlaneFit(point=fit.point + origin, normal=fit.normal, rms=fit.rms, inliers=inliers)

@@ -1,0 +1,74 @@
+"""Sampling-bias correction of a fitted rim radius.
+
+The rim points are material points, all outside the true edge, so a circle through them is too large
+by an amount that depends on the sampling pattern (square grid, stripes, jitter, random) and on the
+noise. Instead of a fixed correction, the bias is measured on the scan's own points: synthetic holes of
+known radius ``r + k * alpha`` are cut at the measured center into the material around the real hole,
+their rims extracted and fitted exactly as the real one, and the mean excess of the fitted radius over
+the known one is the bias. The synthetic holes share the real hole's center, so they see the same
+phase of a periodic pattern (stripes), the same noise and the same extraction.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from holecli.boundary import hole_rim
+from holecli.circle import fit_circle_robust
+from holecli.errors import PointsError
+
+
+def synthetic_rim_fit(xy, center, radius, alpha, reach, clip, floor):
+    """Fit the rim of a synthetic hole of ``radius`` cut at ``center`` into ``xy``.
+
+    Rim points farther than ``radius + reach`` from the center (the far edge of the local points,
+    where a partial hole opens) are ignored. Returns the fitted radius or None.
+    """
+    distance = np.hypot(*(xy - center).T)
+    keep = distance > radius
+    local = xy[keep]
+    seeds = center + 0.5 * radius * np.array([[0.0, 0.0], [1, 0], [-1, 0], [0, 1], [0, -1]])
+    rim = hole_rim(local, seeds, alpha)
+    if rim is None:
+        return None
+    rim_xy = local[rim.index]
+    rim_xy = rim_xy[np.hypot(*(rim_xy - center).T) <= radius + reach]
+    if len(rim_xy) < 5:
+        return None
+    try:
+        fit = fit_circle_robust(rim_xy, clip=clip, floor=floor, start=(center, radius))
+    except PointsError:
+        return None
+    return fit.radius
+
+
+def sampling_bias(xy, center, radius, alpha, offsets, reach, clip, floor):
+    """Mean excess of the fitted over the true radius of synthetic holes cut into ``xy``.
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+        Surface points around the hole, reaching at least ``radius + max(offsets) * alpha + reach``.
+    center : (2,) float
+    radius : float
+        The measured (uncorrected) rim radius.
+    alpha : float
+        The empty-circle radius of the rim extraction.
+    offsets : sequence of float
+        Synthetic radii are ``radius + k * alpha`` for each ``k``.
+
+    Returns
+    -------
+    float or None
+        The radial bias (positive: rim fits come out too large), None when no synthetic hole could
+        be measured (the material around the hole is too narrow).
+    """
+    excesses = []
+    for k in offsets:
+        synthetic = radius + k * alpha
+        fitted = synthetic_rim_fit(xy, center, synthetic, alpha, reach, clip, floor)
+        if fitted is not None and abs(fitted - synthetic) < alpha:
+            excesses.append(fitted - synthetic)
+    if not excesses:
+        return None
+    return float(np.mean(excesses))

@@ -1,0 +1,101 @@
+"""The rim of one hole from a local Delaunay triangulation: an alpha-shape boundary.
+
+A Delaunay triangle's circumcircle holds no point, so a triangle whose circumradius exceeds ``alpha``
+marks an empty disk larger than any natural gap of the sampling: a piece of a hole. The hole region is
+the set of such triangles connected to the seed positions, together with any islands it surrounds
+(reflections or debris inside the hole); the rim is the set of points on the edges between that region
+and the surrounding material. Unlike the paper's convex hull of the candidates, this serves holes of
+any number, next to ragged borders, and with points inside.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import Delaunay, QhullError
+
+from holecli.geometry import circumradii
+
+
+@dataclass(frozen=True, eq=False)
+class Rim:
+    """Rim points of a hole region.
+
+    Attributes
+    ----------
+    index : (m,) int
+        Indices (into the local points) of the rim points.
+    open : bool
+        True when the hole region reaches the outer boundary of the local points (a hole cut by the
+        scan border, or a region that leaks out of the window).
+    """
+
+    index: np.ndarray
+    open: bool
+
+
+def _components(neighbors, keep):
+    """Connected components of the triangles ``keep`` through shared edges (labels; -1 elsewhere)."""
+    count = len(neighbors)
+    rows = np.repeat(np.arange(count), 3)
+    cols = neighbors.ravel()
+    valid = (cols >= 0) & keep[rows]
+    valid[valid] &= keep[cols[valid]]
+    graph = coo_matrix((np.ones(valid.sum(), dtype=np.int8), (rows[valid], cols[valid])), shape=(count, count))
+    _, labels = connected_components(graph, directed=False)
+    labels = labels.astype(np.int64)
+    labels[~keep] = -1
+    return labels
+
+
+def hole_rim(xy, seeds, alpha):
+    """Rim of the hole that contains ``seeds``.
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+        Local surface points around the hole, projected onto the plane.
+    seeds : (k, 2) float
+        Positions known to lie in the hole's empty region.
+    alpha : float
+        Empty-circle radius above which a triangle belongs to a hole.
+
+    Returns
+    -------
+    Rim or None
+        None when no seed falls in a hole triangle (the void is a natural gap smaller than alpha).
+    """
+    if len(xy) < 4:
+        return None
+    try:
+        triangulation = Delaunay(xy)
+    except QhullError:
+        return None
+    simplices = triangulation.simplices
+    neighbors = triangulation.neighbors
+    radius, _ = circumradii(xy, simplices)
+    big = radius > alpha
+    seed_triangles = triangulation.find_simplex(np.asarray(seeds, dtype=np.float64))
+    seed_triangles = seed_triangles[seed_triangles >= 0]
+    seed_triangles = seed_triangles[big[seed_triangles]]
+    if len(seed_triangles) == 0:
+        return None
+    big_labels = _components(neighbors, big)
+    region = np.isin(big_labels, np.unique(big_labels[seed_triangles]))
+    # Everything not in the region, grouped; the groups that reach the triangulation's boundary are
+    # the surrounding material, the others are islands the region encloses.
+    other_labels = _components(neighbors, ~region)
+    on_boundary = np.any(neighbors < 0, axis=1)
+    outer_groups = np.unique(other_labels[on_boundary & ~region])
+    outside = np.isin(other_labels, outer_groups) & ~region
+    hole = ~outside
+    # Rim edges: a hole triangle next to an outside triangle; neighbour k is opposite vertex k.
+    t, k = np.nonzero(hole[:, None] & (neighbors >= 0) & outside[np.maximum(neighbors, 0)])
+    keep = np.ones((len(t), 3), dtype=bool)
+    keep[np.arange(len(t)), k] = False
+    index = np.unique(simplices[t][keep])
+    is_open = bool(np.any(region & on_boundary))
+    return Rim(index=index, open=is_open)

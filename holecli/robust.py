@@ -1,0 +1,247 @@
+"""The robust method: every hole in the scan, with rim outliers rejected and the sampling bias removed.
+
+Steps (each its own module):
+
+1. plane of the dominant surface by RANSAC and iterated SVD (:func:`holecli.plane.fit_plane_robust`);
+2. rotation into the plane frame, with an orthogonal projection or a slide along the sensor's view
+   direction (:mod:`holecli.frame`);
+3. the sampling's spacing and gap scale (:mod:`holecli.spacing`): every threshold below is a multiple;
+4. hole candidates as voids of an occupancy grid, linear in the point count (:mod:`holecli.voids`);
+5. per candidate, a local Delaunay triangulation and its alpha-shape rim (:mod:`holecli.boundary`);
+6. a robust geometric circle fit (:mod:`holecli.circle`), checks that the void is a round hole and not a
+   boss, a dent of the border or a natural gap;
+7. the sampling-bias correction (:mod:`holecli.bias`), a local plane for the normal and the 3D center.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from holecli.bias import sampling_bias
+from holecli.boundary import hole_rim
+from holecli.circle import fit_circle_robust
+from holecli.errors import PointsError
+from holecli.frame import from_plane_frame, rotation_to_z, slide_onto_plane, to_plane_frame
+from holecli.plane import fit_plane_robust, fit_plane_svd
+from holecli.results import Hole, Plane
+from holecli.settings import DEFAULT_SETTINGS
+from holecli.spacing import estimate_sampling
+from holecli.voids import find_voids, occupancy_grid
+from scipy import ndimage
+
+
+@dataclass(frozen=True, eq=False)
+class _Scene:
+    """What every candidate's measurement needs to know of the whole scan."""
+
+    xy: np.ndarray           # (n, 2) all points in the plane frame (projected or slid)
+    surface_points: np.ndarray  # (m, 3) the plane inliers, world coordinates
+    heights: np.ndarray      # (n,) signed distance from the plane
+    surface: np.ndarray      # (n,) bool, plane inliers
+    band: float              # half-width of the surface band
+    origin: np.ndarray
+    rotation: np.ndarray
+    direction: np.ndarray    # projection direction (unit, world)
+    sampling: object
+    alpha: float
+    cell: float
+    min_radius: float
+    gap_scatter: float       # rim scatter the sampling alone produces
+
+
+@dataclass(frozen=True, eq=False)
+class _Measured:
+    center: np.ndarray       # (2,) plane frame
+    radius: float            # corrected
+    bias: float              # radial
+    fit: object
+    rim_xy: np.ndarray
+    partial: bool
+    arc_deg: float
+
+
+def _box_indices(xy, low, high):
+    inside = (xy[:, 0] >= low[0]) & (xy[:, 0] <= high[0]) & (xy[:, 1] >= low[1]) & (xy[:, 1] <= high[1])
+    return np.flatnonzero(inside)
+
+
+def _arc_coverage(rim_xy, center):
+    angles = np.sort(np.arctan2(rim_xy[:, 1] - center[1], rim_xy[:, 0] - center[0]))
+    gaps = np.diff(np.concatenate([angles, [angles[0] + 2 * np.pi]]))
+    return float(np.degrees(2 * np.pi - gaps.max()))
+
+
+def _local_normal(scene, center, radius):
+    """Unit normal of the surface around one hole, from the plane inliers in the ring [r, 3r]."""
+    surface_points = scene.surface_points
+    distance = np.hypot(*(scene.xy[scene.surface] - center).T)
+    ring = (distance >= radius) & (distance <= 3.0 * radius)
+    if ring.sum() < 30:
+        return None
+    try:
+        return fit_plane_svd(surface_points[ring])
+    except PointsError:
+        return None
+
+
+def _scan_lines(scene, rim_xy, center, radius):
+    """Number of scan lines with rim points across the hole, for striped scans (else None)."""
+    sampling = scene.sampling
+    if sampling.line_direction is None:
+        return None
+    across_axis = np.array([-sampling.line_direction[1], sampling.line_direction[0]])
+    across = rim_xy @ across_axis - center @ across_axis
+    across = across[np.abs(across) < radius]
+    if len(across) == 0:
+        return 0
+    return int(len(np.unique(np.round((across - across.min()) / sampling.line_pitch))))
+
+
+def _is_boss(scene, center, radius, settings):
+    """True when material stands above the surface inside the void (a pin or boss, not a hole)."""
+    distance = np.hypot(*(scene.xy - center).T)
+    above = np.count_nonzero((distance < 0.9 * radius) & (scene.heights > scene.band) & ~scene.surface)
+    ring = np.count_nonzero((distance >= radius) & (distance < 1.5 * radius) & scene.surface)
+    density = ring / (np.pi * (1.5**2 - 1.0) * radius**2)
+    return above > settings.boss_fraction * density * np.pi * (0.9 * radius) ** 2
+
+
+def _measure_void(scene, grid, void, settings):
+    """Measure one void; returns a :class:`_Measured` or None when it is not a hole."""
+    cell, alpha = scene.cell, scene.alpha
+    margin = 2.0 * alpha + 3.0 * cell
+    low = grid.center_of(void.lower) - 0.5 * cell - margin
+    high = grid.center_of(void.upper) + 0.5 * cell + margin
+    surface_xy = scene.xy[scene.surface]
+    local = surface_xy[_box_indices(surface_xy, low, high)]
+    rim = hole_rim(local, grid.center_of(void.cells), alpha)
+    if rim is None:
+        return None
+    rim_xy = local[rim.index]
+    # Keep rim points next to the void: an open region also runs along the scan's outer edge.
+    near = np.zeros_like(grid.material)
+    near[void.cells[:, 0], void.cells[:, 1]] = True
+    near = ndimage.binary_dilation(near, iterations=2)
+    rim_xy = rim_xy[grid.lookup(near, rim_xy)]
+    if len(rim_xy) < 5:
+        return None
+    spacing = scene.sampling.spacing
+    floor = settings.clip_floor_spacings * spacing
+    try:
+        fit = fit_circle_robust(rim_xy, clip=settings.clip_sigmas, floor=floor)
+    except PointsError:
+        return None
+    center, radius = fit.center, fit.radius
+    if fit.kept.sum() < 5 or radius < scene.min_radius:
+        return None
+    # The circle must sit on the void it came from.
+    void_xy = grid.center_of(void.cells)
+    if np.min(np.hypot(*(void_xy - center).T)) > radius:
+        return None
+    scatter = 1.4826 * float(np.median(np.abs(fit.residuals)))
+    if scatter > settings.max_relative_scatter * radius + scene.gap_scatter:
+        return None
+    partial = bool(rim.open or not void.enclosed)
+    arc = _arc_coverage(rim_xy[fit.kept], center) if partial else 360.0
+    if partial and arc < settings.min_partial_arc_deg:
+        return None
+    if _is_boss(scene, center, radius, settings):
+        return None
+    reach = alpha + 2.0 * cell
+    window = surface_xy[_box_indices(surface_xy, center - radius - 4.0 * alpha - 3.0 * cell - reach,
+                                     center + radius + 4.0 * alpha + 3.0 * cell + reach)]
+    bias = sampling_bias(window, center, radius, alpha, [k for k in settings.bias_offsets_alpha], reach,
+                         settings.clip_sigmas, floor)
+    if bias is None:
+        bias = 0.0
+    return _Measured(center=center, radius=radius - bias, bias=bias, fit=fit, rim_xy=rim_xy[fit.kept],
+                     partial=partial, arc_deg=arc)
+
+
+def _overlaps(a, b):
+    return np.hypot(*(a.center - b.center)) < max(a.radius, b.radius)
+
+
+def _to_hole(scene, measured, index):
+    center2d = measured.center
+    local_plane = _local_normal(scene, center2d, measured.radius)
+    on_plane = from_plane_frame(np.array([center2d[0], center2d[1], 0.0]), scene.origin, scene.rotation)
+    normal = scene.rotation[2]
+    if local_plane is not None:
+        normal = local_plane.normal
+        # Move the center along the projection direction onto the local plane.
+        along = float(scene.direction @ normal)
+        if abs(along) > 1e-6:
+            on_plane = on_plane - scene.direction * (float((on_plane - local_plane.point) @ normal) / along)
+    fit = measured.fit
+    return Hole(
+        index=index,
+        center=tuple(map(float, on_plane)),
+        diameter=2.0 * measured.radius,
+        normal=tuple(map(float, normal)),
+        rim_points=int(fit.kept.sum()),
+        fit_rms=fit.rms,
+        max_residual=fit.max_residual,
+        roundness=fit.roundness,
+        bias_correction=2.0 * measured.bias,
+        partial=measured.partial,
+        arc_deg=measured.arc_deg,
+        scan_lines=_scan_lines(scene, measured.rim_xy, center2d, measured.radius),
+    )
+
+
+def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, full_only=False,
+                  settings=DEFAULT_SETTINGS, rng=0):
+    """The robust method; see the module docstring.
+
+    Returns
+    -------
+    plane : Plane
+    holes : tuple of Hole
+        Full holes before partial ones, each group ordered by center x, then y, then z.
+    """
+    plane = fit_plane_robust(points, rng=rng, sample=settings.ransac_sample,
+                             hypotheses=settings.ransac_hypotheses, quantile=settings.ransac_quantile,
+                             clip=settings.plane_clip)
+    normal, origin = plane.normal, plane.point
+    rotation = rotation_to_z(normal)
+    heights = (points - origin) @ normal
+    if view_dir is None:
+        direction = normal
+        xy = to_plane_frame(points, origin, rotation)[:, :2]
+    else:
+        direction = np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir)
+        xy = to_plane_frame(slide_onto_plane(points, origin, normal, direction), origin, rotation)[:, :2]
+    surface = plane.inliers
+    band = float(np.max(np.abs(heights[surface])))
+    sampling = estimate_sampling(xy[surface], windows=settings.sampling_windows,
+                                 window_points=settings.sampling_window_points)
+    gap = sampling.gap
+    min_radius = 0.5 * (min_diameter if min_diameter is not None else settings.min_diameter_gaps * gap)
+    scene = _Scene(xy=xy, heights=heights, surface=surface, surface_points=points[surface], band=band,
+                   origin=origin, rotation=rotation, direction=direction, sampling=sampling,
+                   alpha=settings.alpha_gaps * gap, cell=settings.cell_gaps * gap, min_radius=min_radius,
+                   gap_scatter=0.5 * gap)
+    grid = occupancy_grid(xy[surface], scene.cell)
+    found = []
+    for void in find_voids(grid):
+        measured = _measure_void(scene, grid, void, settings)
+        if measured is None:
+            continue
+        twin = next((i for i, other in enumerate(found) if _overlaps(measured, other)), None)
+        if twin is None:
+            found.append(measured)
+        elif measured.fit.kept.sum() > found[twin].fit.kept.sum():
+            found[twin] = measured
+    if full_only:
+        found = [m for m in found if not m.partial]
+    if max_holes is not None and len(found) > max_holes:
+        found = sorted(found, key=lambda m: -m.radius)[:max_holes]
+    holes = [_to_hole(scene, measured, 0) for measured in found]
+    holes.sort(key=lambda hole: (hole.partial, hole.center))
+    holes = tuple(Hole(**{**hole.__dict__, "index": i}) for i, hole in enumerate(holes))
+    plane_result = Plane(point=tuple(map(float, origin)), normal=tuple(map(float, normal)), rms=plane.rms,
+                         inliers=int(surface.sum()))
+    return plane_result, holes

@@ -1,0 +1,45 @@
+"""Tunables of the robust method, in one place.
+
+Every length is a multiple of a scale measured on the cloud itself (see :mod:`holecli.spacing`), never
+an absolute length, so a cloud in metres gives the same result as the same cloud in millimetres:
+``spacing`` (h) is the median nearest-neighbour distance of the surface points and ``gap`` (g) the
+90th percentile of the empty-circle radii of their local Delaunay triangles (0.71 h on a square grid,
+about half the line pitch on stripes, 2.8 h on random sampling).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class RobustSettings:
+    # Plane: RANSAC hypotheses scored by the 30 % quantile of |residual| (scale-free), then refined
+    # by SVD on the points within `plane_clip` robust standard deviations.
+    ransac_sample: int = 2000
+    ransac_hypotheses: int = 96
+    ransac_quantile: float = 0.3
+    plane_clip: float = 4.0
+    # Sampling statistics from a few local windows of about this many points each.
+    sampling_windows: int = 5
+    sampling_window_points: int = 900
+    # Occupancy grid cell, in gaps: large enough that material never leaves a chain of empty cells.
+    cell_gaps: float = 2.0
+    # A Delaunay triangle whose empty circumcircle is larger than this (in gaps) is a hole triangle.
+    alpha_gaps: float = 2.5
+    # Default smallest reported diameter, in gaps (natural gaps of random sampling reach ~4 g).
+    min_diameter_gaps: float = 6.0
+    # Rim circle fit: sigma clipping threshold, and a floor of the residual scale (in spacings).
+    clip_sigmas: float = 3.0
+    clip_floor_spacings: float = 0.05
+    # A void whose rim is this far from a circle (robust sd of residuals / radius) is not a hole.
+    max_relative_scatter: float = 0.06
+    # A partial hole must keep at least this much of its rim.
+    min_partial_arc_deg: float = 120.0
+    # A void is a boss (not a hole) when this fraction of its expected surface points stand above it.
+    boss_fraction: float = 0.25
+    # Sampling-bias correction: synthetic holes cut at r + k * alpha for these k.
+    bias_offsets_alpha: tuple = (1.0, 1.5, 2.0, 2.5)
+
+
+DEFAULT_SETTINGS = RobustSettings()

@@ -1,0 +1,126 @@
+"""How the surface was sampled: point spacing, gap scale and scan-line structure.
+
+Measured in a few local windows of the projected surface points, each triangulated on its own (a
+global triangulation of 10^6 points would cost seconds). The windows sit at fixed quantiles of the
+coordinates, so the result does not depend on the order of the points.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import Delaunay, QhullError, cKDTree
+
+from holecli.errors import PointsError
+from holecli.geometry import circumradii
+
+
+@dataclass(frozen=True, eq=False)
+class Sampling:
+    """Sampling statistics of the surface points.
+
+    Attributes
+    ----------
+    spacing : float
+        Median nearest-neighbour distance (h), file units.
+    gap : float
+        90th percentile of the empty-circle (Delaunay circumcircle) radii in the material (g).
+    line_direction : (2,) float or None
+        Unit in-plane direction of the scan lines, when the points lie on stripes.
+    line_pitch : float or None
+        Distance between neighbouring scan lines, when striped.
+    """
+
+    spacing: float
+    gap: float
+    line_direction: np.ndarray | None = None
+    line_pitch: float | None = None
+
+
+def _window_indices(xy, center, half):
+    inside = (np.abs(xy[:, 0] - center[0]) <= half) & (np.abs(xy[:, 1] - center[1]) <= half)
+    return np.flatnonzero(inside)
+
+
+def _line_pitch(window, direction, spacing):
+    """Pitch of the scan lines across ``direction`` from the clustered across-line coordinates."""
+    across = np.sort(window @ np.array([-direction[1], direction[0]]))
+    steps = np.diff(across)
+    breaks = steps > 0.5 * spacing
+    if breaks.sum() < 2:
+        return None
+    starts = np.concatenate([[0], np.flatnonzero(breaks) + 1])
+    means = np.add.reduceat(across, starts) / np.diff(np.append(starts, len(across)))
+    return float(np.median(np.diff(means)))
+
+
+def estimate_sampling(xy, windows=5, window_points=900):
+    """Measure spacing, gap scale and scan-line structure of 2D surface points.
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+        Surface points projected onto their plane.
+    windows : int
+        Number of local windows (placed at coordinate quantiles).
+    window_points : int
+        Target number of points per window.
+
+    Returns
+    -------
+    Sampling
+    """
+    n = len(xy)
+    if n < 10:
+        raise PointsError(f"too few surface points to measure the sampling: {n}")
+    low = np.percentile(xy, 5, axis=0)
+    high = np.percentile(xy, 95, axis=0)
+    area = max(float(np.prod(high - low)) / 0.81, 1e-300)
+    density = n / area  # a lower bound: the scan need not fill its bounding box
+    half = 0.5 * np.sqrt(window_points / density)
+    quantiles = [(50, 50), (30, 30), (70, 70), (30, 70), (70, 30), (50, 30), (50, 70), (30, 50), (70, 50)]
+    spacings, gaps, angles = [], [], []
+    windows_used = []
+    for qx, qy in quantiles[: max(1, windows)]:
+        center = np.array([np.percentile(xy[:, 0], qx), np.percentile(xy[:, 1], qy)])
+        index = _window_indices(xy, center, half)
+        if len(index) < min(window_points // 4, n // 2) or len(index) < 10:
+            index = _window_indices(xy, center, 2 * half)
+            if len(index) < 10:
+                continue
+        window = xy[index]
+        tree = cKDTree(window)
+        distance, neighbour = tree.query(window, k=2)
+        nn = distance[:, 1]
+        positive = nn > 0
+        if positive.sum() < 5:
+            continue
+        spacings.append(float(np.median(nn[positive])))
+        vectors = window[neighbour[:, 1]] - window
+        angles.append(np.arctan2(vectors[positive, 1], vectors[positive, 0]))
+        try:
+            triangulation = Delaunay(window)
+        except QhullError:
+            continue
+        radius, center_xy = circumradii(window, triangulation.simplices)
+        inner = np.all(np.abs(center_xy - window.mean(axis=0)) <= 0.6 * np.ptp(window, axis=0), axis=1)
+        inner &= np.isfinite(radius)
+        if inner.sum() >= 5:
+            gaps.append(float(np.percentile(radius[inner], 90)))
+        windows_used.append(window)
+    if not spacings or not gaps:
+        raise PointsError("cannot measure the point spacing: the surface points are degenerate")
+    spacing = float(np.median(spacings))
+    gap = float(np.median(gaps))
+    # Scan lines: nearest neighbours mostly along one direction (doubled angles average to |m| ~ 1).
+    doubled = np.exp(2j * np.concatenate(angles))
+    mean = doubled.mean()
+    direction = pitch = None
+    if abs(mean) > 0.6:
+        theta = np.angle(mean) / 2.0
+        candidate = np.array([np.cos(theta), np.sin(theta)])
+        pitches = [p for p in (_line_pitch(w, candidate, spacing) for w in windows_used) if p]
+        if pitches and np.median(pitches) > 1.3 * spacing:
+            direction, pitch = candidate, float(np.median(pitches))
+    return Sampling(spacing=spacing, gap=gap, line_direction=direction, line_pitch=pitch)
