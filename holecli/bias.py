@@ -3,7 +3,7 @@
 The rim points are material points, all outside the true edge, so a circle through them is too large
 by an amount that depends on the sampling pattern (square grid, stripes, jitter, random) and on the
 noise. Instead of a fixed correction, the bias is measured on the scan's own points: synthetic holes of
-known radius ``r + k * alpha`` are cut at the measured center into the material around the real hole,
+known radius ``r + offset`` are cut at the measured center into the material around the real hole,
 their rims extracted and fitted exactly as the real one, and the mean excess of the fitted radius over
 the known one is the bias. The synthetic holes share the real hole's center, so they see the same
 phase of a periodic pattern (stripes), the same noise and the same extraction.
@@ -14,8 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from holecli.boundary import hole_rim
-from holecli.circle import fit_circle_robust
-from holecli.errors import PointsError
+from holecli.edge import fit_edge
 
 
 def synthetic_rim_fit(xy, center, radius, alpha, reach, clip, floor):
@@ -26,24 +25,25 @@ def synthetic_rim_fit(xy, center, radius, alpha, reach, clip, floor):
     """
     distance = np.hypot(*(xy - center).T)
     keep = distance > radius
+    reach_box = np.max(np.abs(xy - center), axis=0) if len(xy) else np.zeros(2)
     local = xy[keep]
     seeds = center + 0.5 * radius * np.array([[0.0, 0.0], [1, 0], [-1, 0], [0, 1], [0, -1]])
-    rim = hole_rim(local, seeds, alpha)
+    rim = hole_rim(local, seeds, alpha, window=(center - reach_box, center + reach_box))
     if rim is None:
         return None
     rim_xy = local[rim.index]
     rim_xy = rim_xy[np.hypot(*(rim_xy - center).T) <= radius + reach]
     if len(rim_xy) < 5:
         return None
-    try:
-        fit = fit_circle_robust(rim_xy, clip=clip, floor=floor, start=(center, radius))
-    except PointsError:
-        return None
-    return fit.radius
+    fit, _ = fit_edge(rim_xy, alpha, floor, clip, start=(center, radius))
+    return None if fit is None else fit.radius
 
 
 def sampling_bias(xy, center, radius, alpha, offsets, reach, clip, floor):
     """Mean excess of the fitted over the true radius of synthetic holes cut into ``xy``.
+
+    Synthetic holes must not be smaller than the real hole (else they would hold its void), so the
+    offsets are positive.
 
     Parameters
     ----------
@@ -55,7 +55,9 @@ def sampling_bias(xy, center, radius, alpha, offsets, reach, clip, floor):
     alpha : float
         The empty-circle radius of the rim extraction.
     offsets : sequence of float
-        Synthetic radii are ``radius + k * alpha`` for each ``k``.
+        The synthetic radii are ``radius + offset``, file units, each > 0. On a regular pattern they
+        are multiples of its period so that each synthetic edge meets the scan lines in the same
+        phase as the real one.
 
     Returns
     -------
@@ -64,8 +66,8 @@ def sampling_bias(xy, center, radius, alpha, offsets, reach, clip, floor):
         be measured (the material around the hole is too narrow).
     """
     excesses = []
-    for k in offsets:
-        synthetic = radius + k * alpha
+    for offset in offsets:
+        synthetic = radius + offset
         fitted = synthetic_rim_fit(xy, center, synthetic, alpha, reach, clip, floor)
         if fitted is not None and abs(fitted - synthetic) < alpha:
             excesses.append(fitted - synthetic)

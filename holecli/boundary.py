@@ -51,7 +51,7 @@ def _components(neighbors, keep):
     return labels
 
 
-def hole_rim(xy, seeds, alpha):
+def hole_rim(xy, seeds, alpha, window=None):
     """Rim of the hole that contains ``seeds``.
 
     Parameters
@@ -62,6 +62,9 @@ def hole_rim(xy, seeds, alpha):
         Positions known to lie in the hole's empty region.
     alpha : float
         Empty-circle radius above which a triangle belongs to a hole.
+    window : ((2,) float, (2,) float), optional
+        The box ``(low, high)`` the local points were cut from: triangles within ``2 alpha`` of its
+        sides are material (the cut, not a hole, leaves gaps there).
 
     Returns
     -------
@@ -78,6 +81,18 @@ def hole_rim(xy, seeds, alpha):
     neighbors = triangulation.neighbors
     radius, _ = circumradii(xy, simplices)
     big = radius > alpha
+    # On the outer boundary a circumcircle reaches beyond the points, where nothing was scanned: a
+    # large circle there shows the end of the scan, not a hole, unless the boundary edge itself is
+    # wider than an alpha disk (the mouth of a hole cut by the border).
+    t, k = np.nonzero(neighbors < 0)
+    if len(t):
+        ends = simplices[t][np.arange(3)[None, :] != k[:, None]].reshape(-1, 2)
+        narrow = np.hypot(*(xy[ends[:, 0]] - xy[ends[:, 1]]).T) < 2.0 * alpha
+        big[t[narrow]] = False
+    if window is not None:
+        low, high = np.asarray(window[0]), np.asarray(window[1])
+        clearance = np.minimum(np.min(xy - low, axis=1), np.min(high - xy, axis=1))
+        big[np.any(clearance[simplices] < 2.0 * alpha, axis=1)] = False
     seed_triangles = triangulation.find_simplex(np.asarray(seeds, dtype=np.float64))
     seed_triangles = seed_triangles[seed_triangles >= 0]
     seed_triangles = seed_triangles[big[seed_triangles]]
@@ -99,3 +114,32 @@ def hole_rim(xy, seeds, alpha):
     index = np.unique(simplices[t][keep])
     is_open = bool(np.any(region & on_boundary))
     return Rim(index=index, open=is_open)
+
+
+def outer_envelope(rim_xy, center, depth, sectors):
+    """Rim points within ``depth`` of the outermost rim point of their angular sector.
+
+    Points inside a hole that lie closer than alpha to its edge join the material in the
+    triangulation; they sit deeper in the hole than the true rim points of the same direction and
+    are dropped here.
+
+    Parameters
+    ----------
+    rim_xy : (m, 2) float
+    center : (2,) float
+        Current estimate of the hole's center.
+    depth : float
+    sectors : int
+        Number of equal angular sectors around ``center``.
+
+    Returns
+    -------
+    (m,) bool
+    """
+    offset = rim_xy - center
+    radius = np.hypot(offset[:, 0], offset[:, 1])
+    sector = ((np.arctan2(offset[:, 1], offset[:, 0]) + np.pi) / (2 * np.pi) * sectors).astype(np.int64)
+    sector = np.clip(sector, 0, sectors - 1)
+    outermost = np.full(sectors, -np.inf)
+    np.maximum.at(outermost, sector, radius)
+    return radius >= outermost[sector] - depth

@@ -21,7 +21,7 @@ import numpy as np
 
 from holecli.bias import sampling_bias
 from holecli.boundary import hole_rim
-from holecli.circle import fit_circle_robust
+from holecli.edge import fit_edge
 from holecli.errors import PointsError
 from holecli.frame import from_plane_frame, rotation_to_z, slide_onto_plane, to_plane_frame
 from holecli.plane import fit_plane_robust, fit_plane_svd
@@ -37,6 +37,8 @@ class _Scene:
     """What every candidate's measurement needs to know of the whole scan."""
 
     xy: np.ndarray           # (n, 2) all points in the plane frame (projected or slid)
+    surface_xy: np.ndarray   # (m, 2) the plane inliers' rows of xy
+    material_xy: np.ndarray  # surface_xy in material cells of the grid (specks inside holes removed)
     surface_points: np.ndarray  # (m, 3) the plane inliers, world coordinates
     heights: np.ndarray      # (n,) signed distance from the plane
     surface: np.ndarray      # (n,) bool, plane inliers
@@ -76,7 +78,7 @@ def _arc_coverage(rim_xy, center):
 def _local_normal(scene, center, radius):
     """Unit normal of the surface around one hole, from the plane inliers in the ring [r, 3r]."""
     surface_points = scene.surface_points
-    distance = np.hypot(*(scene.xy[scene.surface] - center).T)
+    distance = np.hypot(*(scene.surface_xy - center).T)
     ring = (distance >= radius) & (distance <= 3.0 * radius)
     if ring.sum() < 30:
         return None
@@ -114,9 +116,9 @@ def _measure_void(scene, grid, void, settings):
     margin = 2.0 * alpha + 3.0 * cell
     low = grid.center_of(void.lower) - 0.5 * cell - margin
     high = grid.center_of(void.upper) + 0.5 * cell + margin
-    surface_xy = scene.xy[scene.surface]
-    local = surface_xy[_box_indices(surface_xy, low, high)]
-    rim = hole_rim(local, grid.center_of(void.cells), alpha)
+    material_xy = scene.material_xy
+    local = material_xy[_box_indices(material_xy, low, high)]
+    rim = hole_rim(local, grid.center_of(void.cells), alpha, window=(low, high))
     if rim is None:
         return None
     rim_xy = local[rim.index]
@@ -125,39 +127,53 @@ def _measure_void(scene, grid, void, settings):
     near[void.cells[:, 0], void.cells[:, 1]] = True
     near = ndimage.binary_dilation(near, iterations=2)
     rim_xy = rim_xy[grid.lookup(near, rim_xy)]
-    if len(rim_xy) < 5:
+    partial = rim.open
+    fewest = settings.min_partial_rim_points if partial else settings.min_rim_points
+    if len(rim_xy) < fewest:
         return None
-    spacing = scene.sampling.spacing
-    floor = settings.clip_floor_spacings * spacing
-    try:
-        fit = fit_circle_robust(rim_xy, clip=settings.clip_sigmas, floor=floor)
-    except PointsError:
+    floor = settings.clip_floor_spacings * scene.sampling.spacing
+    fit, used = fit_edge(rim_xy, alpha, floor, settings.clip_sigmas)
+    if fit is None or used.sum() < fewest or fit.radius < scene.min_radius:
         return None
     center, radius = fit.center, fit.radius
-    if fit.kept.sum() < 5 or radius < scene.min_radius:
-        return None
-    # The circle must sit on the void it came from.
-    void_xy = grid.center_of(void.cells)
-    if np.min(np.hypot(*(void_xy - center).T)) > radius:
+    # The circle must sit on the void it came from, and the rim must be round.
+    if np.min(np.hypot(*(grid.center_of(void.cells) - center).T)) > radius:
         return None
     scatter = 1.4826 * float(np.median(np.abs(fit.residuals)))
     if scatter > settings.max_relative_scatter * radius + scene.gap_scatter:
         return None
-    partial = bool(rim.open or not void.enclosed)
-    arc = _arc_coverage(rim_xy[fit.kept], center) if partial else 360.0
-    if partial and arc < settings.min_partial_arc_deg:
+    arc = _arc_coverage(rim_xy[used], center)
+    # A closed region whose rim still misses a third of the circle lost its rim to missing data.
+    partial = partial or arc < settings.closed_rim_min_arc_deg
+    if not partial:
+        arc = 360.0
+    elif arc < settings.min_partial_arc_deg or used.sum() < settings.min_partial_rim_points:
         return None
     if _is_boss(scene, center, radius, settings):
         return None
-    reach = alpha + 2.0 * cell
-    window = surface_xy[_box_indices(surface_xy, center - radius - 4.0 * alpha - 3.0 * cell - reach,
-                                     center + radius + 4.0 * alpha + 3.0 * cell + reach)]
-    bias = sampling_bias(window, center, radius, alpha, [k for k in settings.bias_offsets_alpha], reach,
-                         settings.clip_sigmas, floor)
-    if bias is None:
-        bias = 0.0
-    return _Measured(center=center, radius=radius - bias, bias=bias, fit=fit, rim_xy=rim_xy[fit.kept],
+    bias = _sampling_bias(scene, center, radius, settings, floor)
+    if radius - bias < scene.min_radius:
+        return None
+    return _Measured(center=center, radius=radius - bias, bias=bias, fit=fit, rim_xy=rim_xy[used],
                      partial=partial, arc_deg=arc)
+
+
+def _sampling_bias(scene, center, radius, settings, floor):
+    """Radial sampling bias of a rim fit of ``radius`` at ``center`` (see :mod:`holecli.bias`)."""
+    period = scene.sampling.period or 0.5 * scene.alpha
+    offsets = [k * period for k in settings.bias_offsets]
+    reach = scene.alpha + 2.0 * scene.cell
+    extent = radius + offsets[-1] + 2.0 * scene.alpha + 3.0 * scene.cell + reach
+    window = scene.material_xy[_box_indices(scene.material_xy, center - extent, center + extent)]
+    bias = 0.0
+    for _ in range(settings.bias_passes):
+        # Cut the synthetic holes in phase with the current estimate of the true edge.
+        estimate = sampling_bias(window, center, radius - bias, scene.alpha, offsets, reach,
+                                 settings.clip_sigmas, floor)
+        if estimate is None:
+            break
+        bias = estimate
+    return bias
 
 
 def _overlaps(a, b):
@@ -220,11 +236,14 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
                                  window_points=settings.sampling_window_points)
     gap = sampling.gap
     min_radius = 0.5 * (min_diameter if min_diameter is not None else settings.min_diameter_gaps * gap)
-    scene = _Scene(xy=xy, heights=heights, surface=surface, surface_points=points[surface], band=band,
+    surface_xy = xy[surface]
+    cell = settings.cell_gaps * gap
+    grid = occupancy_grid(surface_xy, cell)
+    material_xy = surface_xy[grid.lookup(grid.material, surface_xy)]
+    scene = _Scene(xy=xy, surface_xy=surface_xy, material_xy=material_xy, heights=heights, surface=surface, surface_points=points[surface], band=band,
                    origin=origin, rotation=rotation, direction=direction, sampling=sampling,
-                   alpha=settings.alpha_gaps * gap, cell=settings.cell_gaps * gap, min_radius=min_radius,
+                   alpha=settings.alpha_gaps * gap, cell=cell, min_radius=min_radius,
                    gap_scatter=0.5 * gap)
-    grid = occupancy_grid(xy[surface], scene.cell)
     found = []
     for void in find_voids(grid):
         measured = _measure_void(scene, grid, void, settings)

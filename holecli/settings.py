@@ -36,10 +36,18 @@ class RobustSettings:
     max_relative_scatter: float = 0.06
     # A partial hole must keep at least this much of its rim.
     min_partial_arc_deg: float = 120.0
+    # A closed rim with a larger angular gap than 360 minus this is reported as partial too (sparse
+    # scans leave gaps of up to ~75 degrees between the rim points of a full hole).
+    closed_rim_min_arc_deg: float = 240.0
     # A void is a boss (not a hole) when this fraction of its expected surface points stand above it.
     boss_fraction: float = 0.25
-    # Sampling-bias correction: synthetic holes cut at r + k * alpha for these k.
-    bias_offsets_alpha: tuple = (1.0, 1.5, 2.0, 2.5)
+    # Sampling-bias correction: synthetic holes cut at r + k * period for these k (the pattern's
+    # period: line pitch or grid spacing; half an alpha on irregular sampling), in this many passes.
+    bias_offsets: tuple = (1, 2, 3, 4)
+    bias_passes: int = 2
+    # Fewest rim points for a full and for a partial hole.
+    min_rim_points: int = 6
+    min_partial_rim_points: int = 10
 
 
 DEFAULT_SETTINGS = RobustSettings()

@@ -30,12 +30,22 @@ class Sampling:
         Unit in-plane direction of the scan lines, when the points lie on stripes.
     line_pitch : float or None
         Distance between neighbouring scan lines, when striped.
+    lattice : bool
+        True when the points sit on a regular square lattice of pitch ``spacing`` (a grid).
     """
 
     spacing: float
     gap: float
     line_direction: np.ndarray | None = None
     line_pitch: float | None = None
+    lattice: bool = False
+
+    @property
+    def period(self):
+        """Across-line period of a regular pattern (line pitch, or grid spacing), None if irregular."""
+        if self.line_pitch is not None:
+            return self.line_pitch
+        return self.spacing if self.lattice else None
 
 
 def _window_indices(xy, center, half):
@@ -117,10 +127,14 @@ def estimate_sampling(xy, windows=5, window_points=900):
     doubled = np.exp(2j * np.concatenate(angles))
     mean = doubled.mean()
     direction = pitch = None
+    lattice = False
     if abs(mean) > 0.6:
         theta = np.angle(mean) / 2.0
         candidate = np.array([np.cos(theta), np.sin(theta)])
         pitches = [p for p in (_line_pitch(w, candidate, spacing) for w in windows_used) if p]
         if pitches and np.median(pitches) > 1.3 * spacing:
             direction, pitch = candidate, float(np.median(pitches))
-    return Sampling(spacing=spacing, gap=gap, line_direction=direction, line_pitch=pitch)
+    elif abs(np.mean(doubled**2)) > 0.6:
+        # Nearest neighbours along two perpendicular directions: a square grid.
+        lattice = True
+    return Sampling(spacing=spacing, gap=gap, line_direction=direction, line_pitch=pitch, lattice=lattice)

@@ -20,6 +20,8 @@ from scipy.spatial import ConvexHull, QhullError
 
 _CROSS = ndimage.generate_binary_structure(2, 1)
 _SQUARE = np.ones((3, 3), dtype=bool)
+# Clusters of occupied cells up to this size that the opening removes are specks, not material.
+MAX_SPECK_CELLS = 8
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,16 +75,29 @@ class Void:
 def occupancy_grid(xy, cell):
     """The occupancy grid of ``xy`` at ``cell``, padded by two empty cells on every side.
 
-    Specks of material narrower than 3 x 3 cells (random reflections inside a hole) are removed by a
-    morphological opening; they cannot be the edge of a hole.
+    Specks (small clusters of occupied cells that hold no 3 x 3 block: random reflections inside a
+    hole) are removed by a morphological opening; they cannot be the edge of a hole.
     """
     origin = xy.min(axis=0) - 2.0 * cell
     shape = tuple(np.floor((xy.max(axis=0) - origin) / cell).astype(int) + 3)
     ij = np.floor((xy - origin) / cell).astype(np.int64)
     occupied = np.zeros(shape, dtype=bool)
     occupied[ij[:, 0], ij[:, 1]] = True
-    material = ndimage.binary_opening(occupied, structure=_SQUARE)
-    return Grid(origin=origin, cell=float(cell), material=material)
+    opened = ndimage.binary_opening(occupied, structure=_SQUARE)
+    # The opening also thins a narrow strip of real material (between a hole and the scan's edge).
+    # Specks are small clusters away from the scan's exterior; anything else the opening removed is
+    # given back.
+    removed, count = ndimage.label(occupied & ~opened, structure=_CROSS)
+    if count:
+        sizes = np.bincount(removed.ravel())
+        empty_labels, _ = ndimage.label(~occupied, structure=_CROSS)
+        exterior = empty_labels == empty_labels[0, 0]
+        touching = np.unique(removed[ndimage.binary_dilation(exterior, structure=_CROSS) & (removed > 0)])
+        keep = sizes > MAX_SPECK_CELLS
+        keep[touching] = True
+        keep[0] = False
+        opened |= keep[removed]
+    return Grid(origin=origin, cell=float(cell), material=opened)
 
 
 def _hull_mask(material):
