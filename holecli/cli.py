@@ -207,6 +207,7 @@ def detect(scan, fmt, output, method):
               help="Hole center in the surface frame (ignored when --hole is given).")
 @click.option("--hole", "holes", type=FloatTuple(3, "X,Y,DIAMETER"), multiple=True,
               help="A hole X,Y,DIAMETER in the surface frame; repeat for several holes.")
+@click.option("--no-hole", is_flag=True, help="Scan a plain surface without any hole.")
 @click.option("--spacing", type=click.FloatRange(min=0, min_open=True), default=0.0908, show_default=True,
               help="Point spacing h (along a scan line).")
 @click.option("--extent", type=FloatTuple(4, "XMIN,XMAX,YMIN,YMAX"), default="-3,5,-3,5", show_default=True,
@@ -240,7 +241,7 @@ def detect(scan, fmt, output, method):
 @click.option("--seed", type=int, default=0, show_default=True, help="Random seed.")
 @click.option("--truth", "truth_path", type=click.Path(dir_okay=False, path_type=str), default=None,
               help="Where to write the ground truth [default: OUTPUT with .truth.json].")
-def simulate(output, diameter, center, holes, spacing, extent, pattern, line_pitch, scan_angle, rotation,
+def simulate(output, diameter, center, holes, no_hole, spacing, extent, pattern, line_pitch, scan_angle, rotation,
              translation, noise_z, noise_normal, inside_points, countersink, bore_depth, outliers, ragged,
              nan_points, seed, truth_path):
     """Write a synthetic scan to OUTPUT (.ply, .pcd, .csv, .txt or .xyz) and its ground truth.
@@ -267,7 +268,7 @@ def simulate(output, diameter, center, holes, spacing, extent, pattern, line_pit
         if Path(output).suffix.lower() not in SUPPORTED_EXTENSIONS:
             raise Failure(f"{output}: unsupported extension (expected {', '.join(SUPPORTED_EXTENSIONS)})",
                           EXIT_INPUT)
-        specs = holes or ((center[0], center[1], diameter),)
+        specs = () if no_hole else holes or ((center[0], center[1], diameter),)
         try:
             scene = synth.SceneSpec(
                 holes=tuple(synth.HoleSpec(center=(x, y), diameter=d, countersink_diameter=countersink,

@@ -32,7 +32,6 @@ import os
 import re
 import stat
 import struct
-import tempfile
 import warnings
 from dataclasses import dataclass
 from typing import Optional
@@ -40,6 +39,7 @@ from typing import Optional
 import numpy as np
 
 from holecli.errors import LoadError
+from holecli.outfile import write_bytes_atomic
 
 __all__ = ["SUPPORTED_EXTENSIONS", "Cloud", "load_points", "read_cloud", "save_points"]
 
@@ -166,7 +166,7 @@ def save_points(path, points) -> None:
         payload = _encode_pcd(array)
     else:
         payload = _encode_text(array, header=extension == ".csv")
-    _write_atomically(name, payload)
+    write_bytes_atomic(name, payload)
 
 
 # --- dispatch and common checks ---------------------------------------------------------------
@@ -976,29 +976,3 @@ def _encode_text(points: np.ndarray, header: bool) -> bytes:
     row = "%r,%r,%r\n" if header else "%r %r %r\n"
     body = (row * len(points)) % tuple(points.ravel().tolist())
     return (("x,y,z\n" if header else "") + body).encode("ascii")
-
-
-def _write_atomically(name: str, payload: bytes) -> None:
-    folder = os.path.dirname(os.path.abspath(name))
-    handle, temporary = tempfile.mkstemp(prefix=f".{os.path.basename(name)}.", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            stream.write(payload)
-            stream.flush()
-            os.fsync(stream.fileno())
-        # mkstemp creates the file readable by its owner only; give it the mode of a plain open().
-        os.chmod(temporary, 0o666 & ~_umask())
-        os.replace(temporary, name)
-    except BaseException:
-        try:
-            os.unlink(temporary)
-        except FileNotFoundError:
-            pass
-        raise
-
-
-def _umask() -> int:
-    # The only portable way to read the umask is to set it and put it back.
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
