@@ -99,8 +99,11 @@ def main():
     """
 
 
-def measure_file(path, method):
-    """Read ``path`` and run the pipeline; returns the detection with file and dropped counts set."""
+def measure_file(path, options):
+    """Read ``path`` and run the pipeline with ``options`` (keyword arguments of ``detect``).
+
+    Returns the detection with ``file`` and ``dropped_points`` set; raises :class:`Failure`.
+    """
     from dataclasses import replace
 
     from holecli.io import read_cloud
@@ -111,10 +114,44 @@ def measure_file(path, method):
     except LoadError as error:
         raise Failure(str(error), EXIT_INPUT) from None
     try:
-        detection = run_detect(cloud.points, method=method)
+        detection = run_detect(cloud.points, **options)
     except HoleCliError as error:
         raise Failure(f"{path}: {error}", EXIT_INPUT) from None
     return replace(detection, file=str(path), dropped_points=cloud.dropped)
+
+
+def detection_options(method, view_dir, min_diameter, max_holes, full_only):
+    """The ``detect`` keyword arguments of the command-line options; usage error for paper + options."""
+    if method == "paper":
+        given = [name for name, value in (("--view-dir", view_dir), ("--min-diameter", min_diameter),
+                                          ("--max-holes", max_holes), ("--full-only", full_only or None))
+                 if value is not None]
+        if given:
+            raise click.UsageError(f"{', '.join(given)} cannot be used with --method paper")
+        return {"method": "paper"}
+    return {"method": method, "view_dir": view_dir, "min_diameter": min_diameter, "max_holes": max_holes,
+            "full_only": full_only}
+
+
+def detection_option_decorators(function):
+    """The detection options shared by ``detect`` and ``batch``."""
+    options = [
+        click.option("--method", type=click.Choice(["robust", "paper"]), default="robust", show_default=True,
+                     help="robust: every hole, robust to noise and clutter, bias-corrected; "
+                          "paper: the published method (one hole, clean data)."),
+        click.option("--view-dir", type=FloatTuple(3, "X,Y,Z"), default=None,
+                     help="Sensor viewing direction: slide points along it onto the plane instead of "
+                          "projecting orthogonally (e.g. 0,0,1)."),
+        click.option("--min-diameter", type=click.FloatRange(min=0), default=None,
+                     help="Smallest hole diameter reported, file units [default: 6 gap scales of the "
+                          "sampling, see README]."),
+        click.option("--max-holes", type=click.IntRange(min=1), default=None,
+                     help="Report at most N holes (the largest)."),
+        click.option("--full-only", is_flag=True, help="Leave out holes cut by the border of the scan."),
+    ]
+    for option in reversed(options):
+        function = option(function)
+    return function
 
 
 def render(records, fmt):
@@ -174,21 +211,22 @@ def emit(text, output):
               help="Output format: JSON record, CSV (one row per hole) or a table for people.")
 @click.option("--output", "-o", type=click.Path(dir_okay=False, path_type=str),
               help="Write the result to this file (atomically) instead of stdout.")
-@click.option("--method", type=click.Choice(["paper", "robust"]), default="paper", show_default=True,
-              help="Detection method.")
-def detect(scan, fmt, output, method):
-    """Measure the hole in SCAN (.ply, .pcd, .csv, .txt or .xyz).
+@detection_option_decorators
+def detect(scan, fmt, output, method, view_dir, min_diameter, max_holes, full_only):
+    """Measure the holes in SCAN (.ply, .pcd, .csv, .txt or .xyz).
 
-    Prints center, diameter and normal of the hole as JSON (units those of the file).
+    Prints center, diameter and normal of every hole as JSON (units those of the file).
 
     \b
     Examples:
       holecli detect scan.ply
       holecli detect scan.csv --format csv --output result.csv
+      holecli detect scan.pcd --view-dir 0,0,1 --full-only --format table
     """
+    options = detection_options(method, view_dir, min_diameter, max_holes, full_only)
 
     def body():
-        detection = measure_file(scan, method)
+        detection = measure_file(scan, options)
         record = detection.to_dict()
         emit(render([record], fmt), output)
         return EXIT_OK if record["holes"] else EXIT_NO_HOLE

@@ -68,15 +68,45 @@ def _detect_paper(points):
     return plane_result, holes
 
 
-def detect(points, *, method="paper"):
-    """Find the hole(s) in a scan of a nearly flat surface.
+def _check_options(view_dir, min_diameter, max_holes):
+    if view_dir is not None:
+        direction = np.asarray(view_dir, dtype=np.float64).reshape(-1)
+        if direction.shape != (3,) or not np.all(np.isfinite(direction)) or not np.any(direction):
+            raise PointsError(f"view_dir must be a finite, non-zero 3-vector, got {view_dir!r}")
+        view_dir = direction
+    if min_diameter is not None and not (np.isfinite(min_diameter) and min_diameter >= 0):
+        raise PointsError(f"min_diameter must be a finite length >= 0, got {min_diameter!r}")
+    if max_holes is not None and (int(max_holes) != max_holes or max_holes < 1):
+        raise PointsError(f"max_holes must be a whole number >= 1, got {max_holes!r}")
+    return view_dir
+
+
+def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_holes=None, full_only=False,
+           settings=None, rng=0):
+    """Find the holes in a scan of a nearly flat surface.
 
     Parameters
     ----------
     points : (n, 3) float
         Finite points in file units (at least ``MIN_POINTS``).
-    method : {"paper", "robust"}
-        ``"paper"`` reproduces the published method (one hole, clean data).
+    method : {"robust", "paper"}
+        ``"robust"`` (default) finds every hole, robust to noise, outliers, bore-wall and
+        countersink points and ragged borders, with the sampling bias removed. ``"paper"`` reproduces
+        the published method (one hole, clean data) and takes none of the options below.
+    view_dir : (3,) float, optional
+        The sensor's viewing direction (its sign does not matter). Points are slid along it onto the
+        plane instead of being projected orthogonally, which keeps range noise out of the in-plane
+        coordinates.
+    min_diameter : float, optional
+        Smallest diameter reported, file units; by default six times the sampling's gap scale.
+    max_holes : int, optional
+        Report at most this many holes (the largest).
+    full_only : bool
+        Leave out holes cut by the border of the scan.
+    settings : holecli.settings.RobustSettings, optional
+        Tunables of the robust method.
+    rng : int or numpy.random.Generator
+        Seed of the plane's RANSAC hypotheses (results do not depend on it beyond round-off).
 
     Returns
     -------
@@ -87,12 +117,22 @@ def detect(points, *, method="paper"):
     Raises
     ------
     PointsError
-        When ``points`` is not a usable (n, 3) array or ``method`` is unknown.
+        When ``points`` is not a usable (n, 3) array, ``method`` is unknown or an option is invalid.
     """
     if method not in METHODS:
         raise PointsError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     started = time.perf_counter()
     points = validate_points(points)
-    plane, holes = _detect_paper(points)
+    view_dir = _check_options(view_dir, min_diameter, max_holes)
+    if method == "paper":
+        if view_dir is not None or min_diameter is not None or max_holes is not None or full_only:
+            raise PointsError("the paper method takes no options (view_dir, min_diameter, max_holes, full_only)")
+        plane, holes = _detect_paper(points)
+    else:
+        from holecli.robust import detect_robust
+        from holecli.settings import DEFAULT_SETTINGS
+
+        plane, holes = detect_robust(points, view_dir=view_dir, min_diameter=min_diameter, max_holes=max_holes,
+                                     full_only=full_only, settings=settings or DEFAULT_SETTINGS, rng=rng)
     elapsed_ms = (time.perf_counter() - started) * 1000.0
     return Detection(holes=holes, plane=plane, points=len(points), method=method, elapsed_ms=elapsed_ms)
