@@ -23,6 +23,7 @@ from holecli.bias import sampling_bias
 from holecli.boundary import hole_rim
 from holecli.edge import fit_edge
 from holecli.errors import PointsError
+from holecli.lattice import lattice_steps, separating_circle
 from holecli.frame import from_plane_frame, rotation_to_z, slide_onto_plane, to_plane_frame
 from holecli.plane import fit_plane_robust, fit_plane_svd
 from holecli.results import Hole, Plane
@@ -135,6 +136,21 @@ def _measure_void(scene, grid, void, settings):
     fit, used = fit_edge(rim_xy, alpha, floor, settings.clip_sigmas)
     if fit is None or used.sum() < fewest or fit.radius < scene.min_radius:
         return None
+    # Points deep inside the fitted hole (reflections next to the edge) can shield the true rim from
+    # the triangulation: drop them and extract the rim once more.
+    deep = np.hypot(*(local - fit.center).T) < fit.radius - alpha
+    if np.any(deep):
+        local = local[~deep]
+        rim = hole_rim(local, grid.center_of(void.cells), alpha, window=(low, high))
+        if rim is None:
+            return None
+        rim_xy = local[rim.index]
+        rim_xy = rim_xy[grid.lookup(near, rim_xy)]
+        if len(rim_xy) < fewest:
+            return None
+        fit, used = fit_edge(rim_xy, alpha, floor, settings.clip_sigmas)
+        if fit is None or used.sum() < fewest or fit.radius < scene.min_radius:
+            return None
     center, radius = fit.center, fit.radius
     # The circle must sit on the void it came from, and the rim must be round.
     if np.min(np.hypot(*(grid.center_of(void.cells) - center).T)) > radius:
@@ -151,7 +167,15 @@ def _measure_void(scene, grid, void, settings):
         return None
     if _is_boss(scene, center, radius, settings):
         return None
-    bias = _sampling_bias(scene, center, radius, settings, floor)
+    edge = None
+    if scene.sampling.lattice_axes and not partial:
+        edge = separating_circle(local, rim_xy[used], lattice_steps(local, scene.sampling.lattice_axes,
+                                                                    scene.sampling.spacing), center, radius)
+    if edge is not None:
+        center, corrected, _ = edge
+        bias = radius - corrected
+    else:
+        bias = _sampling_bias(scene, center, radius, settings, floor)
     if radius - bias < scene.min_radius:
         return None
     return _Measured(center=center, radius=radius - bias, bias=bias, fit=fit, rim_xy=rim_xy[used],

@@ -32,6 +32,9 @@ class Sampling:
         Distance between neighbouring scan lines, when striped.
     lattice : bool
         True when the points sit on a regular square lattice of pitch ``spacing`` (a grid).
+    lattice_axes : tuple of (2,) float
+        Unit directions along which points follow each other at ``spacing`` (the scan-line direction
+        of stripes, the two axes of a grid; empty for irregular sampling).
     """
 
     spacing: float
@@ -39,6 +42,7 @@ class Sampling:
     line_direction: np.ndarray | None = None
     line_pitch: float | None = None
     lattice: bool = False
+    lattice_axes: tuple = ()
 
     @property
     def period(self):
@@ -134,7 +138,12 @@ def estimate_sampling(xy, windows=5, window_points=900):
         pitches = [p for p in (_line_pitch(w, candidate, spacing) for w in windows_used) if p]
         if pitches and np.median(pitches) > 1.3 * spacing:
             direction, pitch = candidate, float(np.median(pitches))
-    elif abs(np.mean(doubled**2)) > 0.6:
+    axes = () if direction is None else (direction,)
+    quadrupled = np.mean(doubled**2)
+    if direction is None and abs(quadrupled) > 0.6:
         # Nearest neighbours along two perpendicular directions: a square grid.
         lattice = True
-    return Sampling(spacing=spacing, gap=gap, line_direction=direction, line_pitch=pitch, lattice=lattice)
+        theta = np.angle(quadrupled) / 4.0
+        axes = (np.array([np.cos(theta), np.sin(theta)]), np.array([-np.sin(theta), np.cos(theta)]))
+    return Sampling(spacing=spacing, gap=gap, line_direction=direction, line_pitch=pitch, lattice=lattice,
+                    lattice_axes=axes)

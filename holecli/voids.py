@@ -75,8 +75,9 @@ class Void:
 def occupancy_grid(xy, cell):
     """The occupancy grid of ``xy`` at ``cell``, padded by two empty cells on every side.
 
-    Specks (small clusters of occupied cells that hold no 3 x 3 block: random reflections inside a
-    hole) are removed by a morphological opening; they cannot be the edge of a hole.
+    Specks (small clusters of occupied cells that hold no 3 x 3 block and touch no material: random
+    reflections inside a hole) are removed by a morphological opening; they cannot be the edge of a
+    hole.
     """
     origin = xy.min(axis=0) - 2.0 * cell
     shape = tuple(np.floor((xy.max(axis=0) - origin) / cell).astype(int) + 3)
@@ -85,16 +86,17 @@ def occupancy_grid(xy, cell):
     occupied[ij[:, 0], ij[:, 1]] = True
     opened = ndimage.binary_opening(occupied, structure=_SQUARE)
     # The opening also thins a narrow strip of real material (between a hole and the scan's edge).
-    # Specks are small clusters away from the scan's exterior; anything else the opening removed is
-    # given back.
-    removed, count = ndimage.label(occupied & ~opened, structure=_CROSS)
+    # Specks are small clusters that touch neither the material nor the scan's exterior; anything
+    # else the opening removed (cells of a jagged rim, a narrow strip) is given back.
+    removed, count = ndimage.label(occupied & ~opened, structure=_SQUARE)
     if count:
         sizes = np.bincount(removed.ravel())
         empty_labels, _ = ndimage.label(~occupied, structure=_CROSS)
         exterior = empty_labels == empty_labels[0, 0]
-        touching = np.unique(removed[ndimage.binary_dilation(exterior, structure=_CROSS) & (removed > 0)])
         keep = sizes > MAX_SPECK_CELLS
-        keep[touching] = True
+        for neighbour in (opened, exterior):
+            touching = ndimage.binary_dilation(neighbour, structure=_SQUARE) & (removed > 0)
+            keep[np.unique(removed[touching])] = True
         keep[0] = False
         opened |= keep[removed]
     return Grid(origin=origin, cell=float(cell), material=opened)
