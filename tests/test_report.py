@@ -1,0 +1,130 @@
+"""Tests of holecli.report: JSON, JSON Lines and CSV text of detection records."""
+
+import csv
+import io
+import json
+
+import pytest
+
+from holecli import report
+from holecli.results import Detection, Hole, Plane
+
+# The CSV columns as the README documents them, in order.
+DOCUMENTED_COLUMNS = (
+    "file,hole,center_x,center_y,center_z,diameter,normal_x,normal_y,normal_z,rim_points,fit_rms,"
+    "max_residual,roundness,bias_correction,partial,arc_deg,scan_lines"
+).split(",")
+
+# Floats that lose digits when printed short.
+AWKWARD = (0.1 + 0.2, 1.0 / 3.0, 2.0**-1074, 1.7976931348623157e308, -0.0, 3.0441296586146489)
+
+
+def _record(holes=2, file="scans/part 7, left.ply"):
+    plane = Plane(point=(3.646, 5.133, AWKWARD[0]),
+                  normal=(0.18124306270407364, -0.4979612222122406, 0.848048096156426), rms=7.6e-15, inliers=7062)
+    made = []
+    for index in range(holes):
+        made.append(Hole(index=index, center=(AWKWARD[1] + index, AWKWARD[2], AWKWARD[3]), diameter=AWKWARD[5],
+                         normal=(0.0, -0.6, 0.8), rim_points=28 + index, fit_rms=0.0152, max_residual=0.0317,
+                         roundness=0.0496, bias_correction=AWKWARD[4], partial=bool(index % 2), arc_deg=360.0,
+                         scan_lines=None if index == 0 else 17))
+    detection = Detection(holes=tuple(made), plane=plane, points=7062, method="paper", file=file,
+                          dropped_points=3, elapsed_ms=46.25)
+    return detection.to_dict()
+
+
+def test_csv_columns_are_the_documented_ones():
+    assert list(report.CSV_COLUMNS) == DOCUMENTED_COLUMNS
+
+
+def test_to_json_round_trips_at_full_precision():
+    record = _record()
+    text = report.to_json(record)
+    assert text.endswith("}\n")
+    back = json.loads(text)
+    assert back == record
+    hole = back["holes"][0]
+    # == on floats: every bit survives, including the sign of zero.
+    assert hole["center"] == [AWKWARD[1], AWKWARD[2], AWKWARD[3]]
+    assert hole["diameter"] == AWKWARD[5]
+    assert str(hole["bias_correction"]) == "-0.0"
+
+
+def test_to_json_line_is_one_line_and_round_trips():
+    record = _record()
+    text = report.to_json_line(record)
+    assert text.endswith("\n") and text.count("\n") == 1
+    assert json.loads(text) == record
+
+
+@pytest.mark.parametrize("writer", [report.to_json, report.to_json_line])
+def test_json_refuses_nan_instead_of_writing_invalid_json(writer):
+    record = _record()
+    record["holes"][0]["diameter"] = float("nan")
+    with pytest.raises(ValueError):
+        writer(record)
+
+
+def test_csv_rows_one_row_per_hole_in_column_order():
+    record = _record(holes=2)
+    rows = report.csv_rows(record)
+    assert len(rows) == 2
+    assert all(len(row) == len(report.CSV_COLUMNS) for row in rows)
+    first, second = (dict(zip(report.CSV_COLUMNS, row)) for row in rows)
+    assert first["file"] == record["file"]
+    assert (first["hole"], second["hole"]) == ("0", "1")
+    hole = record["holes"][0]
+    assert [float(first[f"center_{axis}"]) for axis in "xyz"] == hole["center"]
+    assert [float(first[f"normal_{axis}"]) for axis in "xyz"] == hole["normal"]
+    assert float(first["diameter"]) == hole["diameter"]
+    assert first["rim_points"] == "28"
+    assert float(first["fit_rms"]) == 0.0152
+    assert float(first["max_residual"]) == 0.0317
+    assert float(first["roundness"]) == 0.0496
+    assert first["bias_correction"] == "-0.0"
+    assert float(first["arc_deg"]) == 360.0
+
+
+def test_csv_booleans_and_none():
+    first, second = (dict(zip(report.CSV_COLUMNS, row)) for row in report.csv_rows(_record(holes=2)))
+    assert (first["partial"], second["partial"]) == ("false", "true")
+    assert first["scan_lines"] == ""
+    assert second["scan_lines"] == "17"
+
+
+def test_csv_record_without_holes_is_one_row_with_only_the_file():
+    rows = report.csv_rows(_record(holes=0))
+    assert rows == [["scans/part 7, left.ply"] + [""] * (len(report.CSV_COLUMNS) - 1)]
+
+
+def test_csv_record_without_file_or_holes():
+    assert report.csv_rows(_record(holes=0, file=None)) == [[""] * len(report.CSV_COLUMNS)]
+
+
+def test_write_csv_header_and_rows_parse_back():
+    buffer = io.StringIO()
+    report.write_csv([_record(holes=2), _record(holes=0, file="b.csv")], buffer)
+    text = buffer.getvalue()
+    assert text.splitlines()[0] == ",".join(DOCUMENTED_COLUMNS)
+    assert "\r" not in text
+    rows = list(csv.reader(io.StringIO(text)))
+    assert rows[0] == DOCUMENTED_COLUMNS
+    assert len(rows) == 4
+    # The file name holds a comma: quoted by the writer, whole again when read back.
+    assert rows[1][0] == rows[2][0] == "scans/part 7, left.ply"
+    assert rows[3] == ["b.csv"] + [""] * (len(DOCUMENTED_COLUMNS) - 1)
+    assert float(rows[1][DOCUMENTED_COLUMNS.index("center_x")]) == AWKWARD[1]
+
+
+def test_write_csv_without_header():
+    buffer = io.StringIO()
+    report.write_csv([_record(holes=1)], buffer, header=False)
+    rows = list(csv.reader(io.StringIO(buffer.getvalue())))
+    assert len(rows) == 1
+    assert rows[0][1] == "0"
+
+
+def test_write_csv_of_no_records_is_the_header_only():
+    buffer = io.StringIO()
+    report.write_csv([], buffer)
+    assert buffer.getvalue() == ",".join(DOCUMENTED_COLUMNS) + "\n"
