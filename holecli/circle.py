@@ -137,6 +137,48 @@ def _gauss_newton(u, params, iterations=50):
     return params
 
 
+def _circles_through(a, b, c):
+    """Circumcenters (k, 2) and radii (k,) of the triangles a, b, c (each (k, 2)); NaN if collinear."""
+    b = b - a
+    c = c - a
+    d = 2.0 * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0])
+    b2 = np.sum(b * b, axis=1)
+    c2 = np.sum(c * c, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ux = (c[:, 1] * b2 - b[:, 1] * c2) / d
+        uy = (b[:, 0] * c2 - c[:, 0] * b2) / d
+    return a + np.column_stack([ux, uy]), np.hypot(ux, uy)
+
+
+def _least_quantile_circle(xy, hypotheses=200, quantile=75):
+    """Initial circle by least quantile of squares over circles through point triples.
+
+    The algebraic fit of every point is the start when the points are clean; a circle through three
+    points that minimises the 75th percentile of the absolute residuals survives up to a quarter of
+    the points being outliers (the median would survive half, but on a sparse rim it also prefers a
+    circle through one side of the hole). The triples are drawn with a fixed seed: the result does
+    not depend on global random state.
+    """
+    center, radius = fit_circle_algebraic(xy)
+    best = float(np.percentile(np.abs(np.hypot(*(xy - center).T) - radius), quantile))
+    if len(xy) < 6:
+        return center, radius
+    rng = np.random.default_rng(0)
+    triples = rng.integers(0, len(xy), size=(hypotheses, 3))
+    centers, radii = _circles_through(xy[triples[:, 0]], xy[triples[:, 1]], xy[triples[:, 2]])
+    valid = np.isfinite(radii) & (radii > 0)
+    if not np.any(valid):
+        return center, radius
+    centers, radii = centers[valid], radii[valid]
+    residuals = np.abs(np.hypot(xy[None, :, 0] - centers[:, None, 0], xy[None, :, 1] - centers[:, None, 1])
+                       - radii[:, None])
+    medians = np.percentile(residuals, quantile, axis=1)
+    index = int(np.argmin(medians))
+    if medians[index] < best:
+        return centers[index], float(radii[index])
+    return center, radius
+
+
 def fit_circle_robust(xy, *, clip=CLIP_SIGMAS, floor=0.0, max_rounds=10, start=None):
     """Geometric circle fit with iterative sigma clipping of radial outliers.
 
@@ -153,7 +195,8 @@ def fit_circle_robust(xy, *, clip=CLIP_SIGMAS, floor=0.0, max_rounds=10, start=N
         Smallest residual scale, in the units of ``xy`` (keeps noise-free data from clipping
         round-off).
     start : ((2,) float, float), optional
-        Initial center and radius; by default the algebraic fit of all points.
+        Initial center and radius; by default the better (by median absolute residual) of the
+        algebraic fit of all points and a least-quantile-of-squares circle through three of them.
 
     Returns
     -------
@@ -161,12 +204,18 @@ def fit_circle_robust(xy, *, clip=CLIP_SIGMAS, floor=0.0, max_rounds=10, start=N
         ``kept`` marks the points of the final fit.
     """
     xy = _check(xy)
-    center0, radius0 = start if start is not None else fit_circle_algebraic(xy)
+    center0, radius0 = start if start is not None else _least_quantile_circle(xy)
     mean = xy.mean(axis=0)
     scale = max(float(radius0), 1e-300)
     u = (xy - mean) / scale
     params = np.array([(center0[0] - mean[0]) / scale, (center0[1] - mean[1]) / scale, 1.0])
-    kept = np.ones(len(xy), dtype=bool)
+    # Start from the points the initial circle explains (within 3 robust sd), not from all of them:
+    # a fit to every point leans toward the outliers and the clipping then keeps them.
+    residual = _radial(params, u)
+    sigma = max(1.4826 * float(np.median(np.abs(residual))), floor / scale)
+    kept = np.abs(residual) <= clip * sigma
+    if kept.sum() < 3:
+        kept = np.ones(len(xy), dtype=bool)
     for _ in range(max_rounds):
         params = _gauss_newton(u[kept], params)
         residual = _radial(params, u)

@@ -16,6 +16,9 @@ from holecli.rim import paper_rim
 METHODS = ("paper", "robust")
 # Fewer points than this cannot hold a plane with a hole and a rim around it.
 MIN_POINTS = 20
+# Beyond this magnitude squared distances overflow long before any scan is that large (1e12 mm is a
+# million kilometres).
+MAX_COORDINATE = 1e12
 
 
 def validate_points(points):
@@ -29,6 +32,9 @@ def validate_points(points):
         raise PointsError(f"points must be numeric, got dtype {np.asarray(points).dtype}") from None
     if not np.all(np.isfinite(array)):
         raise PointsError("points must be finite (drop NaN and inf rows first)")
+    if array.size and float(np.max(np.abs(array))) > MAX_COORDINATE:
+        raise PointsError(f"coordinates up to {float(np.max(np.abs(array))):.3g} are beyond the supported "
+                          f"range (|x| <= {MAX_COORDINATE:.0e} file units)")
     if len(array) < MIN_POINTS:
         raise PointsError(f"too few points: {len(array)} (the pipeline needs at least {MIN_POINTS})")
     return array

@@ -158,12 +158,6 @@ def test_robust_rejects_a_few_gross_outliers(rng):
     assert abs(fit_circle_geometric(xy).radius - RADIUS) > 0.05
 
 
-@pytest.mark.xfail(
-    reason="fit_circle_robust keeps all 20 % of points at r/2: the clipping scale (1.4826 * median |r_i|) "
-    "is taken around the all-points fit, whose inlier residuals are all biased to one side, so 3 sigma "
-    "covers the outliers and the radius comes out about 10 % small",
-    strict=True,
-)
 def test_robust_rejects_20_percent_of_points_at_half_the_radius(rng):
     xy, bad, sigma = _with_outliers(rng, 200, 0.20, 0.5 * RADIUS)
     fit = fit_circle_robust(xy)
