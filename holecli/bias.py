@@ -17,18 +17,20 @@ from holecli.boundary import hole_rim
 from holecli.edge import fit_edge
 
 
-def synthetic_rim_fit(xy, center, radius, alpha, reach, clip, floor):
+def synthetic_rim_fit(xy, center, radius, alpha, reach, margin, clip, floor):
     """Fit the rim of a synthetic hole of ``radius`` cut at ``center`` into ``xy``.
 
-    Rim points farther than ``radius + reach`` from the center (the far edge of the local points,
-    where a partial hole opens) are ignored. Returns the fitted radius or None.
+    Only the ring of points between ``radius`` and ``radius + margin`` is triangulated; rim points
+    farther than ``radius + reach`` from the center (where a partial hole opens onto the scan's
+    edge) are ignored. Returns the fitted radius or None.
     """
     distance = np.hypot(*(xy - center).T)
-    keep = distance > radius
-    reach_box = np.max(np.abs(xy - center), axis=0) if len(xy) else np.zeros(2)
+    keep = (distance > radius) & (distance < radius + margin)
     local = xy[keep]
-    seeds = center + 0.5 * radius * np.array([[0.0, 0.0], [1, 0], [-1, 0], [0, 1], [0, -1]])
-    rim = hole_rim(local, seeds, alpha, window=(center - reach_box, center + reach_box))
+    def in_disk(positions):
+        return np.hypot(*(positions - center).T) < radius
+
+    rim = hole_rim(local, in_disk, alpha, cut=distance[keep] > radius + margin - 2.0 * alpha)
     if rim is None:
         return None
     rim_xy = local[rim.index]
@@ -39,7 +41,7 @@ def synthetic_rim_fit(xy, center, radius, alpha, reach, clip, floor):
     return None if fit is None else fit.radius
 
 
-def sampling_bias(xy, center, radius, alpha, offsets, reach, clip, floor):
+def sampling_bias(xy, center, radius, alpha, offsets, reach, margin, clip, floor):
     """Mean excess of the fitted over the true radius of synthetic holes cut into ``xy``.
 
     Synthetic holes must not be smaller than the real hole (else they would hold its void), so the
@@ -48,16 +50,18 @@ def sampling_bias(xy, center, radius, alpha, offsets, reach, clip, floor):
     Parameters
     ----------
     xy : (n, 2) float
-        Surface points around the hole, reaching at least ``radius + max(offsets) * alpha + reach``.
+        Surface points around the hole, reaching at least ``radius + max(offsets) + margin``.
     center : (2,) float
     radius : float
-        The measured (uncorrected) rim radius.
+        The current estimate of the true edge radius.
     alpha : float
         The empty-circle radius of the rim extraction.
     offsets : sequence of float
         The synthetic radii are ``radius + offset``, file units, each > 0. On a regular pattern they
         are multiples of its period so that each synthetic edge meets the scan lines in the same
         phase as the real one.
+    reach, margin : float
+        Rim points beyond ``radius + reach`` are ignored; the ring triangulated is ``margin`` wide.
 
     Returns
     -------
@@ -68,7 +72,7 @@ def sampling_bias(xy, center, radius, alpha, offsets, reach, clip, floor):
     excesses = []
     for offset in offsets:
         synthetic = radius + offset
-        fitted = synthetic_rim_fit(xy, center, synthetic, alpha, reach, clip, floor)
+        fitted = synthetic_rim_fit(xy, center, synthetic, alpha, reach, margin, clip, floor)
         if fitted is not None and abs(fitted - synthetic) < alpha:
             excesses.append(fitted - synthetic)
     if not excesses:

@@ -51,25 +51,28 @@ def _components(neighbors, keep):
     return labels
 
 
-def hole_rim(xy, seeds, alpha, window=None):
-    """Rim of the hole that contains ``seeds``.
+def hole_rim(xy, in_hole, alpha, cut=None):
+    """Rim of the hole that holds the positions ``in_hole`` marks.
 
     Parameters
     ----------
     xy : (n, 2) float
         Local surface points around the hole, projected onto the plane.
-    seeds : (k, 2) float
-        Positions known to lie in the hole's empty region.
+    in_hole : callable
+        ``in_hole(positions) -> (k,) bool`` for (k, 2) positions: True where a position lies in the
+        hole's empty region as the caller knows it (a void of the occupancy grid, a synthetic disk).
+        Hole triangles whose circumcenter it marks seed the hole region.
     alpha : float
         Empty-circle radius above which a triangle belongs to a hole.
-    window : ((2,) float, (2,) float), optional
-        The box ``(low, high)`` the local points were cut from: triangles within ``2 alpha`` of its
-        sides are material (the cut, not a hole, leaves gaps there).
+    cut : (n,) bool, optional
+        Points within ``2 alpha`` of the line along which the local points were cut out of the scan:
+        triangles touching them are material (the cut, not a hole, leaves gaps there).
 
     Returns
     -------
     Rim or None
-        None when no seed falls in a hole triangle (the void is a natural gap smaller than alpha).
+        None when no hole triangle has its circumcenter in the marked region (the void is a natural
+        gap smaller than alpha).
     """
     if len(xy) < 4:
         return None
@@ -79,7 +82,7 @@ def hole_rim(xy, seeds, alpha, window=None):
         return None
     simplices = triangulation.simplices
     neighbors = triangulation.neighbors
-    radius, _ = circumradii(xy, simplices)
+    radius, centers = circumradii(xy, simplices)
     big = radius > alpha
     # On the outer boundary a circumcircle reaches beyond the points, where nothing was scanned: a
     # large circle there shows the end of the scan, not a hole, unless the boundary edge itself is
@@ -89,13 +92,10 @@ def hole_rim(xy, seeds, alpha, window=None):
         ends = simplices[t][np.arange(3)[None, :] != k[:, None]].reshape(-1, 2)
         narrow = np.hypot(*(xy[ends[:, 0]] - xy[ends[:, 1]]).T) < 2.0 * alpha
         big[t[narrow]] = False
-    if window is not None:
-        low, high = np.asarray(window[0]), np.asarray(window[1])
-        clearance = np.minimum(np.min(xy - low, axis=1), np.min(high - xy, axis=1))
-        big[np.any(clearance[simplices] < 2.0 * alpha, axis=1)] = False
-    seed_triangles = triangulation.find_simplex(np.asarray(seeds, dtype=np.float64))
-    seed_triangles = seed_triangles[seed_triangles >= 0]
-    seed_triangles = seed_triangles[big[seed_triangles]]
+    if cut is not None:
+        big[np.any(cut[simplices], axis=1)] = False
+    seed_triangles = np.flatnonzero(big)
+    seed_triangles = seed_triangles[in_hole(centers[seed_triangles])]
     if len(seed_triangles) == 0:
         return None
     big_labels = _components(neighbors, big)
@@ -143,3 +143,9 @@ def outer_envelope(rim_xy, center, depth, sectors):
     outermost = np.full(sectors, -np.inf)
     np.maximum.at(outermost, sector, radius)
     return radius >= outermost[sector] - depth
+
+
+def near_box_edge(xy, low, high, distance):
+    """Points within ``distance`` of the sides of the box ``(low, high)`` (a ``cut`` for hole_rim)."""
+    clearance = np.minimum(np.min(xy - low, axis=1), np.min(high - xy, axis=1))
+    return clearance < distance

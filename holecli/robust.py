@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from holecli.bias import sampling_bias
-from holecli.boundary import hole_rim
+from holecli.boundary import hole_rim, near_box_edge
 from holecli.edge import fit_edge
 from holecli.errors import PointsError
 from holecli.lattice import lattice_steps, separating_circle
@@ -119,14 +119,18 @@ def _measure_void(scene, grid, void, settings):
     high = grid.center_of(void.upper) + 0.5 * cell + margin
     material_xy = scene.material_xy
     local = material_xy[_box_indices(material_xy, low, high)]
-    rim = hole_rim(local, grid.center_of(void.cells), alpha, window=(low, high))
+    void_mask = np.zeros_like(grid.material)
+    void_mask[void.cells[:, 0], void.cells[:, 1]] = True
+
+    def in_void(positions):
+        return grid.lookup(void_mask, positions)
+
+    rim = hole_rim(local, in_void, alpha, cut=near_box_edge(local, low, high, 2.0 * alpha))
     if rim is None:
         return None
     rim_xy = local[rim.index]
     # Keep rim points next to the void: an open region also runs along the scan's outer edge.
-    near = np.zeros_like(grid.material)
-    near[void.cells[:, 0], void.cells[:, 1]] = True
-    near = ndimage.binary_dilation(near, iterations=2)
+    near = ndimage.binary_dilation(void_mask, iterations=2)
     rim_xy = rim_xy[grid.lookup(near, rim_xy)]
     partial = rim.open
     fewest = settings.min_partial_rim_points if partial else settings.min_rim_points
@@ -141,7 +145,7 @@ def _measure_void(scene, grid, void, settings):
     deep = np.hypot(*(local - fit.center).T) < fit.radius - alpha
     if np.any(deep):
         local = local[~deep]
-        rim = hole_rim(local, grid.center_of(void.cells), alpha, window=(low, high))
+        rim = hole_rim(local, in_void, alpha, cut=near_box_edge(local, low, high, 2.0 * alpha))
         if rim is None:
             return None
         rim_xy = local[rim.index]
@@ -187,12 +191,13 @@ def _sampling_bias(scene, center, radius, settings, floor):
     period = scene.sampling.period or 0.5 * scene.alpha
     offsets = [k * period for k in settings.bias_offsets]
     reach = scene.alpha + 2.0 * scene.cell
-    extent = radius + offsets[-1] + 2.0 * scene.alpha + 3.0 * scene.cell + reach
-    window = scene.material_xy[_box_indices(scene.material_xy, center - extent, center + extent)]
+    margin = 2.0 * scene.alpha + 3.0 * scene.cell
+    distance = np.hypot(*(scene.material_xy - center).T)
+    ring = scene.material_xy[(distance > radius - period) & (distance < radius + offsets[-1] + margin + period)]
     bias = 0.0
     for _ in range(settings.bias_passes):
         # Cut the synthetic holes in phase with the current estimate of the true edge.
-        estimate = sampling_bias(window, center, radius - bias, scene.alpha, offsets, reach,
+        estimate = sampling_bias(ring, center, radius - bias, scene.alpha, offsets, reach, margin,
                                  settings.clip_sigmas, floor)
         if estimate is None:
             break
