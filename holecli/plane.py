@@ -75,6 +75,25 @@ def fit_plane_svd(points):
     return PlaneFit(point=centroid, normal=normal, rms=rms)
 
 
+def fit_plane_scatter(points):
+    """Least-squares plane from the eigenvectors of the 3 x 3 scatter matrix of the centred points.
+
+    The same plane as :func:`fit_plane_svd`, in one pass over the points instead of an SVD of the
+    whole (n, 3) array: the fast path for large clouds. ``rms`` is computed from the residuals.
+    """
+    points = np.asarray(points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3 or len(points) < 3:
+        raise PointsError(f"a plane needs an (n >= 3, 3) array, got shape {points.shape}")
+    centroid = points.mean(axis=0)
+    centred = points - centroid
+    values, vectors = np.linalg.eigh(centred.T @ centred)
+    if values[1] <= 1e-24 * max(values[2], 1e-300):
+        raise PointsError("the points are collinear (or coincide): no plane is defined")
+    normal = orient_normal(vectors[:, 0])
+    rms = float(np.sqrt(np.mean((centred @ normal) ** 2)))
+    return PlaneFit(point=centroid, normal=normal, rms=rms)
+
+
 def _hypothesis_normals(sample, rng, count):
     triples = rng.integers(0, len(sample), size=(count, 3))
     a, b, c = sample[triples[:, 0]], sample[triples[:, 1]], sample[triples[:, 2]]
@@ -84,14 +103,16 @@ def _hypothesis_normals(sample, rng, count):
     return a[good], normals[good] / lengths[good, None]
 
 
-def fit_plane_robust(points, *, rng=0, sample=2000, hypotheses=96, quantile=0.3, clip=4.0, max_rounds=20):
+def fit_plane_robust(points, *, rng=0, sample=2000, hypotheses=96, quantile=0.3, clip=4.0, max_rounds=20,
+                     refine_sample=50000):
     """Plane of the dominant surface, ignoring bore-wall, countersink, inside-hole and outlier points.
 
     RANSAC hypotheses from point triples are scored by the ``quantile`` of their absolute residuals
     (least quantile of squares: no threshold to choose); the residual scale of the best one sets the
     inlier band, and the hypothesis with the most inliers in that band wins (the dominant face when
-    the scan holds several). The plane is then refined by SVD on the points within ``clip`` robust
-    standard deviations (1.4826 * MAD) until the inlier set stops changing.
+    the scan holds several). The plane is then refined by least squares (:func:`fit_plane_scatter`)
+    on the points within ``clip`` robust standard deviations (1.4826 * MAD) until the inlier set
+    stops changing: on a subsample of ``refine_sample`` points first, then on all points.
 
     Parameters
     ----------
@@ -127,17 +148,24 @@ def fit_plane_robust(points, *, rng=0, sample=2000, hypotheses=96, quantile=0.3,
     counts = np.sum(residuals <= clip * sigma, axis=1)
     best = int(np.argmax(counts))
     normal, offset = normals[best], float(normals[best] @ anchors[best])
-    inliers = np.abs(local @ normal - offset) <= clip * sigma
+    # Iterate on a subsample (a million points need not be refitted ten times), then settle the
+    # inlier set on every point: the result depends on the subsample only through points exactly at
+    # the band's edge.
+    refine = local[rng.choice(len(local), size=refine_sample, replace=False)] if len(local) > refine_sample else local
+    inliers = np.abs(refine @ normal - offset) <= clip * sigma
     for _ in range(max_rounds):
         if inliers.sum() < 3:
             raise PointsError("no plane holds enough of the points")
-        fit = fit_plane_svd(local[inliers])
+        fit = fit_plane_scatter(refine[inliers])
         normal, offset = fit.normal, float(fit.normal @ fit.point)
-        distance = local @ normal - offset
+        distance = refine @ normal - offset
         sigma = max(1.4826 * float(np.median(np.abs(distance[inliers]))), floor)
         new_inliers = np.abs(distance) <= clip * sigma
         if np.array_equal(new_inliers, inliers):
             break
         inliers = new_inliers
-    fit = fit_plane_svd(local[inliers])
+    inliers = np.abs(local @ normal - offset) <= clip * sigma
+    if inliers.sum() < 3:
+        raise PointsError("no plane holds enough of the points")
+    fit = fit_plane_scatter(local[inliers])
     return PlaneFit(point=fit.point + origin, normal=fit.normal, rms=fit.rms, inliers=inliers)

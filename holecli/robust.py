@@ -24,8 +24,8 @@ from holecli.boundary import hole_rim, near_box_edge
 from holecli.edge import fit_edge
 from holecli.errors import PointsError
 from holecli.lattice import lattice_steps, separating_circle
-from holecli.frame import from_plane_frame, rotation_to_z, slide_onto_plane, to_plane_frame
-from holecli.plane import fit_plane_robust, fit_plane_svd
+from holecli.frame import from_plane_frame, rotation_to_z, slide_onto_plane
+from holecli.plane import fit_plane_robust, fit_plane_scatter
 from holecli.results import Hole, Plane
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.spacing import estimate_sampling
@@ -40,7 +40,8 @@ class _Scene:
     xy: np.ndarray           # (n, 2) all points in the plane frame (projected or slid)
     surface_xy: np.ndarray   # (m, 2) the plane inliers' rows of xy
     material_xy: np.ndarray  # surface_xy in material cells of the grid (specks inside holes removed)
-    surface_points: np.ndarray  # (m, 3) the plane inliers, world coordinates
+    points: np.ndarray       # (n, 3) the cloud, world coordinates
+    surface_index: np.ndarray  # (m,) rows of the plane inliers in points
     heights: np.ndarray      # (n,) signed distance from the plane
     surface: np.ndarray      # (n,) bool, plane inliers
     band: float              # half-width of the surface band
@@ -76,15 +77,25 @@ def _arc_coverage(rim_xy, center):
     return float(np.degrees(2 * np.pi - gaps.max()))
 
 
+def _within(xy, center, inner, outer):
+    """Indices of the points of ``xy`` at a distance in [inner, outer) from ``center``.
+
+    A box test first: on a million points it is several times cheaper than the distances.
+    """
+    box = ((xy[:, 0] >= center[0] - outer) & (xy[:, 0] <= center[0] + outer)
+           & (xy[:, 1] >= center[1] - outer) & (xy[:, 1] <= center[1] + outer))
+    index = np.flatnonzero(box)
+    distance = np.hypot(xy[index, 0] - center[0], xy[index, 1] - center[1])
+    return index[(distance >= inner) & (distance < outer)]
+
+
 def _local_normal(scene, center, radius):
-    """Unit normal of the surface around one hole, from the plane inliers in the ring [r, 3r]."""
-    surface_points = scene.surface_points
-    distance = np.hypot(*(scene.surface_xy - center).T)
-    ring = (distance >= radius) & (distance <= 3.0 * radius)
-    if ring.sum() < 30:
+    """Plane of the surface around one hole, from the plane inliers in the ring [r, 3r]."""
+    ring = _within(scene.surface_xy, center, radius, 3.0 * radius)
+    if len(ring) < 30:
         return None
     try:
-        return fit_plane_svd(surface_points[ring])
+        return fit_plane_scatter(scene.points[scene.surface_index[ring]])
     except PointsError:
         return None
 
@@ -104,28 +115,50 @@ def _scan_lines(scene, rim_xy, center, radius):
 
 def _is_boss(scene, center, radius, settings):
     """True when material stands above the surface inside the void (a pin or boss, not a hole)."""
-    distance = np.hypot(*(scene.xy - center).T)
-    above = np.count_nonzero((distance < 0.9 * radius) & (scene.heights > scene.band) & ~scene.surface)
-    ring = np.count_nonzero((distance >= radius) & (distance < 1.5 * radius) & scene.surface)
+    inside = _within(scene.xy, center, 0.0, 0.9 * radius)
+    above = np.count_nonzero((scene.heights[inside] > scene.band) & ~scene.surface[inside])
+    ring = len(_within(scene.surface_xy, center, radius, 1.5 * radius))
     density = ring / (np.pi * (1.5**2 - 1.0) * radius**2)
     return above > settings.boss_fraction * density * np.pi * (0.9 * radius) ** 2
+
+
+def _void_neighbourhood(scene, grid, void, void_mask, margin):
+    """Material points around a void, and which of them lie near the line they were cut along.
+
+    An enclosed void takes a ring: from just inside its largest empty disk (the inside of a hole
+    holds nothing the rim needs) to ``margin`` beyond its farthest cell. A bay takes its bounding box
+    grown by ``margin``.
+    """
+    cell, alpha = scene.cell, scene.alpha
+    centers = grid.center_of(void.cells)
+    if void.enclosed:
+        center = centers.mean(axis=0)
+        distance = np.hypot(*(centers - center).T)
+        border = void.cells[~ndimage.binary_erosion(void_mask)[void.cells[:, 0], void.cells[:, 1]]]
+        inner = max(0.0, float(np.min(np.hypot(*(grid.center_of(border) - center).T))) - cell - 2.0 * alpha)
+        outer = float(distance.max()) + cell + margin
+        if np.all(np.hypot(*(centers - center).T) < outer - margin):
+            index = _within(scene.material_xy, center, inner, outer)
+            local = scene.material_xy[index]
+            return local, np.hypot(*(local - center).T) > outer - 2.0 * alpha
+    low = centers.min(axis=0) - 0.5 * cell - margin
+    high = centers.max(axis=0) + 0.5 * cell + margin
+    local = scene.material_xy[_box_indices(scene.material_xy, low, high)]
+    return local, near_box_edge(local, low, high, 2.0 * alpha)
 
 
 def _measure_void(scene, grid, void, settings):
     """Measure one void; returns a :class:`_Measured` or None when it is not a hole."""
     cell, alpha = scene.cell, scene.alpha
     margin = 2.0 * alpha + 3.0 * cell
-    low = grid.center_of(void.lower) - 0.5 * cell - margin
-    high = grid.center_of(void.upper) + 0.5 * cell + margin
-    material_xy = scene.material_xy
-    local = material_xy[_box_indices(material_xy, low, high)]
     void_mask = np.zeros_like(grid.material)
     void_mask[void.cells[:, 0], void.cells[:, 1]] = True
 
     def in_void(positions):
         return grid.lookup(void_mask, positions)
 
-    rim = hole_rim(local, in_void, alpha, cut=near_box_edge(local, low, high, 2.0 * alpha))
+    local, cut = _void_neighbourhood(scene, grid, void, void_mask, margin)
+    rim = hole_rim(local, in_void, alpha, cut=cut)
     if rim is None:
         return None
     rim_xy = local[rim.index]
@@ -145,7 +178,7 @@ def _measure_void(scene, grid, void, settings):
     deep = np.hypot(*(local - fit.center).T) < fit.radius - alpha
     if np.any(deep):
         local = local[~deep]
-        rim = hole_rim(local, in_void, alpha, cut=near_box_edge(local, low, high, 2.0 * alpha))
+        rim = hole_rim(local, in_void, alpha, cut=cut[~deep])
         if rim is None:
             return None
         rim_xy = local[rim.index]
@@ -189,11 +222,15 @@ def _measure_void(scene, grid, void, settings):
 def _sampling_bias(scene, center, radius, settings, floor):
     """Radial sampling bias of a rim fit of ``radius`` at ``center`` (see :mod:`holecli.bias`)."""
     period = scene.sampling.period or 0.5 * scene.alpha
-    offsets = [k * period for k in settings.bias_offsets]
+    # Enough synthetic holes for about bias_rim_points rim points in all: a large hole's rim alone
+    # pins the bias down, a small one needs several.
+    rim_points = max(2.0 * np.pi * radius / scene.sampling.spacing, 1.0)
+    count = int(np.clip(np.ceil(settings.bias_rim_points / rim_points), 1, len(settings.bias_offsets)))
+    offsets = [k * period for k in settings.bias_offsets[:count]]
     reach = scene.alpha + 2.0 * scene.cell
     margin = 2.0 * scene.alpha + 3.0 * scene.cell
-    distance = np.hypot(*(scene.material_xy - center).T)
-    ring = scene.material_xy[(distance > radius - period) & (distance < radius + offsets[-1] + margin + period)]
+    ring = scene.material_xy[_within(scene.material_xy, center, radius - period,
+                                     radius + offsets[-1] + margin + period)]
     bias = 0.0
     for _ in range(settings.bias_passes):
         # Cut the synthetic holes in phase with the current estimate of the true edge.
@@ -252,24 +289,30 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
                              clip=settings.plane_clip)
     normal, origin = plane.normal, plane.point
     rotation = rotation_to_z(normal)
-    heights = (points - origin) @ normal
+    centred = points - origin
+    heights = centred @ normal
     if view_dir is None:
         direction = normal
-        xy = to_plane_frame(points, origin, rotation)[:, :2]
     else:
         direction = np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir)
-        xy = to_plane_frame(slide_onto_plane(points, origin, normal, direction), origin, rotation)[:, :2]
+        centred = slide_onto_plane(centred, np.zeros(3), normal, direction)
+    # Two matrix-vector products: much cheaper than (n, 3) @ (3, 3) on a million points.
+    # Column-major: the box tests below read x and y as contiguous columns.
+    xy = np.empty((len(points), 2), order="F")
+    xy[:, 0] = centred @ rotation[0]
+    xy[:, 1] = centred @ rotation[1]
+    del centred
     surface = plane.inliers
     band = float(np.max(np.abs(heights[surface])))
     sampling = estimate_sampling(xy[surface], windows=settings.sampling_windows,
                                  window_points=settings.sampling_window_points)
     gap = sampling.gap
     min_radius = 0.5 * (min_diameter if min_diameter is not None else settings.min_diameter_gaps * gap)
-    surface_xy = xy[surface]
+    surface_xy = np.asfortranarray(xy[surface])
     cell = settings.cell_gaps * gap
     grid = occupancy_grid(surface_xy, cell)
-    material_xy = surface_xy[grid.lookup(grid.material, surface_xy)]
-    scene = _Scene(xy=xy, surface_xy=surface_xy, material_xy=material_xy, heights=heights, surface=surface, surface_points=points[surface], band=band,
+    material_xy = np.asfortranarray(surface_xy[grid.lookup(grid.material, surface_xy)])
+    scene = _Scene(xy=xy, surface_xy=surface_xy, material_xy=material_xy, heights=heights, surface=surface, points=points, surface_index=np.flatnonzero(surface), band=band,
                    origin=origin, rotation=rotation, direction=direction, sampling=sampling,
                    alpha=settings.alpha_gaps * gap, cell=cell, min_radius=min_radius,
                    gap_scatter=0.5 * gap)

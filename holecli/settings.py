@@ -16,13 +16,13 @@ from dataclasses import dataclass
 class RobustSettings:
     # Plane: RANSAC hypotheses scored by the 30 % quantile of |residual| (scale-free), then refined
     # by SVD on the points within `plane_clip` robust standard deviations.
-    ransac_sample: int = 2000
-    ransac_hypotheses: int = 96
+    ransac_sample: int = 1000
+    ransac_hypotheses: int = 64
     ransac_quantile: float = 0.3
     plane_clip: float = 4.0
     # Sampling statistics from a few local windows of about this many points each.
-    sampling_windows: int = 5
-    sampling_window_points: int = 900
+    sampling_windows: int = 3
+    sampling_window_points: int = 600
     # Occupancy grid cell, in gaps: large enough that material never leaves a chain of empty cells.
     cell_gaps: float = 2.0
     # A Delaunay triangle whose empty circumcircle is larger than this (in gaps) is a hole triangle.
@@ -45,6 +45,8 @@ class RobustSettings:
     # period: line pitch or grid spacing; half an alpha on irregular sampling), in this many passes.
     bias_offsets: tuple = (1, 2, 3, 4)
     bias_passes: int = 2
+    # As many of those synthetic holes as give about this many rim points in all.
+    bias_rim_points: int = 400
     # Fewest rim points for a full and for a partial hole.
     min_rim_points: int = 6
     min_partial_rim_points: int = 10

@@ -52,8 +52,8 @@ class Sampling:
         return self.spacing if self.lattice else None
 
 
-def _window_indices(xy, center, half):
-    inside = (np.abs(xy[:, 0] - center[0]) <= half) & (np.abs(xy[:, 1] - center[1]) <= half)
+def _window_indices(x, y, center, half):
+    inside = (x >= center[0] - half) & (x <= center[0] + half) & (y >= center[1] - half) & (y <= center[1] + half)
     return np.flatnonzero(inside)
 
 
@@ -88,21 +88,29 @@ def estimate_sampling(xy, windows=5, window_points=900):
     n = len(xy)
     if n < 10:
         raise PointsError(f"too few surface points to measure the sampling: {n}")
-    low = np.percentile(xy, 5, axis=0)
-    high = np.percentile(xy, 95, axis=0)
+    # All the quantiles in one pass per axis (each np.percentile call partitions the whole array).
+    levels = [5, 30, 50, 70, 95]
+    quantile_x = dict(zip(levels, np.percentile(xy[:, 0], levels)))
+    quantile_y = dict(zip(levels, np.percentile(xy[:, 1], levels)))
+    low = np.array([quantile_x[5], quantile_y[5]])
+    high = np.array([quantile_x[95], quantile_y[95]])
     area = max(float(np.prod(high - low)) / 0.81, 1e-300)
     density = n / area  # a lower bound: the scan need not fill its bounding box
     half = 0.5 * np.sqrt(window_points / density)
-    quantiles = [(50, 50), (30, 30), (70, 70), (30, 70), (70, 30), (50, 30), (50, 70), (30, 50), (70, 50)]
+    # Off-centre first: a scan is often centred on its hole.
+    quantiles = [(30, 30), (70, 70), (30, 70), (70, 30), (50, 30), (50, 70), (30, 50), (70, 50), (50, 50)]
     spacings, gaps, angles = [], [], []
     windows_used = []
-    for qx, qy in quantiles[: max(1, windows)]:
-        center = np.array([np.percentile(xy[:, 0], qx), np.percentile(xy[:, 1], qy)])
-        index = _window_indices(xy, center, half)
-        if len(index) < min(window_points // 4, n // 2) or len(index) < 10:
-            index = _window_indices(xy, center, 2 * half)
-            if len(index) < 10:
-                continue
+    x = np.ascontiguousarray(xy[:, 0])
+    y = np.ascontiguousarray(xy[:, 1])
+    enough = max(10, min(window_points // 2, n // 2))
+    candidates = [_window_indices(x, y, np.array([quantile_x[qx], quantile_y[qy]]), half) for qx, qy in quantiles]
+    chosen = [index for index in candidates if len(index) >= enough][: max(1, windows)]
+    if not chosen:
+        chosen = [max(candidates, key=len)]
+    for index in chosen:
+        if len(index) < 10:
+            continue
         window = xy[index]
         tree = cKDTree(window)
         distance, neighbour = tree.query(window, k=2)
