@@ -1,0 +1,180 @@
+"""Speed and memory of holecli at every size, beside the paper's Table II and a global Delaunay.
+
+For the paper's Table II sizes (416, 1,572, 6,733 and 9,498 points: the Table I scene at spacings
+that give those counts) and for laser-stripe scans of 10^5, 10^6 and 10^7 points with five holes of
+3 to 9 mm, each size runs in a fresh child process, which
+
+* writes the scan as a binary PLY and reads it back with ``holecli.read_cloud`` (load time),
+* runs ``holecli.detect`` on the loaded points several times (pipeline time: the median),
+* times one global ``scipy.spatial.Delaunay`` of the same projected points (up to 10^6 points), the
+  first step of the paper's segmentation, in the same process,
+* reports its peak resident memory (``ru_maxrss``, which includes the Python interpreter and the
+  libraries: about 100 MB before any data).
+
+Also prints the load time of a 10^6-point binary PCD and a 10^6-row CSV, the time of
+``import holecli`` and of ``holecli --help``, and whether either imports open3d or matplotlib.
+
+Run:  python benchmarks/speed.py [--max-points 10000000]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+# The paper's Table II: points -> seconds (MATLAB, one thread of an i7-6700).
+PAPER_TABLE_II = {416: 0.20, 1572: 0.62, 6733: 2.72, 9498: 4.03}
+
+
+def table1_like(points):
+    """The Table I scene with the spacing that gives about ``points`` points."""
+    from holecli.synth import table1_scene
+
+    area = 64.0 - np.pi * 1.5**2
+    spacing = float(np.sqrt(area / points))
+    scene = table1_scene(0.1)
+    from dataclasses import replace
+
+    return replace(scene, spacing=spacing, noise_world_z=0.1 * spacing)
+
+
+def stripes_scan(points):
+    """A laser-stripe scan of about ``points`` points with five holes of 3 to 9 mm, 1 m from the origin."""
+    from holecli.synth import HoleSpec, SceneSpec
+
+    # 80 x 20 mm patch, scan lines 4 point spacings apart.
+    spacing = float(np.sqrt(80.0 * 20.0 / points / 4.0))
+    holes = tuple(HoleSpec((x, 0.0), d) for x, d in [(-30, 3.0), (-15, 4.5), (0, 6.0), (15, 7.5), (30, 9.0)])
+    return SceneSpec(holes=holes, extent=(-40.0, 40.0, -10.0, 10.0), spacing=spacing, pattern="stripes",
+                     line_pitch=4.0 * spacing, rotation_deg=(10.0, 5.0, 30.0), translation=(769.0, -83.6, 218.8),
+                     noise_world_z=0.1 * spacing)
+
+
+def child(size, kind, repeats, delaunay):
+    """Measure one size in this (fresh) process and print a JSON line."""
+    from scipy.spatial import Delaunay
+
+    from holecli import detect, read_cloud
+    from holecli.frame import rotation_to_z, to_plane_frame
+    from holecli.io import save_points
+    from holecli.synth import make_scan
+
+    scene = table1_like(size) if kind == "table1" else stripes_scan(size)
+    points = make_scan(scene, 0).points
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "scan.ply")
+        save_points(path, points)
+        del points
+        started = time.perf_counter()
+        cloud = read_cloud(path)
+        load = time.perf_counter() - started
+    times = []
+    for _ in range(repeats):
+        started = time.perf_counter()
+        detection = detect(cloud.points)
+        times.append(time.perf_counter() - started)
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    baseline = None
+    if delaunay:
+        xy = to_plane_frame(cloud.points, np.array(detection.plane.point),
+                            rotation_to_z(detection.plane.normal))[:, :2]
+        started = time.perf_counter()
+        Delaunay(xy)
+        baseline = time.perf_counter() - started
+    print(json.dumps({"points": len(cloud.points), "holes": len(detection.holes), "load": load,
+                      "pipeline": float(np.median(times)), "delaunay": baseline, "peak_mb": peak}))
+
+
+def run_child(size, kind, repeats, delaunay):
+    command = [sys.executable, __file__, "--child", str(size), kind, str(repeats), str(int(delaunay))]
+    output = subprocess.run(command, check=True, capture_output=True, text=True).stdout
+    return json.loads(output.strip().splitlines()[-1])
+
+
+def load_times():
+    """Load time of a 10^6-point binary PCD and a 10^6-row CSV (open3d imported beforehand)."""
+    code = r"""
+import json, os, sys, tempfile, time
+import numpy as np
+sys.path.insert(0, sys.argv[1])
+from holecli.io import read_cloud, save_points
+rng = np.random.default_rng(0)
+points = rng.uniform(-50, 50, (1_000_000, 3))
+out = {}
+with tempfile.TemporaryDirectory() as folder:
+    for name in ("scan.pcd", "scan.csv"):
+        path = os.path.join(folder, name)
+        save_points(path, points)
+        started = time.perf_counter(); read_cloud(path); out[name] = time.perf_counter() - started
+print(json.dumps(out))
+"""
+    output = subprocess.run([sys.executable, "-c", code, str(ROOT)], check=True, capture_output=True, text=True)
+    return json.loads(output.stdout)
+
+
+def startup():
+    """Time of ``import holecli`` and of ``holecli --help``, and the heavy modules each imports."""
+    code = ("import sys, time; sys.path.insert(0, sys.argv[1]); t = time.perf_counter(); import holecli; "
+            "dt = time.perf_counter() - t; print(dt, 'open3d' in sys.modules, 'matplotlib' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code, str(ROOT)], check=True, capture_output=True, text=True)
+    import_time, o3d, mpl = out.stdout.split()
+    started = time.perf_counter()
+    environment = dict(os.environ, PYTHONPATH=str(ROOT))
+    subprocess.run([sys.executable, "-m", "holecli", "--help"], check=True, capture_output=True, env=environment)
+    help_time = time.perf_counter() - started
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); sys.argv = ['holecli', '--help']\n"
+            "import holecli.cli\ntry:\n    holecli.cli.main()\nexcept SystemExit:\n    pass\n"
+            "print('open3d' in sys.modules, 'matplotlib' in sys.modules, file=sys.stderr)")
+    heavy = subprocess.run([sys.executable, "-c", code, str(ROOT)], capture_output=True, text=True).stderr.split()
+    return float(import_time), o3d == "True" or mpl == "True", help_time, heavy[-2:] != ["False", "False"]
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--max-points", type=float, default=1e7, help="largest size to run (default 1e7)")
+    parser.add_argument("--child", nargs=4, help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.child:
+        size, kind, repeats, delaunay = args.child
+        child(int(size), kind, int(repeats), bool(int(delaunay)))
+        return 0
+
+    sizes = [(416, "table1", 21), (1572, "table1", 21), (6733, "table1", 21), (9498, "table1", 21),
+             (100_000, "stripes", 5), (1_000_000, "stripes", 3), (10_000_000, "stripes", 1)]
+    print(f"{'points':>10} {'holes':>5} {'load s':>8} {'pipeline s':>11} {'vs Table II':>12} "
+          f"{'Delaunay s':>11} {'vs Delaunay':>12} {'peak MB':>8}")
+    for size, kind, repeats in sizes:
+        if size > args.max_points:
+            continue
+        row = run_child(size, kind, repeats, delaunay=size <= 1_000_000)
+        paper = PAPER_TABLE_II.get(size)
+        versus_paper = f"{paper / row['pipeline']:>11.0f}x" if paper else f"{'':>12}"
+        if row["delaunay"] is not None:
+            versus_delaunay = f"{row['delaunay'] / row['pipeline']:>11.1f}x"
+            delaunay = f"{row['delaunay']:>11.4f}"
+        else:
+            versus_delaunay, delaunay = f"{'':>12}", f"{'':>11}"
+        print(f"{row['points']:>10,} {row['holes']:>5} {row['load']:>8.3f} {row['pipeline']:>11.4f} "
+              f"{versus_paper} {delaunay} {versus_delaunay} {row['peak_mb']:>8.0f}", flush=True)
+    loads = load_times()
+    print(f"load 10^6 points: binary PCD {loads['scan.pcd']:.3f} s, CSV {loads['scan.csv']:.3f} s")
+    import_time, heavy_import, help_time, heavy_help = startup()
+    print(f"import holecli: {import_time:.3f} s, open3d/matplotlib imported: {heavy_import}")
+    print(f"holecli --help: {help_time:.3f} s (whole process), open3d/matplotlib imported: {heavy_help}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
