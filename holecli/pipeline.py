@@ -30,10 +30,12 @@ def validate_points(points):
         array = np.ascontiguousarray(array, dtype=np.float64)
     except (TypeError, ValueError):
         raise PointsError(f"points must be numeric, got dtype {np.asarray(points).dtype}") from None
-    if not np.all(np.isfinite(array)):
+    # One pass each for the minimum and the maximum: NaN propagates into both, inf into one.
+    low, high = (float(array.min()), float(array.max())) if array.size else (0.0, 0.0)
+    if not (np.isfinite(low) and np.isfinite(high)):
         raise PointsError("points must be finite (drop NaN and inf rows first)")
-    if array.size and float(np.max(np.abs(array))) > MAX_COORDINATE:
-        raise PointsError(f"coordinates up to {float(np.max(np.abs(array))):.3g} are beyond the supported "
+    if max(-low, high) > MAX_COORDINATE:
+        raise PointsError(f"coordinates up to {max(-low, high):.3g} are beyond the supported "
                           f"range (|x| <= {MAX_COORDINATE:.0e} file units)")
     if len(array) < MIN_POINTS:
         raise PointsError(f"too few points: {len(array)} (the pipeline needs at least {MIN_POINTS})")

@@ -86,11 +86,13 @@ def fit_plane_scatter(points):
         raise PointsError(f"a plane needs an (n >= 3, 3) array, got shape {points.shape}")
     centroid = points.mean(axis=0)
     centred = points - centroid
-    values, vectors = np.linalg.eigh(centred.T @ centred)
+    scatter = centred.T @ centred
+    values, vectors = np.linalg.eigh(scatter)
     if values[1] <= 1e-24 * max(values[2], 1e-300):
         raise PointsError("the points are collinear (or coincide): no plane is defined")
     normal = orient_normal(vectors[:, 0])
-    rms = float(np.sqrt(np.mean((centred @ normal) ** 2)))
+    # The smallest eigenvalue is the sum of squared residuals: no second pass over the points.
+    rms = float(np.sqrt(max(float(values[0]), 0.0) / len(points)))
     return PlaneFit(point=centroid, normal=normal, rms=rms)
 
 

@@ -90,8 +90,8 @@ def _within(xy, center, inner, outer):
 
 
 def _local_normal(scene, center, radius):
-    """Plane of the surface around one hole, from the plane inliers in the ring [r, 3r]."""
-    ring = _within(scene.surface_xy, center, radius, 3.0 * radius)
+    """Plane of the surface around one hole, from the plane inliers in the ring [r, 2r]."""
+    ring = _within(scene.surface_xy, center, radius, 2.0 * radius)
     if len(ring) < 30:
         return None
     try:
@@ -122,6 +122,24 @@ def _is_boss(scene, center, radius, settings):
     return above > settings.boss_fraction * density * np.pi * (0.9 * radius) ** 2
 
 
+def _near_void(grid, void, cells):
+    """A test ``near(xy) -> bool``: within ``cells`` grid cells (8-connected) of the void."""
+    lower = void.lower - cells
+    shape = void.upper - void.lower + 1 + 2 * cells
+    mask = np.zeros(shape, dtype=bool)
+    mask[void.cells[:, 0] - lower[0], void.cells[:, 1] - lower[1]] = True
+    mask = ndimage.binary_dilation(mask, structure=np.ones((3, 3), dtype=bool), iterations=cells)
+
+    def near(xy):
+        ij = grid.cell_of(xy) - lower
+        inside = np.all((ij >= 0) & (ij < shape), axis=1)
+        out = np.zeros(len(xy), dtype=bool)
+        out[inside] = mask[ij[inside, 0], ij[inside, 1]]
+        return out
+
+    return near
+
+
 def _void_neighbourhood(scene, grid, void, void_mask, margin):
     """Material points around a void, and which of them lie near the line they were cut along.
 
@@ -134,7 +152,9 @@ def _void_neighbourhood(scene, grid, void, void_mask, margin):
     if void.enclosed:
         center = centers.mean(axis=0)
         distance = np.hypot(*(centers - center).T)
-        border = void.cells[~ndimage.binary_erosion(void_mask)[void.cells[:, 0], void.cells[:, 1]]]
+        lower, upper = void.lower, void.upper + 1
+        eroded = ndimage.binary_erosion(void_mask[lower[0]:upper[0], lower[1]:upper[1]])
+        border = void.cells[~eroded[void.cells[:, 0] - lower[0], void.cells[:, 1] - lower[1]]]
         inner = max(0.0, float(np.min(np.hypot(*(grid.center_of(border) - center).T))) - cell - 2.0 * alpha)
         outer = float(distance.max()) + cell + margin
         if np.all(np.hypot(*(centers - center).T) < outer - margin):
@@ -163,8 +183,8 @@ def _measure_void(scene, grid, void, settings):
         return None
     rim_xy = local[rim.index]
     # Keep rim points next to the void: an open region also runs along the scan's outer edge.
-    near = ndimage.binary_dilation(void_mask, iterations=2)
-    rim_xy = rim_xy[grid.lookup(near, rim_xy)]
+    near = _near_void(grid, void, 2)
+    rim_xy = rim_xy[near(rim_xy)]
     partial = rim.open
     fewest = settings.min_partial_rim_points if partial else settings.min_rim_points
     if len(rim_xy) < fewest:
@@ -182,7 +202,7 @@ def _measure_void(scene, grid, void, settings):
         if rim is None:
             return None
         rim_xy = local[rim.index]
-        rim_xy = rim_xy[grid.lookup(near, rim_xy)]
+        rim_xy = rim_xy[near(rim_xy)]
         if len(rim_xy) < fewest:
             return None
         fit, used = fit_edge(rim_xy, alpha, floor, settings.clip_sigmas)
