@@ -18,6 +18,7 @@ def circumradii(xy, simplices):
     radius : (m,) float
         ``inf`` for a degenerate (collinear) triangle.
     center : (m, 2) float
+        The circumcenter (the centroid for a degenerate triangle).
     """
     a = xy[simplices[:, 0]]
     b = xy[simplices[:, 1]] - a
@@ -29,5 +30,10 @@ def circumradii(xy, simplices):
         ux = (c[:, 1] * b2 - b[:, 1] * c2) / d
         uy = (b[:, 0] * c2 - c[:, 0] * b2) / d
     radius = np.hypot(ux, uy)
-    radius[~np.isfinite(radius)] = np.inf
-    return radius, a + np.column_stack([ux, uy])
+    center = a + np.column_stack([ux, uy])
+    degenerate = ~np.isfinite(radius)
+    if np.any(degenerate):
+        # A collinear triangle's circle is unbounded; its centroid stands in for the center.
+        radius[degenerate] = np.inf
+        center[degenerate] = (a[degenerate] + xy[simplices[degenerate, 1]] + xy[simplices[degenerate, 2]]) / 3.0
+    return radius, center

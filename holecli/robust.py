@@ -170,7 +170,7 @@ def _void_neighbourhood(scene, grid, void, void_mask, margin):
 def _measure_void(scene, grid, void, settings):
     """Measure one void; returns a :class:`_Measured` or None when it is not a hole."""
     cell, alpha = scene.cell, scene.alpha
-    margin = 2.0 * alpha + 3.0 * cell
+    margin = settings.margin_alphas * alpha + cell
     void_mask = np.zeros_like(grid.material)
     void_mask[void.cells[:, 0], void.cells[:, 1]] = True
 
@@ -248,7 +248,7 @@ def _sampling_bias(scene, center, radius, settings, floor):
     count = int(np.clip(np.ceil(settings.bias_rim_points / rim_points), 1, len(settings.bias_offsets)))
     offsets = [k * period for k in settings.bias_offsets[:count]]
     reach = scene.alpha + 2.0 * scene.cell
-    margin = 2.0 * scene.alpha + 3.0 * scene.cell
+    margin = settings.margin_alphas * scene.alpha + scene.cell
     ring = scene.material_xy[_within(scene.material_xy, center, radius - period,
                                      radius + offsets[-1] + margin + period)]
     bias = 0.0

@@ -27,6 +27,9 @@ class RobustSettings:
     cell_gaps: float = 2.0
     # A Delaunay triangle whose empty circumcircle is larger than this (in gaps) is a hole triangle.
     alpha_gaps: float = 2.5
+    # Width of the material ring triangulated around a hole, beyond the hole's void, in alphas (plus
+    # one cell): rim points lie within an alpha of the edge, the outer 2 alphas are the cut zone.
+    margin_alphas: float = 3.0
     # Default smallest reported diameter, in gaps (natural gaps of random sampling reach ~4 g).
     min_diameter_gaps: float = 6.0
     # Rim circle fit: sigma clipping threshold, and a floor of the residual scale (in spacings).

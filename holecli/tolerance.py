@@ -1,0 +1,428 @@
+"""Tolerance verdicts: nominal holes, tolerance bands, matching of measured holes, pass or fail.
+
+Pure functions over plain values: a :class:`Spec` (built and validated once by :func:`parse_band`,
+:func:`nominal_spec` or :func:`parse_spec`) and a detection record (the dict of
+:meth:`holecli.results.Detection.to_dict`) go in, a new record with the verdicts comes out
+(:func:`check`). No file is opened here and nothing is printed.
+
+Checks
+------
+diameter
+    measured - nominal diameter within the band ``[lower, upper]`` of signed deviations
+    (``+0.036/-0`` is ``lower = 0, upper = 0.036``).
+position
+    the distance of the measured center from the nominal center in the plane of the hole (that is,
+    perpendicular to the measured hole normal) at most ``position_tolerance``. The distance along the
+    normal is reported, not checked.
+tilt
+    the angle between the lines of the measured and the nominal normal (the sign of a normal does not
+    matter) at most ``max_tilt`` degrees.
+
+Matching
+--------
+A nominal hole with a center is matched to one measured hole: every pair closer than the nominal's
+``match_radius`` is a candidate, and pairs are taken greedily by increasing distance, each hole on
+either side at most once. Nominal holes of a spec file have ``match_radius = diameter``; the nominal
+of the command line has an unlimited one (it takes the nearest hole). A nominal without a center (the
+command line's ``--nominal-diameter`` alone) applies to every measured hole. A nominal hole left
+without a measured one is *missing* and fails the verdict; a measured hole left without a nominal one
+is reported unchecked and does not fail it.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, replace
+from typing import Optional
+
+from holecli.errors import SpecError
+
+__all__ = ["Band", "NominalHole", "Spec", "check", "nominal_spec", "parse_band", "parse_spec"]
+
+Vector = tuple[float, float, float]
+
+# Comparisons allow this much round-off, relative to the size of the compared quantity (the nominal
+# diameter, the position tolerance, the angle): far below any real tolerance (ISO IT01 on a 3 mm
+# hole is 1e-4 of it) and far above the round-off of a subtraction (1e-16).
+_ROUND_OFF = 1e-9
+
+# The keys of a [[hole]] table of a spec file, and which of them are required.
+_SPEC_KEYS = ("name", "center", "diameter", "tolerance", "position_tolerance", "normal", "max_tilt")
+_REQUIRED_KEYS = ("name", "center", "diameter", "tolerance")
+
+# How the command line calls the values (for messages); the spec file uses the keys themselves.
+_KEY_NAMES = {key: key for key in _SPEC_KEYS}
+
+
+
+@dataclass(frozen=True)
+class Band:
+    """Allowed deviations of a diameter from its nominal value, signed, in file units.
+
+    Attributes
+    ----------
+    lower, upper : float
+        Smallest and largest allowed ``measured - nominal``; ``lower <= upper``.
+    """
+
+    lower: float
+    upper: float
+
+    def __str__(self):
+        return f"{self.upper:+g}/{self.lower:+g}"
+
+
+@dataclass(frozen=True)
+class NominalHole:
+    """One hole as drawn, with its tolerances. Build it with :func:`nominal_spec` or :func:`parse_spec`.
+
+    Attributes
+    ----------
+    name : str or None
+        Name from the spec file (None for the command line's nominal).
+    diameter : float or None
+        Nominal diameter, file units; checked against ``band``.
+    band : Band or None
+        Diameter tolerance band; given exactly when ``diameter`` is.
+    center : (3,) tuple of float or None
+        Nominal center on the surface, file units. None: the nominal applies to every measured hole.
+    position_tolerance : float or None
+        Largest allowed in-plane distance of the measured center from ``center``.
+    normal : (3,) tuple of float or None
+        Nominal surface normal (any length but zero, any sign).
+    max_tilt : float or None
+        Largest allowed angle between the measured and the nominal normal, degrees; needs ``normal``.
+    match_radius : float
+        A measured hole farther than this from ``center`` is not matched to this nominal.
+    """
+
+    name: Optional[str]
+    diameter: Optional[float] = None
+    band: Optional[Band] = None
+    center: Optional[Vector] = None
+    position_tolerance: Optional[float] = None
+    normal: Optional[Vector] = None
+    max_tilt: Optional[float] = None
+    match_radius: float = math.inf
+
+
+@dataclass(frozen=True)
+class Spec:
+    """What the holes of a record are checked against.
+
+    Attributes
+    ----------
+    holes : tuple of NominalHole
+        The nominal holes; at most one of them without a center, and then it is the only one.
+    named : bool
+        True for a spec file: every measured hole gets the ``name`` of its nominal (or None).
+    source : str or None
+        Where the spec came from (the spec file), for messages.
+    """
+
+    holes: tuple[NominalHole, ...]
+    named: bool = False
+    source: Optional[str] = None
+
+
+# --------------------------------------------------------------------------------------------------
+# Validation at the boundary
+
+
+def parse_band(value) -> Band:
+    """The tolerance band of ``value``: a number ``T`` (symmetric, +-T) or a string.
+
+    Accepted strings: ``"0.05"``, ``"±0.05"``, ``"+/-0.05"``, ``"+-0.05"`` (symmetric) and
+    ``"UPPER/LOWER"``, the signed upper then lower deviation as on a drawing: ``"+0.036/-0"``,
+    ``"+0.036/0"``, ``"0.036/-0.010"``, ``"-0.014/-0.035"`` (a P7 hole). The lower deviation needs
+    its sign unless it is zero, so that ``"0.05/0.05"`` is refused rather than read as ``+0.05/+0.05``.
+
+    Raises
+    ------
+    SpecError
+        For anything else: a negative symmetric tolerance, upper below lower, text that is not one
+        of the forms, a value that is not finite.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        raise SpecError(f"expected a number >= 0 or a string like \"+0.036/-0\", got {value!r}")
+    if not isinstance(value, str):
+        return _symmetric(float(value), value)
+    text = value.strip()
+    for prefix in ("±", "+/-", "+-"):
+        if text.startswith(prefix):
+            return _symmetric(_float(text[len(prefix):], value), value)
+    if "/" not in text:
+        return _symmetric(_float(text, value), value)
+    upper_text, _, lower_text = (part.strip() for part in text.partition("/"))
+    upper, lower = _float(upper_text, value), _float(lower_text, value)
+    if lower != 0.0 and lower_text[0] not in "+-":
+        raise SpecError(f"write the lower deviation of {value!r} with its sign "
+                        f"(+{lower_text} or -{lower_text})")
+    if upper < lower:
+        raise SpecError(f"in {value!r} the upper deviation (first) is below the lower one (second); "
+                        f"did you mean {lower_text}/{upper_text}?")
+    return Band(lower=lower + 0.0, upper=upper + 0.0)  # + 0.0: no -0.0 in the output
+
+
+def nominal_spec(*, diameter=None, tolerance=None, center=None, position_tolerance=None, normal=None,
+                 max_tilt=None, names=None) -> Spec:
+    """A spec of one nominal hole from separate values (the command-line options).
+
+    Parameters
+    ----------
+    diameter : float, optional
+        Nominal diameter; needs ``tolerance``.
+    tolerance : float, str or Band, optional
+        Diameter tolerance, see :func:`parse_band`; needs ``diameter``.
+    center : (3,) float, optional
+        Nominal center: the checks then apply to the measured hole nearest to it only, and
+        ``position_deviation`` is reported for it. Without a center they apply to every hole.
+    position_tolerance : float, optional
+        Largest in-plane distance from ``center``; needs ``center``.
+    normal : (3,) float, optional
+        Nominal normal: ``tilt_deg`` is reported.
+    max_tilt : float, optional
+        Largest angle from ``normal``, degrees in [0, 90]; needs ``normal``.
+    names : dict, optional
+        How messages call each parameter (the CLI passes its option names).
+
+    Raises
+    ------
+    SpecError
+        When a value is out of range, a value lacks its partner, or no tolerance is given at all.
+    """
+    names = {**_KEY_NAMES, **(names or {})}
+    entry = {"diameter": diameter, "tolerance": tolerance, "center": center,
+             "position_tolerance": position_tolerance, "normal": normal, "max_tilt": max_tilt}
+    entry = {key: value for key, value in entry.items() if value is not None}
+    if not any(key in entry for key in ("tolerance", "position_tolerance", "max_tilt")):
+        raise SpecError(f"give a tolerance: {names['tolerance']} (with {names['diameter']}), "
+                        f"{names['position_tolerance']} or {names['max_tilt']}")
+    hole = _nominal_hole(entry, name=None, names=names, where="")
+    return Spec(holes=(hole,), named=False)
+
+
+def parse_spec(text, source="spec") -> Spec:
+    """The nominal holes of a part from the text of a TOML spec file.
+
+    The file holds one ``[[hole]]`` table per hole with ``name``, ``center = [x, y, z]``,
+    ``diameter`` and ``tolerance`` (see :func:`parse_band`), and optionally ``position_tolerance``,
+    ``normal = [x, y, z]`` and ``max_tilt`` (degrees, needs ``normal``). Each hole is matched
+    within its nominal diameter of its center.
+
+    Parameters
+    ----------
+    text : str
+        The TOML text.
+    source : str
+        The file's name, for :attr:`Spec.source`.
+
+    Raises
+    ------
+    SpecError
+        For invalid TOML, no ``[[hole]]``, an unknown or missing key, a value out of range or of the
+        wrong type, a repeated name. The message names the hole (its position and name) and the key;
+        it does not repeat ``source``.
+    """
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise SpecError(f"invalid TOML: {error}") from None
+    unknown = sorted(set(data) - {"hole"})
+    if unknown:
+        raise SpecError(f"unknown top-level key {unknown[0]!r} (expected [[hole]] tables only)")
+    tables = data.get("hole")
+    if not isinstance(tables, list) or not tables or not all(isinstance(table, dict) for table in tables):
+        raise SpecError("expected at least one [[hole]] table")
+    holes, seen = [], set()
+    for number, table in enumerate(tables, start=1):
+        name = table.get("name")
+        where = f"hole {number}" + (f" ({name!r})" if isinstance(name, str) else "")
+        unknown = sorted(set(table) - set(_SPEC_KEYS))
+        if unknown:
+            raise SpecError(f"{where}: unknown key {unknown[0]!r} (expected {', '.join(_SPEC_KEYS)})")
+        missing = [key for key in _REQUIRED_KEYS if key not in table]
+        if missing:
+            raise SpecError(f"{where}: missing key {missing[0]!r}")
+        if not isinstance(name, str) or not name.strip():
+            raise SpecError(f"{where}: 'name' must be a non-empty string, got {name!r}")
+        if name in seen:
+            raise SpecError(f"{where}: the name {name!r} is used twice")
+        seen.add(name)
+        entry = {key: value for key, value in table.items() if key != "name"}
+        hole = _nominal_hole(entry, name=name, names=_KEY_NAMES, where=f"{where}: ")
+        holes.append(replace(hole, match_radius=hole.diameter))
+    return Spec(holes=tuple(holes), named=True, source=source)
+
+
+def _nominal_hole(entry, name, names, where) -> NominalHole:
+    for key, partner in (("diameter", "tolerance"), ("tolerance", "diameter"),
+                         ("position_tolerance", "center"), ("max_tilt", "normal")):
+        if key in entry and partner not in entry:
+            raise SpecError(f"{where}{names[key]} needs {names[partner]}")
+
+    def number(key, accept, expected):
+        value = entry[key]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+                or not accept(value):
+            raise SpecError(f"{where}{names[key]} must be {expected}, got {value!r}")
+        return float(value)
+
+    def vector(key, expected):
+        value = entry[key]
+        if (not isinstance(value, (list, tuple)) or len(value) != 3
+                or not all(not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
+                           for v in value)):
+            raise SpecError(f"{where}{names[key]} must be {expected}, got {value!r}")
+        return tuple(float(v) for v in value)
+
+    values = {}
+    if "diameter" in entry:
+        values["diameter"] = number("diameter", lambda v: v > 0, "a number > 0")
+        tolerance = entry["tolerance"]
+        try:
+            values["band"] = tolerance if isinstance(tolerance, Band) else parse_band(tolerance)
+        except SpecError as error:
+            raise SpecError(f"{where}{names['tolerance']}: {error}") from None
+    if "center" in entry:
+        values["center"] = vector("center", "3 finite numbers [x, y, z]")
+    if "position_tolerance" in entry:
+        values["position_tolerance"] = number("position_tolerance", lambda v: v >= 0, "a number >= 0")
+    if "normal" in entry:
+        values["normal"] = vector("normal", "3 finite numbers [x, y, z], not all zero")
+        if math.hypot(*values["normal"]) == 0.0:
+            raise SpecError(f"{where}{names['normal']} must not be the zero vector")
+    if "max_tilt" in entry:
+        values["max_tilt"] = number("max_tilt", lambda v: 0 <= v <= 90, "an angle in degrees from 0 to 90")
+    return NominalHole(name=name, **values)
+
+
+def _float(text, given) -> float:
+    try:
+        number = float(text)
+    except ValueError:
+        raise SpecError(f"expected a number >= 0 or a string like \"+0.036/-0\" (upper/lower deviation), "
+                        f"got {given!r}") from None
+    if not math.isfinite(number):
+        raise SpecError(f"tolerance {given!r} is not finite")
+    return number
+
+
+def _symmetric(tolerance, given) -> Band:
+    if not math.isfinite(tolerance) or tolerance < 0:
+        raise SpecError(f"a symmetric tolerance must be a number >= 0, got {given!r}")
+    return Band(lower=-tolerance + 0.0, upper=tolerance + 0.0)
+
+
+# --------------------------------------------------------------------------------------------------
+# Verdicts
+
+
+def check(record, spec) -> dict:
+    """A copy of ``record`` with the tolerance verdicts of ``spec`` added.
+
+    Parameters
+    ----------
+    record : dict
+        A detection record (:meth:`holecli.results.Detection.to_dict`): ``holes`` with ``center``,
+        ``diameter`` and ``normal``.
+    spec : Spec
+        From :func:`nominal_spec` or :func:`parse_spec`.
+
+    Returns
+    -------
+    dict
+        The record, every hole with ``diameter_deviation``, ``position_deviation``
+        (``{"in_plane", "along_normal"}``), ``tilt_deg``, ``in_tolerance`` and ``failed_checks``
+        (None where the check does not apply, all None for a hole no nominal applies to), and with
+        ``name`` when ``spec.named``; and ``verdict``: ``{"checked", "out_of_tolerance", "missing",
+        "in_tolerance"}`` after ``holes``.
+    """
+    holes = record["holes"]
+    assigned = _match(holes, spec.holes)
+    checked_holes = []
+    checked = failed = 0
+    for index, hole in enumerate(holes):
+        nominal = assigned.get(index)
+        result = dict(hole)
+        if spec.named:
+            result["name"] = nominal.name if nominal else None
+        result.update(_verdict(hole, nominal))
+        if nominal is not None:
+            checked += 1
+            failed += not result["in_tolerance"]
+        checked_holes.append(result)
+    matched = {id(nominal) for nominal in assigned.values()}
+    missing = [nominal.name for nominal in spec.holes if id(nominal) not in matched]
+    verdict = {"checked": checked, "out_of_tolerance": failed, "missing": missing,
+               "in_tolerance": failed == 0 and not missing}
+    out = {}
+    for key, value in record.items():
+        out[key] = checked_holes if key == "holes" else value
+        if key == "holes":
+            out["verdict"] = verdict
+    return out
+
+
+def _match(holes, nominals) -> dict:
+    """{measured index: nominal}: one-to-one by increasing distance for nominals with a center; a
+    nominal without a center takes every hole."""
+    assigned = {}
+    pairs = []
+    for n, nominal in enumerate(nominals):
+        if nominal.center is None:
+            return {index: nominal for index in range(len(holes))}
+        for index, hole in enumerate(holes):
+            distance = math.dist(hole["center"], nominal.center)
+            if distance <= nominal.match_radius:
+                pairs.append((distance, n, index))
+    taken = set()
+    for _, n, index in sorted(pairs):
+        if n not in taken and index not in assigned:
+            assigned[index] = nominals[n]
+            taken.add(n)
+    return assigned
+
+
+def _verdict(hole, nominal) -> dict:
+    out = {"diameter_deviation": None, "position_deviation": None, "tilt_deg": None, "in_tolerance": None,
+           "failed_checks": None}
+    if nominal is None:
+        return out
+    failed = []
+    if nominal.diameter is not None:
+        deviation = hole["diameter"] - nominal.diameter
+        out["diameter_deviation"] = deviation
+        slack = _ROUND_OFF * nominal.diameter
+        if not nominal.band.lower - slack <= deviation <= nominal.band.upper + slack:
+            failed.append("diameter")
+    normal = _unit(hole["normal"])
+    if nominal.center is not None:
+        offset = [m - c for m, c in zip(hole["center"], nominal.center)]
+        along = sum(o * n for o, n in zip(offset, normal))
+        in_plane = math.hypot(*(o - along * n for o, n in zip(offset, normal)))
+        out["position_deviation"] = {"in_plane": in_plane, "along_normal": along}
+        if nominal.position_tolerance is not None:
+            if in_plane > nominal.position_tolerance * (1 + _ROUND_OFF):
+                failed.append("position")
+    if nominal.normal is not None:
+        tilt = _line_angle_deg(normal, _unit(nominal.normal))
+        out["tilt_deg"] = tilt
+        if nominal.max_tilt is not None and tilt > nominal.max_tilt * (1 + _ROUND_OFF):
+            failed.append("tilt")
+    out["in_tolerance"] = not failed
+    out["failed_checks"] = failed
+    return out
+
+
+def _unit(vector):
+    length = math.hypot(*vector)
+    return tuple(v / length for v in vector)
+
+
+def _line_angle_deg(a, b) -> float:
+    """Angle between the lines of unit vectors ``a`` and ``b`` in [0, 90] degrees."""
+    # atan2 of |cross| and |dot| stays accurate near 0 and 90 degrees, where acos and asin do not.
+    cross = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+    return math.degrees(math.atan2(math.hypot(*cross), abs(sum(x * y for x, y in zip(a, b)))))
