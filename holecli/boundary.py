@@ -15,9 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import Delaunay, QhullError
+from scipy.spatial import QhullError
 
-from holecli.geometry import circumradii
+from holecli.geometry import circumradii, triangulate
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,7 +77,7 @@ def hole_rim(xy, in_hole, alpha, cut=None):
     if len(xy) < 4:
         return None
     try:
-        triangulation = Delaunay(xy)
+        triangulation = triangulate(xy)
     except QhullError:
         return None
     simplices = triangulation.simplices

@@ -10,10 +10,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import Delaunay, QhullError, cKDTree
+from scipy.spatial import QhullError, cKDTree
 
 from holecli.errors import PointsError
-from holecli.geometry import circumradii
+from holecli.geometry import circumradii, triangulate
 
 
 @dataclass(frozen=True, eq=False)
@@ -122,7 +122,7 @@ def estimate_sampling(xy, windows=5, window_points=900):
         vectors = window[neighbour[:, 1]] - window
         angles.append(np.arctan2(vectors[positive, 1], vectors[positive, 0]))
         try:
-            triangulation = Delaunay(window)
+            triangulation = triangulate(window)
         except QhullError:
             continue
         radius, center_xy = circumradii(window, triangulation.simplices)
