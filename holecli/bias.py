@@ -17,7 +17,7 @@ from holecli.boundary import hole_rim
 from holecli.edge import fit_edge
 
 
-def synthetic_rim_fit(xy, center, radius, alpha, reach, margin, clip, floor):
+def synthetic_rim_fit(xy, center, radius, alpha, reach, margin, clip, floor, allow_open=True):
     """Fit the rim of a synthetic hole of ``radius`` cut at ``center`` into ``xy``.
 
     Only the ring of points between ``radius`` and ``radius + margin`` is triangulated; rim points
@@ -31,7 +31,7 @@ def synthetic_rim_fit(xy, center, radius, alpha, reach, margin, clip, floor):
         return np.hypot(*(positions - center).T) < radius
 
     rim = hole_rim(local, in_disk, alpha, cut=distance[keep] > radius + margin - 2.0 * alpha)
-    if rim is None:
+    if rim is None or (rim.open and not allow_open):
         return None
     rim_xy = local[rim.index]
     rim_xy = rim_xy[np.hypot(*(rim_xy - center).T) <= radius + reach]
@@ -41,7 +41,7 @@ def synthetic_rim_fit(xy, center, radius, alpha, reach, margin, clip, floor):
     return None if fit is None else fit.radius
 
 
-def sampling_bias(xy, center, radius, alpha, offsets, reach, margin, clip, floor):
+def sampling_bias(xy, center, radius, alpha, offsets, reach, margin, clip, floor, allow_open=True):
     """Mean excess of the fitted over the true radius of synthetic holes cut into ``xy``.
 
     Synthetic holes must not be smaller than the real hole (else they would hold its void), so the
@@ -62,6 +62,8 @@ def sampling_bias(xy, center, radius, alpha, offsets, reach, margin, clip, floor
         phase as the real one.
     reach, margin : float
         Rim points beyond ``radius + reach`` are ignored; the ring triangulated is ``margin`` wide.
+    allow_open : bool
+        Whether a synthetic hole may reach the scan's edge (true for a partial hole).
 
     Returns
     -------
@@ -72,7 +74,7 @@ def sampling_bias(xy, center, radius, alpha, offsets, reach, margin, clip, floor
     excesses = []
     for offset in offsets:
         synthetic = radius + offset
-        fitted = synthetic_rim_fit(xy, center, synthetic, alpha, reach, margin, clip, floor)
+        fitted = synthetic_rim_fit(xy, center, synthetic, alpha, reach, margin, clip, floor, allow_open)
         if fitted is not None and abs(fitted - synthetic) < alpha:
             excesses.append(fitted - synthetic)
     if not excesses:

@@ -232,14 +232,14 @@ def _measure_void(scene, grid, void, settings):
         center, corrected, _ = edge
         bias = radius - corrected
     else:
-        bias = _sampling_bias(scene, center, radius, settings, floor)
+        bias = _sampling_bias(scene, center, radius, settings, floor, partial)
     if radius - bias < scene.min_radius:
         return None
     return _Measured(center=center, radius=radius - bias, bias=bias, fit=fit, rim_xy=rim_xy[used],
                      partial=partial, arc_deg=arc)
 
 
-def _sampling_bias(scene, center, radius, settings, floor):
+def _sampling_bias(scene, center, radius, settings, floor, partial):
     """Radial sampling bias of a rim fit of ``radius`` at ``center`` (see :mod:`holecli.bias`)."""
     period = scene.sampling.period or 0.5 * scene.alpha
     # Enough synthetic holes for about bias_rim_points rim points in all: a large hole's rim alone
@@ -255,7 +255,7 @@ def _sampling_bias(scene, center, radius, settings, floor):
     for _ in range(settings.bias_passes):
         # Cut the synthetic holes in phase with the current estimate of the true edge.
         estimate = sampling_bias(ring, center, radius - bias, scene.alpha, offsets, reach, margin,
-                                 settings.clip_sigmas, floor)
+                                 settings.clip_sigmas, floor, allow_open=partial)
         if estimate is None:
             break
         bias = estimate

@@ -57,16 +57,25 @@ def _window_indices(x, y, center, half):
     return np.flatnonzero(inside)
 
 
-def _line_pitch(window, direction, spacing):
-    """Pitch of the scan lines across ``direction`` from the clustered across-line coordinates."""
-    across = np.sort(window @ np.array([-direction[1], direction[0]]))
-    steps = np.diff(across)
-    breaks = steps > 0.5 * spacing
-    if breaks.sum() < 2:
+def _line_pitch(window, direction, spacing, neighbours=16):
+    """Pitch of the scan lines across ``direction``: the median, over the points, of the across-line
+    offset of the nearest neighbour on another line (offset above half a spacing).
+
+    Unlike clustering the across-line coordinates of a whole window, this holds when the estimated
+    direction is a few degrees off (noise), since only offsets to near neighbours are used.
+    """
+    if len(window) <= neighbours:
         return None
-    starts = np.concatenate([[0], np.flatnonzero(breaks) + 1])
-    means = np.add.reduceat(across, starts) / np.diff(np.append(starts, len(across)))
-    return float(np.median(np.diff(means)))
+    distance, index = cKDTree(window).query(window, k=neighbours + 1)
+    vectors = window[index[:, 1:]] - window[:, None, :]
+    across = np.abs(vectors @ np.array([-direction[1], direction[0]]))
+    # The nearest neighbour (by distance) that is not on the point's own line.
+    distance = np.where(across > 0.5 * spacing, distance[:, 1:], np.inf)
+    nearest = np.argmin(distance, axis=1)
+    found = np.isfinite(distance[np.arange(len(window)), nearest])
+    if found.sum() < 0.5 * len(window):
+        return None
+    return float(np.median(across[np.arange(len(window)), nearest][found]))
 
 
 def estimate_sampling(xy, windows=5, window_points=900):
