@@ -186,7 +186,9 @@ def _measure_void(scene, grid, void, settings):
     near = _near_void(grid, void, 2)
     rim_xy = rim_xy[near(rim_xy)]
     partial = rim.open
-    fewest = settings.min_partial_rim_points if partial else settings.min_rim_points
+    # A void open to the scan's outside (a bay) needs the stronger evidence of a partial hole even
+    # when its rim closes: dents of a ragged border are bays too.
+    fewest = settings.min_partial_rim_points if partial or not void.enclosed else settings.min_rim_points
     if len(rim_xy) < fewest:
         return None
     floor = settings.clip_floor_spacings * scene.sampling.spacing

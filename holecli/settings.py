@@ -50,9 +50,10 @@ class RobustSettings:
     bias_passes: int = 2
     # As many of those synthetic holes as give about this many rim points in all.
     bias_rim_points: int = 400
-    # Fewest rim points for a full and for a partial hole.
+    # Fewest rim points for a full hole, and for a partial hole or any hole found in a bay of the
+    # scan's border (where the dents of a ragged border must not pass for holes).
     min_rim_points: int = 6
-    min_partial_rim_points: int = 10
+    min_partial_rim_points: int = 12
 
 
 DEFAULT_SETTINGS = RobustSettings()
