@@ -71,10 +71,22 @@ def _box_indices(xy, low, high):
     return np.flatnonzero(inside)
 
 
-def _arc_coverage(rim_xy, center):
+def _rim_arc(rim_xy, center):
+    """Degrees of the circle not in the largest angular gap between rim points."""
     angles = np.sort(np.arctan2(rim_xy[:, 1] - center[1], rim_xy[:, 0] - center[0]))
     gaps = np.diff(np.concatenate([angles, [angles[0] + 2 * np.pi]]))
     return float(np.degrees(2 * np.pi - gaps.max()))
+
+
+def _material_arc(grid, center, radius, samples=720):
+    """Degrees of the circle with scanned material just outside it (half a cell beyond the edge).
+
+    Counted on the occupancy grid rather than from the rim points, whose spacing along a sparse rim
+    (or near the scan's edge) would understate the coverage.
+    """
+    angles = np.linspace(0.0, 2 * np.pi, samples, endpoint=False)
+    ring = center + (radius + 0.5 * grid.cell) * np.column_stack([np.cos(angles), np.sin(angles)])
+    return 360.0 * float(np.mean(grid.lookup(grid.material, ring)))
 
 
 def _within(xy, center, inner, outer):
@@ -217,13 +229,15 @@ def _measure_void(scene, grid, void, settings):
     scatter = 1.4826 * float(np.median(np.abs(fit.residuals)))
     if scatter > settings.max_relative_scatter * radius + scene.gap_scatter:
         return None
-    arc = _arc_coverage(rim_xy[used], center)
     # A closed region whose rim still misses a third of the circle lost its rim to missing data.
-    partial = partial or arc < settings.closed_rim_min_arc_deg
-    if not partial:
-        arc = 360.0
-    elif arc < settings.min_partial_arc_deg or used.sum() < settings.min_partial_rim_points:
-        return None
+    rim_arc = _rim_arc(rim_xy[used], center)
+    partial = partial or rim_arc < settings.closed_rim_min_arc_deg
+    arc = 360.0
+    if partial:
+        # Accept on the rim points' own (conservative) coverage; report the scanned coverage.
+        if rim_arc < settings.min_partial_arc_deg or used.sum() < settings.min_partial_rim_points:
+            return None
+        arc = max(rim_arc, _material_arc(grid, center, radius))
     if _is_boss(scene, center, radius, settings):
         return None
     edge = None
