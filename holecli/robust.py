@@ -40,6 +40,8 @@ class _Scene:
     xy: np.ndarray           # (n, 2) all points in the plane frame (projected or slid)
     surface_xy: np.ndarray   # (m, 2) the plane inliers' rows of xy
     material_xy: np.ndarray  # surface_xy in material cells of the grid (specks inside holes removed)
+    above_xy: np.ndarray     # (k, 2) points standing above the surface band (a boss, outliers)
+    surface_density: float   # surface points per unit area of scanned material
     points: np.ndarray       # (n, 3) the cloud, world coordinates
     surface_index: np.ndarray  # (m,) rows of the plane inliers in points
     heights: np.ndarray      # (n,) signed distance from the plane
@@ -127,11 +129,8 @@ def _scan_lines(scene, rim_xy, center, radius):
 
 def _is_boss(scene, center, radius, settings):
     """True when material stands above the surface inside the void (a pin or boss, not a hole)."""
-    inside = _within(scene.xy, center, 0.0, 0.9 * radius)
-    above = np.count_nonzero((scene.heights[inside] > scene.band) & ~scene.surface[inside])
-    ring = len(_within(scene.surface_xy, center, radius, 1.5 * radius))
-    density = ring / (np.pi * (1.5**2 - 1.0) * radius**2)
-    return above > settings.boss_fraction * density * np.pi * (0.9 * radius) ** 2
+    above = len(_within(scene.above_xy, center, 0.0, 0.9 * radius))
+    return above > settings.boss_fraction * scene.surface_density * np.pi * (0.9 * radius) ** 2
 
 
 def _near_void(grid, void, cells):
@@ -348,7 +347,10 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     cell = settings.cell_gaps * gap
     grid = occupancy_grid(surface_xy, cell)
     material_xy = np.asfortranarray(surface_xy[grid.lookup(grid.material, surface_xy)])
-    scene = _Scene(xy=xy, surface_xy=surface_xy, material_xy=material_xy, heights=heights, surface=surface, points=points, surface_index=np.flatnonzero(surface), band=band,
+    above_xy = np.asfortranarray(xy[(heights > band) & ~surface])
+    surface_density = len(surface_xy) / max(float(np.count_nonzero(grid.material)) * cell * cell, 1e-300)
+    scene = _Scene(xy=xy, surface_xy=surface_xy, material_xy=material_xy, above_xy=above_xy,
+                   surface_density=surface_density, heights=heights, surface=surface, points=points, surface_index=np.flatnonzero(surface), band=band,
                    origin=origin, rotation=rotation, direction=direction, sampling=sampling,
                    alpha=settings.alpha_gaps * gap, cell=cell, min_radius=min_radius,
                    gap_scatter=0.5 * gap)
