@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from holecli.bias import sampling_bias
+from holecli.countersink import fit_cone_edge
 from holecli.boundary import hole_rim, near_box_edge
 from holecli.edge import fit_edge
 from holecli.errors import PointsError
@@ -42,6 +43,7 @@ class _Scene:
     material_xy: np.ndarray  # surface_xy in material cells of the grid (specks inside holes removed)
     above_xy: np.ndarray     # (k, 2) points standing above the surface band (a boss, outliers)
     surface_density: float   # surface points per unit area of scanned material
+    height_noise: float      # robust sd of the surface points' heights
     points: np.ndarray       # (n, 3) the cloud, world coordinates
     surface_index: np.ndarray  # (m,) rows of the plane inliers in points
     heights: np.ndarray      # (n,) signed distance from the plane
@@ -131,6 +133,14 @@ def _is_boss(scene, center, radius, settings):
     """True when material stands above the surface inside the void (a pin or boss, not a hole)."""
     above = len(_within(scene.above_xy, center, 0.0, 0.9 * radius))
     return above > settings.boss_fraction * scene.surface_density * np.pi * (0.9 * radius) ** 2
+
+
+def _countersink(scene, center, radius):
+    """The countersink cone around a fitted rim, or None (see :mod:`holecli.countersink`)."""
+    width = 2.0 * scene.alpha
+    index = _within(scene.xy, center, max(radius - 2.0 * width, 0.0), radius + width)
+    rho = np.hypot(scene.xy[index, 0] - center[0], scene.xy[index, 1] - center[1])
+    return fit_cone_edge(rho, -scene.heights[index], radius, width, scene.height_noise)
 
 
 def _near_void(grid, void, cells):
@@ -239,6 +249,11 @@ def _measure_void(scene, grid, void, settings):
         arc = max(rim_arc, _material_arc(grid, center, radius))
     if _is_boss(scene, center, radius, settings):
         return None
+    cone = _countersink(scene, center, radius)
+    if cone is not None:
+        # A countersunk hole: its edge is where the cone meets the surface.
+        return _Measured(center=center, radius=cone.radius, bias=radius - cone.radius, fit=fit,
+                         rim_xy=rim_xy[used], partial=partial, arc_deg=arc)
     edge = None
     if scene.sampling.lattice_axes and not partial:
         edge = separating_circle(local, rim_xy[used], lattice_steps(local, scene.sampling.lattice_axes,
@@ -350,7 +365,8 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     above_xy = np.asfortranarray(xy[(heights > band) & ~surface])
     surface_density = len(surface_xy) / max(float(np.count_nonzero(grid.material)) * cell * cell, 1e-300)
     scene = _Scene(xy=xy, surface_xy=surface_xy, material_xy=material_xy, above_xy=above_xy,
-                   surface_density=surface_density, heights=heights, surface=surface, points=points, surface_index=np.flatnonzero(surface), band=band,
+                   surface_density=surface_density, height_noise=1.4826 * float(np.median(np.abs(heights[surface]))),
+                   heights=heights, surface=surface, points=points, surface_index=np.flatnonzero(surface), band=band,
                    origin=origin, rotation=rotation, direction=direction, sampling=sampling,
                    alpha=settings.alpha_gaps * gap, cell=cell, min_radius=min_radius,
                    gap_scatter=0.5 * gap)
