@@ -7,13 +7,14 @@ inside the commands so that ``holecli --help`` stays fast.
 from __future__ import annotations
 
 import io as _stringio
+import os
 import sys
 import time
 
 import click
 
 from holecli import __version__
-from holecli.errors import HoleCliError, LoadError
+from holecli.errors import HoleCliError, LoadError, SpecError
 
 # Exit codes: documented here, in every --help and in the README.
 EXIT_OK = 0
@@ -21,17 +22,36 @@ EXIT_INTERNAL = 1
 EXIT_USAGE = 2  # click's own
 EXIT_INPUT = 3
 EXIT_NO_HOLE = 4
+EXIT_OUT_OF_TOLERANCE = 5
+EXIT_FILE_FAILED = 6
 EXIT_INTERRUPTED = 130
 
 EXIT_CODES_HELP = (
     "\b\nExit codes:\n"
-    "  0  a hole was measured\n"
+    "  0  a hole was measured (and, with tolerance options, every checked hole is in tolerance)\n"
     "  1  internal error (a bug: please report it)\n"
     "  2  usage error (bad option or argument)\n"
-    "  3  input error: the file is missing, unreadable, malformed or has too few points;\n"
-    "     or the output file cannot be written\n"
+    "  3  input error: the file is missing, unreadable, malformed or has too few points; the --spec\n"
+    "     file is unreadable or invalid; or the output file cannot be written\n"
     "  4  no hole found (the record is still printed, with \"holes\": [])\n"
+    "  5  out of tolerance: a checked hole is out of tolerance or a nominal hole is missing\n"
+    "     (the record is still printed; takes precedence over 4)\n"
+    "  6  holecli batch only: some file could not be measured\n"
     "  130  interrupted (Ctrl-C)"
+)
+
+BATCH_EXIT_CODES_HELP = (
+    "\b\nExit codes (the first that applies):\n"
+    "  130  interrupted (Ctrl-C or SIGTERM): the finished records are written, none cut;\n"
+    "       run again with --resume to measure the rest\n"
+    "  2    usage error (bad option or argument)\n"
+    "  3    input error: a PATH is missing or holds no point cloud, the --spec file is unreadable\n"
+    "       or invalid, the output cannot be written or resumed\n"
+    "  5    some checked hole is out of tolerance, or a nominal hole is missing\n"
+    "  6    some file could not be measured (its record has \"error\")\n"
+    "  4    some file has no hole\n"
+    "  0    every file measured, each with a hole (and in tolerance, where tolerances are given)\n"
+    "  1    internal error (a bug: please report it)"
 )
 
 CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
@@ -56,6 +76,23 @@ class FloatTuple(click.ParamType):
             self.fail(f"expected {self.count} comma-separated finite numbers ({self.name}), got {value!r}",
                       param, ctx)
         return numbers
+
+
+class ToleranceBand(click.ParamType):
+    """A diameter tolerance: ``T`` (symmetric) or ``+U/-L`` (signed upper/lower deviation)."""
+
+    name = "T|+U/-L"
+
+    def convert(self, value, param, ctx):
+        from holecli.errors import SpecError
+        from holecli.tolerance import Band, parse_band
+
+        if isinstance(value, Band):
+            return value
+        try:
+            return parse_band(value)
+        except SpecError as error:
+            self.fail(str(error), param, ctx)
 
 
 class Failure(Exception):
@@ -95,6 +132,8 @@ def main():
     Examples:
       holecli detect scan.ply
       holecli detect scan.csv --format table
+      holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0
+      holecli batch scans/ --recursive --output results.jsonl
       holecli simulate scene.ply
     """
 
@@ -106,17 +145,15 @@ def measure_file(path, options):
     """
     from dataclasses import replace
 
+    from holecli.batch import failure_message
     from holecli.io import read_cloud
     from holecli.pipeline import detect as run_detect
 
     try:
         cloud = read_cloud(path)
-    except LoadError as error:
-        raise Failure(str(error), EXIT_INPUT) from None
-    try:
         detection = run_detect(cloud.points, **options)
     except HoleCliError as error:
-        raise Failure(f"{path}: {error}", EXIT_INPUT) from None
+        raise Failure(failure_message(path, error), EXIT_INPUT) from None
     return replace(detection, file=str(path), dropped_points=cloud.dropped)
 
 
@@ -154,6 +191,78 @@ def detection_option_decorators(function):
     return function
 
 
+# What messages call the values of holecli.tolerance.nominal_spec on the command line.
+TOLERANCE_OPTION_NAMES = {
+    "diameter": "--nominal-diameter", "tolerance": "--tolerance", "center": "--nominal-center",
+    "position_tolerance": "--position-tolerance", "normal": "--nominal-normal", "max_tilt": "--max-tilt",
+}
+
+
+def tolerance_option_decorators(function):
+    """The tolerance options shared by ``detect`` and ``batch``."""
+    options = [
+        click.option("--nominal-diameter", type=click.FloatRange(min=0, min_open=True), default=None,
+                     metavar="D", help="Nominal hole diameter, checked with --tolerance."),
+        click.option("--tolerance", type=ToleranceBand(), default=None,
+                     help="Diameter tolerance: T for +-T, or the upper/lower deviation as on a drawing, "
+                          "e.g. +0.036/-0 (an H9 fit), 0.036/-0.010."),
+        click.option("--nominal-center", type=FloatTuple(3, "X,Y,Z"), default=None,
+                     help="Nominal hole center: the checks apply to the hole nearest to it (other holes "
+                          "are not checked) and it gets position_deviation."),
+        click.option("--position-tolerance", type=click.FloatRange(min=0), default=None, metavar="R",
+                     help="Largest distance of the measured center from --nominal-center in the plane "
+                          "of the hole."),
+        click.option("--nominal-normal", type=FloatTuple(3, "X,Y,Z"), default=None,
+                     help="Nominal surface normal (either sign): tilt_deg is reported."),
+        click.option("--max-tilt", type=click.FloatRange(min=0, max=90), default=None, metavar="DEG",
+                     help="Largest angle between the hole's normal and --nominal-normal, degrees."),
+        click.option("--spec", "spec_file", type=click.Path(path_type=str), default=None, metavar="FILE",
+                     help="TOML file of the part's nominal holes ([[hole]] tables, see README); "
+                          "not with the options above."),
+    ]
+    for option in reversed(options):
+        function = option(function)
+    return function
+
+
+def nominal_from_options(nominal_diameter, tolerance, nominal_center, position_tolerance, nominal_normal,
+                         max_tilt, spec_file):
+    """The :class:`holecli.tolerance.Spec` of the nominal options, or None (none given, or --spec);
+    click usage errors for combinations that do not make sense."""
+    from holecli.tolerance import nominal_spec
+
+    values = {"diameter": nominal_diameter, "tolerance": tolerance, "center": nominal_center,
+              "position_tolerance": position_tolerance, "normal": nominal_normal, "max_tilt": max_tilt}
+    given = [TOLERANCE_OPTION_NAMES[key] for key, value in values.items() if value is not None]
+    if spec_file is not None:
+        if given:
+            raise click.UsageError(f"--spec cannot be combined with {', '.join(given)}")
+        return None
+    if not given:
+        return None
+    try:
+        return nominal_spec(**values, names=TOLERANCE_OPTION_NAMES)
+    except SpecError as error:
+        raise click.UsageError(str(error)) from None
+
+
+def read_spec(path):
+    """The :class:`holecli.tolerance.Spec` of a spec file; :class:`Failure` with the input-error code."""
+    from holecli.tolerance import parse_spec
+
+    try:
+        with open(path, encoding="utf-8") as stream:
+            text = stream.read()
+    except OSError as error:
+        raise Failure(f"{path}: cannot read: {error.strerror or error}", EXIT_INPUT) from None
+    except UnicodeDecodeError:
+        raise Failure(f"{path}: not a UTF-8 text file", EXIT_INPUT) from None
+    try:
+        return parse_spec(text, source=path)
+    except SpecError as error:
+        raise Failure(f"{path}: {error}", EXIT_INPUT) from None
+
+
 def render(records, fmt):
     """The text of ``records`` (detection dicts) in the requested format."""
     from holecli import report
@@ -175,19 +284,35 @@ def render_table(records):
     console = Console(file=buffer, width=140, force_terminal=False, color_system=None)
     for record in records:
         plane = record["plane"]
+        verdict = record.get("verdict")
+        caption = f"plane rms {plane['rms']:.4g}, {record['elapsed_ms']:.1f} ms"
+        if verdict is not None:
+            caption += (f"; {'IN' if verdict['in_tolerance'] else 'OUT OF'} TOLERANCE: {verdict['checked']} "
+                        f"checked, {verdict['out_of_tolerance']} out")
+            if verdict["missing"]:
+                caption += ", missing: " + ", ".join(str(name) for name in verdict["missing"])
         table = Table(title=f"{record['file']}  ({record['points']} points, method {record['method']})",
-                      caption=f"plane rms {plane['rms']:.4g}, {record['elapsed_ms']:.1f} ms")
-        for column in ("hole", "center x", "center y", "center z", "diameter", "normal", "rim pts",
-                       "fit rms", "partial"):
+                      caption=caption)
+        columns = ["hole", "center x", "center y", "center z", "diameter", "normal", "rim pts", "fit rms", "partial"]
+        if verdict is not None:
+            columns.append("tolerance")
+        for column in columns:
             table.add_column(column, justify="right")
         for hole in record["holes"]:
-            table.add_row(
+            cells = [
                 str(hole["index"]), *(f"{v:.4f}" for v in hole["center"]), f"{hole['diameter']:.4f}",
                 "(" + ", ".join(f"{v:.4f}" for v in hole["normal"]) + ")", str(hole["rim_points"]),
                 f"{hole['fit_rms']:.2g}", "yes" if hole.get("partial") else "no",
-            )
+            ]
+            if verdict is not None:
+                name = f"{hole['name']}: " if hole.get("name") else ""
+                if hole["in_tolerance"] is None:
+                    cells.append(name + "not checked")
+                else:
+                    cells.append(name + ("in" if hole["in_tolerance"] else "OUT: " + ", ".join(hole["failed_checks"])))
+            table.add_row(*cells)
         if not record["holes"]:
-            table.add_row("-", "", "", "", "no hole found", "", "", "", "")
+            table.add_row("-", "", "", "", "no hole found", *[""] * (len(columns) - 5))
         console.print(table)
     return buffer.getvalue()
 
@@ -212,29 +337,49 @@ def emit(text, output):
 @click.option("--output", "-o", type=click.Path(dir_okay=False, path_type=str),
               help="Write the result to this file (atomically) instead of stdout.")
 @detection_option_decorators
-def detect(scan, fmt, output, method, view_dir, min_diameter, max_holes, full_only):
+@tolerance_option_decorators
+def detect(scan, fmt, output, method, view_dir, min_diameter, max_holes, full_only, nominal_diameter, tolerance,
+           nominal_center, position_tolerance, nominal_normal, max_tilt, spec_file):
     """Measure the holes in SCAN (.ply, .pcd, .csv, .txt or .xyz).
 
-    Prints center, diameter and normal of every hole as JSON (units those of the file).
+    Prints center, diameter and normal of every hole as JSON (units those of the file). With
+    tolerance options or --spec, every checked hole also gets its deviations and "in_tolerance",
+    and the record a "verdict".
 
     \b
     Examples:
       holecli detect scan.ply
       holecli detect scan.csv --format csv --output result.csv
       holecli detect scan.pcd --view-dir 0,0,1 --full-only --format table
+      holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0
+      holecli detect scan.ply --nominal-center 3.65,5.14,5.53 --position-tolerance 0.1 \\
+          --nominal-normal 0.18,-0.5,0.85 --max-tilt 1
+      holecli detect scan.ply --spec part.toml --format table
     """
     options = detection_options(method, view_dir, min_diameter, max_holes, full_only)
+    nominal = nominal_from_options(nominal_diameter, tolerance, nominal_center, position_tolerance,
+                                   nominal_normal, max_tilt, spec_file)
 
     def body():
-        detection = measure_file(scan, options)
-        record = detection.to_dict()
-        emit(render([record], fmt), output)
-        return EXIT_OK if record["holes"] else EXIT_NO_HOLE
+        from holecli.tolerance import check
 
-    code = run_guarded(body)
-    if code == EXIT_NO_HOLE:
+        spec = read_spec(spec_file) if spec_file is not None else nominal
+        record = measure_file(scan, options).to_dict()
+        if spec is not None:
+            record = check(record, spec)
+        emit(render([record], fmt), output)
+        return record
+
+    record = run_guarded(body)
+    if not record["holes"]:
         click.echo(f"holecli: no hole found in {scan}", err=True)
-    sys.exit(code)
+    verdict = record.get("verdict")
+    if verdict is not None and not verdict["in_tolerance"]:
+        missing = f", missing: {', '.join(str(name) for name in verdict['missing'])}" if verdict["missing"] else ""
+        click.echo(f"holecli: out of tolerance: {verdict['out_of_tolerance']} of {verdict['checked']} checked "
+                   f"holes{missing} in {scan}", err=True)
+        sys.exit(EXIT_OUT_OF_TOLERANCE)
+    sys.exit(EXIT_OK if record["holes"] else EXIT_NO_HOLE)
 
 
 @main.command(epilog="\b\nExit codes: 0 written, 2 usage error, 3 the scene or the output is invalid.")
@@ -330,3 +475,253 @@ def simulate(output, diameter, center, holes, no_hole, spacing, extent, pattern,
         return EXIT_OK
 
     sys.exit(run_guarded(body))
+
+
+class _StopRequests:
+    """SIGINT and SIGTERM handling of ``holecli batch``.
+
+    Before :meth:`defer`, either signal raises KeyboardInterrupt (nothing is written yet). After it,
+    a signal only sets :attr:`signal`, which the batch loop checks between records: an exception can
+    then never cut a record in the middle of its write.
+    """
+
+    SIGNALS = ("SIGINT", "SIGTERM")
+
+    def __init__(self):
+        self.signal = None
+        self._deferred = False
+        self._previous = {}
+
+    def __enter__(self):
+        import signal
+
+        for name in self.SIGNALS:
+            number = getattr(signal, name)
+            try:
+                self._previous[number] = signal.signal(number, self._handle)
+            except ValueError:  # not the main thread: leave the signals alone
+                pass
+        return self
+
+    def __exit__(self, *exc_info):
+        import signal
+
+        for number, handler in self._previous.items():
+            signal.signal(number, handler)
+        return False
+
+    def defer(self):
+        self._deferred = True
+
+    def _handle(self, number, frame):
+        if not self._deferred:
+            raise KeyboardInterrupt
+        self.signal = number
+
+
+def _stdout_writer(text):
+    sys.stdout.write(text)
+    sys.stdout.flush()
+
+
+def _batch_summary(tally, seconds, checked, earlier, output):
+    def count(number, noun):
+        return f"{number} {noun}{'' if number == 1 else 's'}"
+
+    text = f"{count(tally.files, 'file')}: {tally.measured} measured, {tally.failed} failed; {count(tally.holes, 'hole')} found"
+    if tally.without_hole:
+        text += f" ({count(tally.without_hole, 'file')} without a hole)"
+    if checked:
+        text += f"; {tally.out_of_tolerance} out of tolerance, {count(tally.missing, 'nominal hole')} missing"
+    else:
+        text += "; tolerances not checked"
+    text += f"; {seconds:.1f} s"
+    if earlier:
+        text += f" ({count(earlier, 'file')} from the earlier run in {output})"
+    return text
+
+
+def batch_exit_code(tally):
+    """The exit code of a batch from its counts, by the documented precedence."""
+    if tally.out_of_tolerance or tally.missing:
+        return EXIT_OUT_OF_TOLERANCE
+    if tally.failed:
+        return EXIT_FILE_FAILED
+    if tally.without_hole:
+        return EXIT_NO_HOLE
+    return EXIT_OK
+
+
+@main.command(epilog=BATCH_EXIT_CODES_HELP)
+@click.argument("paths", nargs=-1, required=True, type=click.Path(path_type=str))
+@click.option("--recursive", "-r", is_flag=True, help="Also take the clouds in the subfolders of each folder.")
+@click.option("--pattern", metavar="GLOB", default=None,
+              help="Take only the clouds in folders whose name matches GLOB (case-insensitive; a GLOB with "
+                   "a / is matched against the path below the folder), e.g. 'part7_*'.")
+@click.option("--format", "fmt", type=click.Choice(["jsonl", "csv"]), default="jsonl", show_default=True,
+              help="JSON Lines (one detect record per file) or CSV (one row per hole).")
+@click.option("--output", "-o", type=click.Path(dir_okay=False, path_type=str), default=None,
+              help="Write the records to this file (each as soon as its file is measured) instead of stdout.")
+@click.option("--jobs", "-j", type=click.IntRange(min=1), default=None,
+              help="Worker processes [default: the number of cores].")
+@click.option("--resume", is_flag=True,
+              help="Keep the records already in --output, skip their files and append the others.")
+@detection_option_decorators
+@tolerance_option_decorators
+def batch(paths, recursive, pattern, fmt, output, jobs, resume, method, view_dir, min_diameter, max_holes, full_only,
+          nominal_diameter, tolerance, nominal_center, position_tolerance, nominal_normal, max_tilt, spec_file):
+    """Measure every point cloud in the folders and files PATH... .
+
+    A folder contributes the .ply, .pcd, .csv, .txt and .xyz files directly in it (any case; with
+    --recursive also those below it), in sorted order; a file named on the command line is measured
+    as it is. Each record (the JSON of holecli detect) is written as soon as its file is measured; a
+    file that cannot be measured gives {"file": ..., "error": ...} and the batch goes on. Progress and
+    a summary go to stderr. Ctrl-C or SIGTERM stop cleanly; --resume then finishes the run.
+
+    \b
+    Examples:
+      holecli batch scans/ --output results.jsonl
+      holecli batch scans/ --recursive --pattern 'panel7_*' --format csv -o panel7.csv
+      holecli batch scans/ --spec part.toml --jobs 4 -o shift.jsonl
+      holecli batch scans/ --spec part.toml -o shift.jsonl --resume
+      holecli batch scans/*.ply --nominal-diameter 3 --tolerance 0.02 | jq -c 'select(.verdict.in_tolerance | not)'
+    """
+    options = detection_options(method, view_dir, min_diameter, max_holes, full_only)
+    nominal = nominal_from_options(nominal_diameter, tolerance, nominal_center, position_tolerance,
+                                   nominal_normal, max_tilt, spec_file)
+    if resume and output is None:
+        raise click.UsageError("--resume needs --output (the file to go on with)")
+
+    def body(stop):
+        from holecli import batch as batching
+        from holecli.io import SUPPORTED_EXTENSIONS
+
+        spec = read_spec(spec_file) if spec_file is not None else nominal
+        try:
+            files = batching.find_scans(paths, recursive=recursive, pattern=pattern,
+                                        exclude=[output] if output else ())
+        except LoadError as error:
+            raise Failure(str(error), EXIT_INPUT) from None
+        if not files:
+            raise Failure(f"{', '.join(paths)}: no point-cloud files ({', '.join(SUPPORTED_EXTENSIONS)})"
+                          + (f" matching {pattern!r}" if pattern else "") + " found", EXIT_INPUT)
+        earlier, header = [], True
+        if resume:
+            try:
+                earlier, header = batching.prepare_resume(output, fmt)
+            except batching.ResumeError as error:
+                raise Failure(str(error), EXIT_INPUT) from None
+            except OSError as error:
+                raise Failure(f"{output}: cannot resume: {error.strerror or error}", EXIT_INPUT) from None
+        done = {os.path.realpath(summary.file) for summary in earlier}
+        todo = [path for path in files if os.path.realpath(path) not in done]
+        close = None
+        try:
+            if output is None:
+                write = _stdout_writer
+            else:
+                try:
+                    write, close = batching.open_output(output, append=resume)
+                except OSError as error:
+                    raise Failure(f"{output}: cannot write output: {error.strerror or error}", EXIT_INPUT) from None
+            return run_batch(batching, todo, options, spec, jobs or batching.default_jobs(), write, fmt, header,
+                             earlier, output, stop)
+        finally:
+            if close is not None:
+                close()
+
+    with _StopRequests() as stop:
+        sys.exit(run_guarded(body, stop))
+
+
+class _BatchDisplay:
+    """stderr of ``holecli batch``: a rich progress bar on a terminal, plain lines otherwise.
+
+    rich is imported only for the bar: a batch run by a script does not pay for it.
+    """
+
+    def __init__(self, total, checked):
+        self._checked = checked
+        self._progress = None
+        try:
+            terminal = sys.stderr.isatty()
+        except (AttributeError, ValueError):
+            terminal = False
+        if terminal:
+            from rich.console import Console
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+            self._console = Console(stderr=True, highlight=False, soft_wrap=True)
+            # auto_refresh=False: no refresh thread, so the worker processes are forked from a
+            # single-threaded parent; the batch loop refreshes the bar at least five times a second.
+            self._progress = Progress(TextColumn("measuring"), BarColumn(), MofNCompleteColumn(),
+                                      TextColumn("{task.fields[status]}"), TimeRemainingColumn(),
+                                      console=self._console, auto_refresh=False, transient=True)
+            self._task = self._progress.add_task("batch", total=total, status="")
+
+    def __enter__(self):
+        if self._progress is not None:
+            self._progress.start()
+        return self
+
+    def __exit__(self, *exc_info):
+        if self._progress is not None:
+            self._progress.stop()
+        return False
+
+    def update(self, completed, tally, seconds):
+        if self._progress is None:
+            return
+        status = f"{tally.holes} holes, {tally.failed} failed"
+        if self._checked:
+            status += f", {tally.out_of_tolerance + tally.missing} out of tolerance"
+        status += f", {completed / seconds if seconds > 0 else 0.0:.1f} files/s"
+        self._progress.update(self._task, completed=completed, status=status)
+        self._progress.refresh()
+
+    def message(self, text):
+        if self._progress is not None:
+            self._console.print(text, markup=False)
+        else:
+            click.echo(text, err=True)
+
+
+def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop):
+    """The measuring loop of ``holecli batch``: records out, progress and summary on stderr."""
+    from contextlib import closing
+
+    tally = batching.Tally()
+    for summary in earlier:
+        tally.add(summary)
+    writer = batching.RecordWriter(write, fmt, header=header)
+    display = _BatchDisplay(len(todo), spec is not None)
+    started = time.monotonic()
+    measured_now = 0
+
+    def should_stop():
+        display.update(measured_now, tally, time.monotonic() - started)
+        return stop.signal is not None
+
+    stop.defer()
+    records = batching.measure_all(todo, options, spec, jobs=min(jobs, max(1, len(todo))), should_stop=should_stop)
+    with display, closing(records):
+        for record in records:
+            try:
+                writer.write(record)
+            except BrokenPipeError:
+                raise
+            except OSError as error:
+                raise Failure(f"{output or 'stdout'}: cannot write output: {error.strerror or error}",
+                              EXIT_INPUT) from None
+            measured_now += 1
+            tally.add(record)
+            if "error" in record:
+                display.message(f"holecli: failed: {record['error']}")
+    summary = _batch_summary(tally, time.monotonic() - started, spec is not None, len(earlier), output)
+    if stop.signal is not None:
+        display.message(f"holecli batch: interrupted after {measured_now} of {len(todo)} files ({summary})."
+                        + (f" The finished records are in {output}: run again with --resume to measure the rest."
+                           if output else ""))
+        return EXIT_INTERRUPTED
+    display.message(f"holecli batch: {summary}")
+    return batch_exit_code(tally)

@@ -3,14 +3,20 @@
 from __future__ import annotations
 
 import csv
+import io
 import json
 
-# Columns of the CSV output, in order; the README documents each.
+# Columns of the CSV output, in order; the README documents each. The tolerance columns are empty
+# unless tolerance options or a spec file were given.
 CSV_COLUMNS = (
     "file", "hole", "center_x", "center_y", "center_z", "diameter", "normal_x", "normal_y", "normal_z",
     "rim_points", "fit_rms", "max_residual", "roundness", "bias_correction", "partial", "arc_deg",
-    "scan_lines",
+    "scan_lines", "name", "diameter_deviation", "position_in_plane", "position_along_normal", "tilt_deg",
+    "in_tolerance", "failed_checks",
 )
+
+# ``holecli batch`` adds the message of a file that could not be measured.
+BATCH_CSV_COLUMNS = CSV_COLUMNS + ("error",)
 
 
 def to_json(record):
@@ -30,37 +36,48 @@ def _cell(value):
         return "true" if value else "false"
     if isinstance(value, float):
         return repr(value)
+    if isinstance(value, (list, tuple)):
+        # failed_checks: a few words, never holding the separator
+        return ";".join(str(item) for item in value)
     return str(value)
 
 
-def csv_rows(record):
-    """CSV rows (lists of str, one per hole) for one detection record; one row with empty hole fields
-    when the record has no hole."""
+def csv_rows(record, columns=CSV_COLUMNS):
+    """CSV rows (lists of str) for one record.
+
+    One row per hole; with tolerance verdicts also one row per missing nominal hole (empty ``hole``,
+    ``in_tolerance`` false); one row with only ``file`` (and ``error`` for a failed file of a batch)
+    when the record has neither.
+    """
+    file = record.get("file")
     rows = []
     for hole in record.get("holes", []):
-        values = {
-            "file": record.get("file"),
-            "hole": hole.get("index"),
-            "center_x": hole["center"][0],
-            "center_y": hole["center"][1],
-            "center_z": hole["center"][2],
-            "diameter": hole["diameter"],
-            "normal_x": hole["normal"][0],
-            "normal_y": hole["normal"][1],
-            "normal_z": hole["normal"][2],
-        }
-        for column in CSV_COLUMNS:
-            values.setdefault(column, hole.get(column))
-        rows.append([_cell(values[column]) for column in CSV_COLUMNS])
+        values = dict(hole, file=file, hole=hole.get("index"))
+        for axis, name in enumerate("xyz"):
+            values[f"center_{name}"] = hole["center"][axis]
+            values[f"normal_{name}"] = hole["normal"][axis]
+        position = hole.get("position_deviation") or {}
+        values["position_in_plane"] = position.get("in_plane")
+        values["position_along_normal"] = position.get("along_normal")
+        rows.append(values)
+    for name in record.get("verdict", {}).get("missing", []):
+        rows.append({"file": file, "name": name, "in_tolerance": False})
     if not rows:
-        rows.append([_cell(record.get("file"))] + [""] * (len(CSV_COLUMNS) - 1))
-    return rows
+        rows.append({"file": file, "error": record.get("error")})
+    return [[_cell(values.get(column)) for column in columns] for values in rows]
 
 
-def write_csv(records, stream, header=True):
-    """Write the CSV header (optionally) and the rows of every record to ``stream``."""
-    writer = csv.writer(stream, lineterminator="\n")
+def csv_text(records, columns=CSV_COLUMNS, header=True):
+    """The CSV text of ``records``: the header (optionally) and their rows."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
     if header:
-        writer.writerow(CSV_COLUMNS)
+        writer.writerow(columns)
     for record in records:
-        writer.writerows(csv_rows(record))
+        writer.writerows(csv_rows(record, columns))
+    return buffer.getvalue()
+
+
+def write_csv(records, stream, header=True, columns=CSV_COLUMNS):
+    """Write the CSV header (optionally) and the rows of every record to ``stream``."""
+    stream.write(csv_text(records, columns, header))

@@ -1,0 +1,497 @@
+"""Measure many scans: find the files, measure them in worker processes, stream and resume the records.
+
+The command line's ``holecli batch`` is a thin layer over this module:
+
+* :func:`find_scans` turns files and folders into a sorted list of point-cloud files;
+* :func:`measure_record` is the record of one file (the ``detect`` record, with the tolerance
+  verdicts of a spec, or ``{"file", "error"}``);
+* :func:`measure_all` runs it in a pool of worker processes and yields each record as its file
+  finishes;
+* :class:`RecordWriter` writes each record as JSON Lines or CSV with one write and a flush, so that an
+  interrupted run leaves only whole lines;
+* :func:`prepare_resume` reads what an interrupted run wrote (cutting off a partial last line) and
+  :class:`Tally` counts records for the summary and the exit code.
+
+Nothing here prints or exits, and nothing imports click.
+"""
+
+from __future__ import annotations
+
+import csv
+import fnmatch
+import importlib
+import io
+import json
+import os
+import re
+import signal
+from collections import deque
+from dataclasses import dataclass, replace
+from typing import Optional
+
+from holecli.errors import HoleCliError, LoadError
+from holecli.io import SUPPORTED_EXTENSIONS
+from holecli.report import BATCH_CSV_COLUMNS, csv_text, to_json_line
+
+__all__ = ["FORMATS", "FileSummary", "RecordWriter", "ResumeError", "Tally", "default_jobs", "failure_message",
+           "find_scans", "measure_all", "measure_record", "open_output", "prepare_resume"]
+
+FORMATS = ("jsonl", "csv")
+
+# Files handed to the pool ahead of the free workers, per worker: enough to keep every worker busy
+# while the parent writes, few enough that an interrupt has little queued work to throw away.
+_QUEUED_PER_WORKER = 2
+
+# A binary_compressed PCD needs open3d; its header (a dozen short lines) is within this many bytes.
+_PCD_HEADER_BYTES = 4096
+_COMPRESSED_PCD = re.compile(rb"^DATA[ \t]+binary_compressed\b", re.IGNORECASE | re.MULTILINE)
+
+
+class ResumeError(HoleCliError, ValueError):
+    """The output file of an earlier run cannot be resumed: it is not a batch output of this format."""
+
+
+# --------------------------------------------------------------------------------------------------
+# Finding the files
+
+
+def find_scans(paths, recursive=False, pattern=None, exclude=()) -> list:
+    """The point-cloud files to measure, sorted, each once.
+
+    Parameters
+    ----------
+    paths : sequence of str
+        Files and folders. A file is taken as it is (a file holecli cannot read gives an error record
+        later). A folder contributes the files directly in it whose extension (any case) is one
+        holecli reads; with ``recursive`` also those in its subfolders. Hidden files and folders (a
+        name starting with ``.``) are skipped, and symbolic links to folders are not followed.
+    recursive : bool
+        Also look in subfolders.
+    pattern : str, optional
+        A glob the files found in folders must also match, case-insensitively: against the file
+        name, or against the path below the given folder when the pattern holds a ``/``.
+    exclude : iterable of str
+        Files to leave out (the batch's own output file).
+
+    Returns
+    -------
+    list of str
+        Paths spelled from the given ones (``folder/name``), sorted; a file reached twice (given
+        twice, or given and found in a folder) is listed once, under the first spelling in order.
+
+    Raises
+    ------
+    LoadError
+        When a path does not exist.
+    """
+    excluded = {os.path.realpath(path) for path in exclude}
+    found = []
+    for path in paths:
+        path = os.fspath(path)
+        if os.path.isdir(path):
+            found.extend(_scan_folder(path, recursive, pattern))
+        elif os.path.exists(path):
+            found.append(path)
+        else:
+            raise LoadError(path, "no such file or folder")
+    unique, seen = [], set(excluded)
+    for path in sorted(found):
+        real = os.path.realpath(path)
+        if real not in seen:
+            seen.add(real)
+            unique.append(path)
+    return unique
+
+
+def _scan_folder(folder, recursive, pattern):
+    pattern = pattern.lower() if pattern else None
+    for root, folders, names in os.walk(folder):
+        folders[:] = sorted(name for name in folders if not name.startswith("."))
+        for name in names:
+            if name.startswith(".") or os.path.splitext(name)[1].lower() not in SUPPORTED_EXTENSIONS:
+                continue
+            path = os.path.join(root, name)
+            if pattern:
+                subject = os.path.relpath(path, folder).replace(os.sep, "/") if "/" in pattern else name
+                if not fnmatch.fnmatchcase(subject.lower(), pattern):
+                    continue
+            if os.path.isfile(path):
+                yield path
+        if not recursive:
+            break
+
+
+def default_jobs() -> int:
+    """The number of cores this process may run on."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+# --------------------------------------------------------------------------------------------------
+# Measuring
+
+
+def failure_message(path, error) -> str:
+    """The one-line message of ``error`` raised while measuring ``path`` (what ``detect`` prints after
+    ``Error: ``)."""
+    message = str(error) if isinstance(error, LoadError) else f"{path}: {error}"
+    return " ".join(message.splitlines())
+
+
+def measure_record(path, options, spec=None) -> dict:
+    """The record of one file.
+
+    Parameters
+    ----------
+    path : str
+        The point-cloud file.
+    options : dict
+        Keyword arguments of :func:`holecli.detect`.
+    spec : holecli.tolerance.Spec, optional
+        Tolerances to check the holes against.
+
+    Returns
+    -------
+    dict
+        The ``detect`` record (``Detection.to_dict()`` with ``file`` and ``dropped_points``, and the
+        verdicts of :func:`holecli.tolerance.check` when ``spec`` is given); for a file that cannot be
+        measured ``{"file": path, "error": message}``. An unexpected exception (a bug) becomes such an
+        error record too, so that one file cannot stop a batch.
+    """
+    from holecli import tolerance
+    from holecli.io import read_cloud
+    from holecli.pipeline import detect
+
+    try:
+        cloud = read_cloud(path)
+        detection = detect(cloud.points, **options)
+    except HoleCliError as error:
+        return {"file": str(path), "error": failure_message(path, error)}
+    except Exception as error:  # noqa: BLE001 - a bug in one file must not stop the batch
+        problem = " ".join(f"{type(error).__name__}: {error}".splitlines())
+        return {"file": str(path), "error": f"{path}: internal error (a bug: please report it; "
+                                            f"holecli detect shows the traceback): {problem}"}
+    record = replace(detection, file=str(path), dropped_points=cloud.dropped).to_dict()
+    return tolerance.check(record, spec) if spec is not None else record
+
+
+_WORKER = {}
+
+
+def _start_worker(options, spec, preload):
+    """Pool initializer: runs once in every worker process."""
+    # The parent handles Ctrl-C and SIGTERM and then ends the workers; a worker must not die of the
+    # terminal's SIGINT on its own (it would break the pool and lose its record).
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    # Pay the heavy imports here, once per worker, rather than in the first file's measurement.
+    importlib.import_module("holecli.pipeline")
+    for name in preload:
+        try:
+            importlib.import_module(name)
+        except (ImportError, OSError):
+            pass  # the file that needs it reports the problem itself
+    _WORKER.update(options=options, spec=spec)
+
+
+def _measure_in_worker(path):
+    return measure_record(path, _WORKER["options"], _WORKER["spec"])
+
+
+def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_seconds=0.2):
+    """Measure ``paths`` in ``jobs`` worker processes and yield each record as its file finishes.
+
+    Parameters
+    ----------
+    paths : sequence of str
+        The files, measured in this order (records come in the order they finish).
+    options : dict
+        Keyword arguments of :func:`holecli.detect`.
+    spec : holecli.tolerance.Spec, optional
+        Tolerances checked in the workers.
+    jobs : int
+        Worker processes (at most one per file). They live for the whole batch: the heavy imports
+        (the pipeline, and open3d when a binary_compressed PCD is among the files) are paid once per
+        worker, in the pool initializer.
+    should_stop : callable, optional
+        Called without arguments after every finished file and at least every ``poll_seconds``; when
+        it returns true the workers are ended at once and the generator returns. The records already
+        yielded are the finished ones.
+    poll_seconds : float
+        See ``should_stop``.
+
+    Yields
+    ------
+    dict
+        The record of each file, see :func:`measure_record`. A file whose worker process dies (a
+        crash in a library, the out-of-memory killer) is measured again alone in a fresh worker, and
+        gets an error record when that worker dies too.
+    """
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    should_stop = should_stop or (lambda: False)
+    waiting = deque(paths)
+    suspects = deque()  # files in flight when a worker died: each is run alone to find the culprit
+    alone = set()
+    context = _pool_context()
+    preload = ("open3d",) if any(_is_compressed_pcd(path) for path in paths) else ()
+    while waiting or suspects:
+        executor = ProcessPoolExecutor(max_workers=max(1, min(jobs, len(waiting) + len(suspects))),
+                                       mp_context=context, initializer=_start_worker,
+                                       initargs=(options, spec, preload))
+        in_flight = {}
+        finished = False
+        try:
+            while waiting or suspects or in_flight:
+                solo = bool(suspects) or any(path in alone for path in in_flight.values())
+                limit = 1 if solo else jobs * _QUEUED_PER_WORKER
+                while len(in_flight) < limit and (suspects or waiting):
+                    path = suspects.popleft() if suspects else waiting.popleft()
+                    in_flight[executor.submit(_measure_in_worker, path)] = path
+                done, _ = wait(in_flight, timeout=poll_seconds, return_when=FIRST_COMPLETED)
+                records, broken = [], []
+                for future in done:
+                    path = in_flight.pop(future)
+                    try:
+                        records.append(future.result())
+                    except BrokenProcessPool:
+                        broken.append(path)
+                yield from records
+                if broken:
+                    # Every file in flight fails with the pool; only a file that was alone is known
+                    # to be the one that killed its worker.
+                    wait(in_flight)
+                    for future, path in in_flight.items():
+                        if future.exception() is None:
+                            yield future.result()
+                        else:
+                            broken.append(path)
+                    in_flight.clear()
+                    if len(broken) == 1:
+                        yield {"file": str(broken[0]),
+                               "error": f"{broken[0]}: the worker process measuring this file died "
+                                        f"(a crash in a library, or out of memory)"}
+                    else:
+                        suspects.extend(sorted(broken))
+                        alone.update(broken)
+                    break
+                if should_stop():
+                    return
+            finished = True
+        finally:
+            _end_pool(executor, graceful=finished)
+
+
+def _pool_context():
+    import multiprocessing
+
+    # fork: a worker starts at once with what the parent has imported (numpy, the readers) and pays
+    # only the pipeline's imports, in parallel with the other workers and with the parent's own
+    # start. The parent has no other thread when it forks (the progress display is refreshed by hand).
+    if "fork" in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("fork")
+    return multiprocessing.get_context("spawn")
+
+
+def _end_pool(executor, graceful):
+    if not graceful:
+        # The workers ignore SIGINT; kill them rather than wait for the files they are measuring.
+        for process in list((getattr(executor, "_processes", None) or {}).values()):
+            try:
+                process.kill()
+            except (OSError, ValueError):
+                pass
+    executor.shutdown(wait=True, cancel_futures=True)
+
+
+def _is_compressed_pcd(path) -> bool:
+    if not str(path).lower().endswith(".pcd"):
+        return False
+    try:
+        with open(path, "rb") as stream:
+            head = stream.read(_PCD_HEADER_BYTES)
+    except OSError:
+        return False
+    return _COMPRESSED_PCD.search(head) is not None
+
+
+# --------------------------------------------------------------------------------------------------
+# Writing and resuming
+
+
+class RecordWriter:
+    """Writes records as JSON Lines or CSV, each with one write and a flush.
+
+    Parameters
+    ----------
+    write : callable
+        Takes the text of one record (one or more whole lines) and writes it at once.
+    fmt : {"jsonl", "csv"}
+        The format; CSV has the columns :data:`holecli.report.BATCH_CSV_COLUMNS`.
+    header : bool
+        Write the CSV header now (not when appending to a file that has it).
+    """
+
+    def __init__(self, write, fmt, header=True):
+        if fmt not in FORMATS:
+            raise ValueError(f"fmt must be one of {FORMATS}, got {fmt!r}")
+        self._write = write
+        self.fmt = fmt
+        if fmt == "csv" and header:
+            self._write(csv_text([], BATCH_CSV_COLUMNS, header=True))
+
+    def write(self, record):
+        """Write one record (all the rows of a file in one write, for CSV)."""
+        if self.fmt == "jsonl":
+            self._write(to_json_line(record))
+        else:
+            self._write(csv_text([record], BATCH_CSV_COLUMNS, header=False))
+
+
+def open_output(path, append):
+    """A function writing text to ``path`` with one ``os.write`` per call (retried only when the
+    system writes part of it), and a function closing it. ``append`` keeps what the file holds.
+
+    Raises
+    ------
+    OSError
+        When the file cannot be opened.
+    """
+    flags = os.O_WRONLY | os.O_CREAT | (os.O_APPEND if append else os.O_TRUNC)
+    descriptor = os.open(path, flags, 0o666)
+
+    def write(text):
+        data = memoryview(text.encode("utf-8"))
+        while data:
+            data = data[os.write(descriptor, data):]
+
+    return write, lambda: os.close(descriptor)
+
+
+def prepare_resume(path, fmt):
+    """Read the output of an earlier run of the batch, to go on where it stopped.
+
+    A last line without its newline is the one being written when the run was stopped; it is cut off
+    the file, so that appending continues with whole lines.
+
+    Parameters
+    ----------
+    path : str
+        The output file; missing or empty means nothing was done yet.
+    fmt : {"jsonl", "csv"}
+        Its format.
+
+    Returns
+    -------
+    summaries : list of FileSummary
+        One per file already in the output, in file order.
+    header : bool
+        True when the file still needs the CSV header (a new or empty CSV file).
+
+    Raises
+    ------
+    ResumeError
+        When the file is not a batch output of that format (a line that is not a JSON object with a
+        ``file``; a CSV header other than the batch's).
+    OSError
+        When it cannot be read or cut.
+    """
+    try:
+        with open(path, "rb") as stream:
+            data = stream.read()
+    except FileNotFoundError:
+        return [], True
+    complete = data[: data.rfind(b"\n") + 1]
+    if len(complete) != len(data):
+        os.truncate(path, len(complete))
+    try:
+        text = complete.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ResumeError(f"{path}: cannot resume: not a UTF-8 text file") from None
+    if fmt == "jsonl":
+        return [FileSummary.of_record(record) for record in _json_records(path, text)], False
+    if not text:
+        return [], True
+    rows = list(csv.reader(io.StringIO(text)))
+    if tuple(rows[0]) != BATCH_CSV_COLUMNS:
+        raise ResumeError(f"{path}: cannot resume: its header is not the header of holecli batch --format csv")
+    by_file = {}
+    for row in rows[1:]:
+        if len(row) != len(BATCH_CSV_COLUMNS):
+            raise ResumeError(f"{path}: cannot resume: a row has {len(row)} columns, not {len(BATCH_CSV_COLUMNS)}")
+        values = dict(zip(BATCH_CSV_COLUMNS, row))
+        by_file.setdefault(values["file"], []).append(values)
+    return [FileSummary.of_csv_rows(file, rows) for file, rows in by_file.items()], False
+
+
+def _json_records(path, text):
+    for number, line in enumerate(text.splitlines(), start=1):
+        if not line.strip():
+            continue
+        try:
+            record = json.loads(line)
+        except ValueError:
+            record = None
+        if not isinstance(record, dict) or not isinstance(record.get("file"), str):
+            raise ResumeError(f"{path}: cannot resume: line {number} is not a holecli batch record")
+        yield record
+
+
+@dataclass(frozen=True)
+class FileSummary:
+    """What the summary and the exit code need from the record of one file."""
+
+    file: str
+    failed: bool
+    holes: int = 0
+    out_of_tolerance: int = 0
+    missing: int = 0
+
+    @classmethod
+    def of_record(cls, record):
+        if "error" in record:
+            return cls(file=record["file"], failed=True)
+        verdict = record.get("verdict") or {}
+        return cls(file=record["file"], failed=False, holes=len(record.get("holes", ())),
+                   out_of_tolerance=verdict.get("out_of_tolerance", 0), missing=len(verdict.get("missing", ())))
+
+    @classmethod
+    def of_csv_rows(cls, file, rows):
+        if any(row["error"] for row in rows):
+            return cls(file=file, failed=True)
+        holes = [row for row in rows if row["hole"]]
+        return cls(file=file, failed=False, holes=len(holes),
+                   out_of_tolerance=sum(row["in_tolerance"] == "false" for row in holes),
+                   missing=sum(row["in_tolerance"] == "false" for row in rows if not row["hole"]))
+
+
+@dataclass
+class Tally:
+    """Counts of a batch, for its progress, summary and exit code."""
+
+    files: int = 0
+    failed: int = 0
+    holes: int = 0
+    without_hole: int = 0
+    out_of_tolerance: int = 0
+    missing: int = 0
+
+    def add(self, summary):
+        """Count one file (a :class:`FileSummary`, or a record)."""
+        if isinstance(summary, dict):
+            summary = FileSummary.of_record(summary)
+        self.files += 1
+        if summary.failed:
+            self.failed += 1
+            return
+        self.holes += summary.holes
+        self.without_hole += summary.holes == 0
+        self.out_of_tolerance += summary.out_of_tolerance
+        self.missing += summary.missing
+
+    @property
+    def measured(self) -> int:
+        return self.files - self.failed
