@@ -196,10 +196,10 @@ def nominal_spec(*, diameter=None, tolerance=None, center=None, position_toleran
     entry = {"diameter": diameter, "tolerance": tolerance, "center": center,
              "position_tolerance": position_tolerance, "normal": normal, "max_tilt": max_tilt}
     entry = {key: value for key, value in entry.items() if value is not None}
+    hole = _nominal_hole(entry, name=None, names=names, where="")
     if not any(key in entry for key in ("tolerance", "position_tolerance", "max_tilt")):
         raise SpecError(f"give a tolerance: {names['tolerance']} (with {names['diameter']}), "
                         f"{names['position_tolerance']} or {names['max_tilt']}")
-    hole = _nominal_hole(entry, name=None, names=names, where="")
     return Spec(holes=(hole,), named=False)
 
 

@@ -1,0 +1,363 @@
+"""Tests of holecli.batch: file discovery, measuring in worker processes, writing, resuming, counting."""
+
+import json
+import os
+import signal
+from pathlib import Path
+
+import pytest
+
+from holecli import batch, synth
+from holecli.batch import FileSummary, RecordWriter, ResumeError, Tally
+from holecli.errors import LoadError
+from holecli.io import save_points
+from holecli.report import BATCH_CSV_COLUMNS
+from holecli.tolerance import nominal_spec
+
+OPTIONS = {"method": "robust"}
+
+
+def small_scan(seed, diameter=2.5):
+    """About 3,000 points on a 0.1 mm grid with one hole: quick to measure."""
+    scene = synth.SceneSpec(holes=(synth.HoleSpec(center=(0.0, 0.0), diameter=diameter),),
+                            extent=(-2.8, 2.8, -2.8, 2.8), spacing=0.1, rotation_deg=(10.0, 5.0, 7.0 * seed),
+                            translation=(seed, 2.0, 3.0))
+    return synth.make_scan(scene, seed)
+
+
+@pytest.fixture(scope="module")
+def scans(tmp_path_factory):
+    """Three good PLY scans: [path], with their ground-truth diameter 2.5."""
+    folder = tmp_path_factory.mktemp("good")
+    paths = []
+    for seed in range(3):
+        path = folder / f"scan{seed}.ply"
+        save_points(path, small_scan(seed).points)
+        paths.append(str(path))
+    return paths
+
+
+def _touch(path, text="x"):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+    return path
+
+
+# --- find_scans --------------------------------------------------------------------------------------
+
+
+@pytest.fixture
+def tree(tmp_path):
+    for name in ("b.ply", "a.PCD", "c.csv", "d.TXT", "e.xyz", "notes.md", "scan.obj", ".hidden.ply",
+                 "sub/f.ply", "sub/deeper/g.csv", "sub/part7_h.ply", ".git/i.ply", "part7_j.ply"):
+        _touch(tmp_path / name)
+    (tmp_path / "folder.ply").mkdir()  # a folder with a cloud's extension is not a file
+    return tmp_path
+
+
+def _names(paths, root):
+    return [os.path.relpath(path, root) for path in paths]
+
+
+def test_find_scans_takes_the_clouds_directly_in_a_folder_sorted(tree):
+    found = batch.find_scans([str(tree)])
+    assert _names(found, tree) == ["a.PCD", "b.ply", "c.csv", "d.TXT", "e.xyz", "part7_j.ply"]
+    assert all(path.startswith(str(tree)) for path in found)
+
+
+def test_find_scans_recursive_walk(tree):
+    found = batch.find_scans([str(tree)], recursive=True)
+    assert _names(found, tree) == ["a.PCD", "b.ply", "c.csv", "d.TXT", "e.xyz", "part7_j.ply",
+                                   os.path.join("sub", "deeper", "g.csv"), os.path.join("sub", "f.ply"),
+                                   os.path.join("sub", "part7_h.ply")]
+
+
+@pytest.mark.parametrize(
+    "pattern, recursive, expected",
+    [
+        ("part7_*", False, ["part7_j.ply"]),
+        ("PART7_*", True, ["part7_j.ply", "sub/part7_h.ply"]),  # case-insensitive
+        ("*.ply", True, ["b.ply", "part7_j.ply", "sub/f.ply", "sub/part7_h.ply"]),
+        ("sub/*", True, ["sub/deeper/g.csv", "sub/f.ply", "sub/part7_h.ply"]),  # with a /: the path below
+        ("*.md", True, []),  # the pattern narrows the clouds, it does not add other files
+    ],
+)
+def test_find_scans_pattern(tree, pattern, recursive, expected):
+    found = batch.find_scans([str(tree)], recursive=recursive, pattern=pattern)
+    assert [name.replace(os.sep, "/") for name in _names(found, tree)] == expected
+
+
+def test_find_scans_files_given_are_taken_as_they_are(tree):
+    found = batch.find_scans([str(tree / "notes.md"), str(tree / "b.ply")], pattern="zzz")
+    assert _names(found, tree) == ["b.ply", "notes.md"]
+
+
+def test_find_scans_a_file_reached_twice_is_listed_once(tree):
+    spelled_apart = os.path.join(str(tree), "sub", "..", "b.ply")
+    found = batch.find_scans([str(tree / "b.ply"), str(tree), str(tree / "b.ply"), spelled_apart])
+    assert _names(found, tree).count("b.ply") == 1
+    assert len(found) == len(set(map(os.path.realpath, found))) == 6
+
+
+def test_find_scans_leaves_out_the_excluded_file(tree):
+    found = batch.find_scans([str(tree)], exclude=[str(tree / "c.csv")])
+    assert "c.csv" not in _names(found, tree)
+
+
+def test_find_scans_missing_path(tree):
+    with pytest.raises(LoadError, match="no such file or folder"):
+        batch.find_scans([str(tree), str(tree / "missing")])
+
+
+def test_default_jobs_is_at_least_one():
+    assert batch.default_jobs() >= 1
+
+
+# --- measure_record ----------------------------------------------------------------------------------
+
+
+def test_measure_record_is_the_detect_record(scans):
+    from holecli import detect, load_points
+
+    record = batch.measure_record(scans[0], OPTIONS)
+    expected = detect(load_points(scans[0]), **OPTIONS).to_dict()
+    assert record["file"] == scans[0]
+    assert set(record) == set(expected)
+    assert record["holes"] == expected["holes"]
+    assert record["holes"][0]["diameter"] == pytest.approx(2.5, abs=0.05)
+
+
+def test_measure_record_with_a_spec_has_the_verdicts(scans):
+    record = batch.measure_record(scans[0], OPTIONS, nominal_spec(diameter=2.5, tolerance=0.05))
+    assert record["verdict"]["in_tolerance"] is True
+    assert record["holes"][0]["in_tolerance"] is True
+
+
+def test_measure_record_of_a_bad_file_is_an_error_record(tmp_path):
+    path = _touch(tmp_path / "empty.csv", "")
+    record = batch.measure_record(str(path), OPTIONS)
+    assert set(record) == {"file", "error"}
+    assert record["file"] == str(path)
+    assert record["error"].startswith(f"{path}: ")
+
+
+def test_measure_record_of_a_bug_is_an_error_record(scans, monkeypatch):
+    def broken(points, **options):
+        raise IndexError("index 7 is out of bounds\nsecond line")
+
+    monkeypatch.setattr("holecli.pipeline.detect", broken)
+    record = batch.measure_record(scans[0], OPTIONS)
+    assert "internal error (a bug: please report it" in record["error"]
+    assert "IndexError: index 7 is out of bounds second line" in record["error"]
+    assert "\n" not in record["error"]
+
+
+# --- measure_all -------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_measure_all_yields_one_record_per_file(scans, tmp_path, jobs):
+    bad = str(_touch(tmp_path / "bad.csv", "x,y,z\n"))
+    records = list(batch.measure_all([*scans, bad], OPTIONS, jobs=jobs))
+    assert sorted(record["file"] for record in records) == sorted([*scans, bad])
+    by_file = {record["file"]: record for record in records}
+    assert "error" in by_file[bad]
+    assert all(len(by_file[path]["holes"]) == 1 for path in scans)
+
+
+def test_measure_all_of_nothing():
+    assert list(batch.measure_all([], OPTIONS, jobs=2)) == []
+
+
+def test_measure_all_stops_when_asked(scans):
+    calls = []
+
+    def should_stop():
+        calls.append(1)
+        return True
+
+    records = list(batch.measure_all(scans * 4, OPTIONS, jobs=1, should_stop=should_stop))
+    assert 1 <= len(records) < 12
+    assert calls
+
+
+def _report_worker_signals(path, options, spec=None):
+    return {"file": path, "sigint_ignored": signal.getsignal(signal.SIGINT) == signal.SIG_IGN,
+            "pid": os.getpid(), "pipeline_imported": "holecli.pipeline" in __import__("sys").modules}
+
+
+def test_workers_ignore_sigint_and_have_the_pipeline_imported(scans, monkeypatch):
+    # The workers are forked from this process, so they see the replaced function.
+    monkeypatch.setattr(batch, "measure_record", _report_worker_signals)
+    records = list(batch.measure_all(scans * 3, OPTIONS, jobs=2))
+    assert len(records) == 9
+    assert all(record["sigint_ignored"] and record["pipeline_imported"] for record in records)
+    assert os.getpid() not in {record["pid"] for record in records}
+    assert len({record["pid"] for record in records}) <= 2  # the workers live for the whole batch
+    assert signal.getsignal(signal.SIGINT) is not signal.SIG_IGN  # the parent's is untouched
+
+
+def test_a_file_that_kills_its_worker_gets_an_error_record(scans, tmp_path, monkeypatch):
+    crash = str(_touch(tmp_path / "crash.ply"))
+    measure = batch.measure_record
+
+    def dying(path, options, spec=None):
+        if path == crash:
+            os._exit(9)
+        return measure(path, options, spec)
+
+    monkeypatch.setattr(batch, "measure_record", dying)
+    records = list(batch.measure_all([scans[0], crash, scans[1], scans[2]], OPTIONS, jobs=2))
+    by_file = {record["file"]: record for record in records}
+    assert sorted(by_file) == sorted([*scans, crash])
+    assert len(records) == 4
+    assert "worker process measuring this file died" in by_file[crash]["error"]
+    assert all("holes" in by_file[path] for path in scans)
+
+
+def test_compressed_pcd_is_recognized_from_its_header(tmp_path):
+    header = "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\nHEIGHT 1\n"
+    compressed = _touch(tmp_path / "c.pcd", header + "POINTS 1\nDATA binary_compressed\n")
+    plain = _touch(tmp_path / "p.pcd", header + "POINTS 1\nDATA binary\n")
+    assert batch._is_compressed_pcd(str(compressed))
+    assert not batch._is_compressed_pcd(str(plain))
+    assert not batch._is_compressed_pcd(str(tmp_path / "missing.pcd"))
+    assert not batch._is_compressed_pcd(str(_touch(tmp_path / "c.ply", "DATA binary_compressed\n")))
+
+
+# --- writing and resuming ----------------------------------------------------------------------------
+
+
+def _records():
+    good = {"file": "a.ply", "points": 10, "holes": [{"index": 0, "center": [0.0, 0.0, 0.0], "diameter": 3.0,
+                                                      "normal": [0.0, 0.0, 1.0], "rim_points": 20}]}
+    return [good, {"file": "b.csv", "error": "b.csv: empty file"}, {"file": "c.ply", "points": 10, "holes": []}]
+
+
+def test_record_writer_writes_each_record_in_one_call():
+    calls = []
+    writer = RecordWriter(calls.append, "jsonl")
+    for record in _records():
+        writer.write(record)
+    assert len(calls) == 3
+    assert all(call.endswith("\n") and call.count("\n") == 1 for call in calls)
+    assert [json.loads(call) for call in calls] == _records()
+
+
+def test_record_writer_csv_header_once_and_one_call_per_file():
+    calls = []
+    writer = RecordWriter(calls.append, "csv")
+    two_holes = dict(_records()[0], holes=_records()[0]["holes"] * 2)
+    writer.write(two_holes)
+    writer.write(_records()[1])
+    assert calls[0] == ",".join(BATCH_CSV_COLUMNS) + "\n"
+    assert calls[1].count("\n") == 2 and calls[2].count("\n") == 1
+    assert calls[2].rstrip("\n").endswith("b.csv: empty file")
+    assert RecordWriter(calls.append, "csv", header=False) and len(calls) == 3
+    with pytest.raises(ValueError, match="fmt must be one of"):
+        RecordWriter(calls.append, "json")
+
+
+def test_open_output_appends_or_truncates(tmp_path):
+    path = tmp_path / "out.jsonl"
+    path.write_text("old\n")
+    write, close = batch.open_output(str(path), append=True)
+    write("new\n")
+    close()
+    assert path.read_text() == "old\nnew\n"
+    write, close = batch.open_output(str(path), append=False)
+    write("fresh ü\n")
+    close()
+    assert path.read_text(encoding="utf-8") == "fresh ü\n"
+
+
+def test_prepare_resume_of_a_missing_file(tmp_path):
+    assert batch.prepare_resume(str(tmp_path / "none.jsonl"), "jsonl") == ([], True)
+
+
+def test_prepare_resume_jsonl_cuts_a_partial_last_line(tmp_path):
+    path = tmp_path / "out.jsonl"
+    lines = [json.dumps(record) + "\n" for record in _records()]
+    path.write_text("".join(lines) + '{"file": "d.ply", "poi')
+    summaries, header = batch.prepare_resume(str(path), "jsonl")
+    assert path.read_text() == "".join(lines)
+    assert [summary.file for summary in summaries] == ["a.ply", "b.csv", "c.ply"]
+    assert [summary.failed for summary in summaries] == [False, True, False]
+    assert [summary.holes for summary in summaries] == [1, 0, 0]
+    assert header is False
+
+
+def test_prepare_resume_csv(tmp_path):
+    path = tmp_path / "out.csv"
+    calls = []
+    writer = RecordWriter(calls.append, "csv")
+    for record in _records():
+        writer.write(record)
+    path.write_text("".join(calls) + "d.ply,0,1.0")
+    summaries, header = batch.prepare_resume(str(path), "csv")
+    assert path.read_text() == "".join(calls)
+    assert [(summary.file, summary.failed, summary.holes) for summary in summaries] == [
+        ("a.ply", False, 1), ("b.csv", True, 0), ("c.ply", False, 0)]
+    assert header is False
+    path.write_text(",".join(BATCH_CSV_COLUMNS)[:20])  # cut inside the header: start again
+    assert batch.prepare_resume(str(path), "csv") == ([], True)
+    assert path.read_text() == ""
+
+
+@pytest.mark.parametrize(
+    "fmt, text, match",
+    [
+        ("jsonl", '{"file": "a.ply"}\nnot json\n', "line 2 is not a holecli batch record"),
+        ("jsonl", '[1, 2]\n', "line 1 is not a holecli batch record"),
+        ("jsonl", '{"points": 3}\n', "line 1 is not a holecli batch record"),
+        ("csv", "file,hole,center_x\na.ply,0,1\n", "its header is not the header of holecli batch"),
+        ("csv", ",".join(BATCH_CSV_COLUMNS) + "\na.ply,0\n", "a row has 2 columns"),
+        ("jsonl", b"\xff\xfe\n", "not a UTF-8 text file"),
+    ],
+)
+def test_prepare_resume_refuses_other_files(tmp_path, fmt, text, match):
+    path = tmp_path / f"out.{fmt}"
+    if isinstance(text, bytes):
+        path.write_bytes(text)
+    else:
+        path.write_text(text)
+    with pytest.raises(ResumeError, match=match):
+        batch.prepare_resume(str(path), fmt)
+
+
+# --- counting ----------------------------------------------------------------------------------------
+
+
+def test_tally_of_records_and_csv_rows():
+    tally = Tally()
+    for record in _records():
+        tally.add(record)
+    verdict_record = {"file": "e.ply", "holes": [{}, {}], "verdict": {"checked": 2, "out_of_tolerance": 1,
+                                                                      "missing": ["A3"], "in_tolerance": False}}
+    tally.add(verdict_record)
+    rows = [dict.fromkeys(BATCH_CSV_COLUMNS, "") for _ in range(3)]
+    rows[0].update(file="f.ply", hole="0", in_tolerance="false")
+    rows[1].update(file="f.ply", hole="1", in_tolerance="true")
+    rows[2].update(file="f.ply", name="A2", in_tolerance="false")
+    tally.add(FileSummary.of_csv_rows("f.ply", rows))
+    assert (tally.files, tally.failed, tally.measured) == (5, 1, 4)
+    assert (tally.holes, tally.without_hole, tally.out_of_tolerance, tally.missing) == (5, 1, 2, 2)
+
+
+def test_csv_summary_of_a_record_written_by_the_writer_matches_the_record():
+    calls = []
+    writer = RecordWriter(calls.append, "csv", header=False)
+    record = {"file": "g.ply", "holes": [{"index": 0, "center": [0, 0, 0], "diameter": 3.0, "normal": [0, 0, 1],
+                                          "in_tolerance": False}],
+              "verdict": {"checked": 1, "out_of_tolerance": 1, "missing": ["B"], "in_tolerance": False}}
+    writer.write(record)
+    import csv
+    import io
+
+    rows = [dict(zip(BATCH_CSV_COLUMNS, row)) for row in csv.reader(io.StringIO(calls[0]))]
+    assert FileSummary.of_csv_rows("g.ply", rows) == FileSummary.of_record(record)
+
+
+def test_module_does_not_import_click():
+    source = Path(batch.__file__).read_text()
+    assert "import click" not in source and "from click" not in source

@@ -1,0 +1,380 @@
+"""Tests of holecli.tolerance: tolerance forms, nominal specs, spec files, matching and verdicts."""
+
+import copy
+import math
+
+import numpy as np
+import pytest
+
+from holecli import synth
+from holecli.errors import SpecError
+from holecli.tolerance import Band, check, nominal_spec, parse_band, parse_spec
+
+SPEC_TEXT = """
+# two holes of a bracket
+[[hole]]
+name = "A1"
+center = [0.0, 0.0, 0.0]
+diameter = 3.0
+tolerance = "+0.036/-0"
+position_tolerance = 0.1
+normal = [0.0, 0.0, 1.0]
+max_tilt = 1.0
+
+[[hole]]
+name = "A2"
+center = [10, 0, 0]
+diameter = 4
+tolerance = 0.05
+"""
+
+
+def _hole(index, center, diameter, normal=(0.0, 0.0, 1.0)):
+    return {"index": index, "center": list(center), "diameter": diameter, "normal": list(normal), "rim_points": 40,
+            "fit_rms": 0.001, "partial": False}
+
+
+def _record(*holes):
+    return {"file": "part.ply", "points": 5000, "method": "robust", "holes": list(holes), "elapsed_ms": 12.0}
+
+
+# --- tolerance forms -------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "value, lower, upper",
+    [
+        (0.05, -0.05, 0.05),
+        (0, 0.0, 0.0),
+        ("0.05", -0.05, 0.05),
+        ("±0.05", -0.05, 0.05),
+        ("+/-0.05", -0.05, 0.05),
+        ("+-0.05", -0.05, 0.05),
+        ("+0.036/-0", 0.0, 0.036),
+        ("+0.036/0", 0.0, 0.036),
+        ("0.036/-0.010", -0.010, 0.036),
+        (" +0.036 / -0.010 ", -0.010, 0.036),
+        ("-0.014/-0.035", -0.035, -0.014),  # a P7 hole: both deviations below the nominal size
+        ("+0.034/+0.012", 0.012, 0.034),  # a G7 hole: both above
+        ("1e-2/-1e-2", -0.01, 0.01),
+    ],
+)
+def test_parse_band_accepts_every_form(value, lower, upper):
+    band = parse_band(value)
+    assert band == Band(lower=pytest.approx(lower, abs=1e-15), upper=pytest.approx(upper, abs=1e-15))
+    # no negative zero leaks into the JSON
+    assert math.copysign(1.0, band.lower) == 1.0 or band.lower != 0.0
+
+
+@pytest.mark.parametrize(
+    "value, match",
+    [
+        (-0.1, "symmetric tolerance must be a number >= 0"),
+        ("-0.1", "symmetric tolerance must be a number >= 0"),
+        ("0.05/0.05", "with its sign"),
+        ("-0.010/+0.036", r"upper deviation \(first\) is below the lower one.*did you mean \+0.036/-0.010"),
+        ("abc", "expected a number >= 0 or a string"),
+        ("+0.036/", "expected a number"),
+        ("1/2/3", "expected a number"),
+        ("nan", "not finite"),
+        ("inf/-0", "not finite"),
+        (float("inf"), "symmetric tolerance must be a number >= 0"),
+        (True, "expected a number"),
+        ([0.1], "expected a number"),
+    ],
+)
+def test_parse_band_refuses(value, match):
+    with pytest.raises(SpecError, match=match):
+        parse_band(value)
+
+
+# --- nominal specs from separate values ----------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "values, match",
+    [
+        ({"tolerance": 0.1}, "tolerance needs diameter"),
+        ({"diameter": 3.0}, "diameter needs tolerance"),
+        ({"center": (0, 0, 0), "diameter": 3.0}, "diameter needs tolerance"),
+        ({"position_tolerance": 0.1}, "position_tolerance needs center"),
+        ({"max_tilt": 1.0}, "max_tilt needs normal"),
+        ({"center": (0, 0, 0)}, "give a tolerance"),
+        ({"normal": (0, 0, 1)}, "give a tolerance"),
+        ({"diameter": -3.0, "tolerance": 0.1}, "diameter must be a number > 0, got -3.0"),
+        ({"diameter": 3.0, "tolerance": "x"}, "tolerance: expected a number"),
+        ({"center": (0, 0), "position_tolerance": 0.1}, r"center must be 3 finite numbers"),
+        ({"center": (0, 0, float("nan")), "position_tolerance": 0.1}, r"center must be 3 finite numbers"),
+        ({"center": (0, 0, 0), "position_tolerance": -0.1}, "position_tolerance must be a number >= 0"),
+        ({"normal": (0, 0, 0), "max_tilt": 1.0}, "normal must not be the zero vector"),
+        ({"normal": (0, 0, 1), "max_tilt": 91.0}, "max_tilt must be an angle in degrees from 0 to 90"),
+    ],
+)
+def test_nominal_spec_refuses(values, match):
+    with pytest.raises(SpecError, match=match):
+        nominal_spec(**values)
+
+
+def test_nominal_spec_messages_use_the_given_names():
+    with pytest.raises(SpecError, match="--tolerance needs --nominal-diameter"):
+        nominal_spec(tolerance=0.1, names={"tolerance": "--tolerance", "diameter": "--nominal-diameter"})
+
+
+def test_nominal_spec_values():
+    spec = nominal_spec(diameter=3, tolerance="+0.036/-0", center=(1, 2, 3), position_tolerance=0.2,
+                        normal=(0, 0, 2), max_tilt=1)
+    (hole,) = spec.holes
+    assert not spec.named
+    assert hole.name is None
+    assert (hole.diameter, hole.band, hole.center) == (3.0, Band(0.0, 0.036), (1.0, 2.0, 3.0))
+    assert (hole.position_tolerance, hole.normal, hole.max_tilt) == (0.2, (0.0, 0.0, 2.0), 1.0)
+    assert hole.match_radius == math.inf  # the command line's nominal takes the nearest hole
+
+
+# --- spec files ------------------------------------------------------------------------------------
+
+
+def test_parse_spec():
+    spec = parse_spec(SPEC_TEXT, source="bracket.toml")
+    assert spec.named and spec.source == "bracket.toml"
+    first, second = spec.holes
+    assert first.name == "A1" and first.band == Band(0.0, 0.036) and first.max_tilt == 1.0
+    assert first.match_radius == 3.0
+    assert second.name == "A2" and second.center == (10.0, 0.0, 0.0) and second.diameter == 4.0
+    assert second.band == Band(-0.05, 0.05)
+    assert second.position_tolerance is None and second.normal is None
+
+
+def _spec_with(**changes):
+    lines = ['[[hole]]', 'name = "A1"', 'center = [0, 0, 0]', 'diameter = 3.0', 'tolerance = 0.05']
+    table = {line.split(" = ")[0]: line for line in lines[1:]}
+    for key, value in changes.items():
+        if value is None:
+            table.pop(key, None)
+        else:
+            table[key] = f"{key} = {value}"
+    return "\n".join([lines[0], *table.values()]) + "\n"
+
+
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ("[[hole]\nname = 1", "invalid TOML"),
+        ("", r"expected at least one \[\[hole\]\] table"),
+        ("hole = 3", r"expected at least one \[\[hole\]\] table"),
+        ('part = "x"\n' + _spec_with(), "unknown top-level key 'part'"),
+        (_spec_with(postion_tolerance="0.1"), "hole 1 \\('A1'\\): unknown key 'postion_tolerance'"),
+        (_spec_with(tolerance=None), "hole 1 \\('A1'\\): missing key 'tolerance'"),
+        (_spec_with(center=None), "missing key 'center'"),
+        (_spec_with(name=None), "hole 1: missing key 'name'"),
+        (_spec_with(name='""'), "'name' must be a non-empty string"),
+        (_spec_with(name="7"), "'name' must be a non-empty string, got 7"),
+        (_spec_with(tolerance="-0.05"), "tolerance: a symmetric tolerance must be a number >= 0, got -0.05"),
+        (_spec_with(tolerance='"0.1/0.1"'), "with its sign"),
+        (_spec_with(diameter="0"), "diameter must be a number > 0, got 0"),
+        (_spec_with(diameter='"3"'), "diameter must be a number > 0, got '3'"),
+        (_spec_with(diameter="true"), "diameter must be a number > 0, got True"),
+        (_spec_with(center="[0, 0]"), r"center must be 3 finite numbers \[x, y, z\], got \[0, 0\]"),
+        (_spec_with(center="[0, 0, nan]"), "center must be 3 finite numbers"),
+        (_spec_with(position_tolerance="-1"), "position_tolerance must be a number >= 0"),
+        (_spec_with(max_tilt="1"), "max_tilt needs normal"),
+        (_spec_with(normal="[0, 0, 0]", max_tilt="1"), "normal must not be the zero vector"),
+        (_spec_with() + _spec_with(), "hole 2 \\('A1'\\): the name 'A1' is used twice"),
+    ],
+)
+def test_parse_spec_refuses(text, match):
+    with pytest.raises(SpecError, match=match):
+        parse_spec(text)
+
+
+# --- verdicts: the diameter ----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "diameter, tolerance, expected",
+    [
+        (3.020, "+0.036/-0", True),
+        (3.036, "+0.036/-0", True),  # on the upper limit: in (within round-off)
+        (3.000, "+0.036/-0", True),  # on the lower limit
+        (2.999, "+0.036/-0", False),
+        (3.037, "+0.036/-0", False),
+        (2.990, 0.01, True),
+        (2.989, 0.01, False),
+        (2.980, "-0.014/-0.035", True),
+        (2.990, "-0.014/-0.035", False),
+    ],
+)
+def test_diameter_verdict(diameter, tolerance, expected):
+    out = check(_record(_hole(0, (0, 0, 0), diameter)), nominal_spec(diameter=3.0, tolerance=tolerance))
+    hole = out["holes"][0]
+    assert hole["diameter_deviation"] == pytest.approx(diameter - 3.0, abs=1e-15)
+    assert hole["in_tolerance"] is expected
+    assert hole["failed_checks"] == ([] if expected else ["diameter"])
+    assert hole["position_deviation"] is None and hole["tilt_deg"] is None
+    assert "name" not in hole
+    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 0 if expected else 1, "missing": [],
+                              "in_tolerance": expected}
+
+
+def test_without_a_center_every_hole_is_checked():
+    record = _record(_hole(0, (0, 0, 0), 3.01), _hole(1, (9, 0, 0), 3.2), _hole(2, (-9, 0, 0), 2.99))
+    out = check(record, nominal_spec(diameter=3.0, tolerance=0.02))
+    assert [hole["in_tolerance"] for hole in out["holes"]] == [True, False, True]
+    assert out["verdict"] == {"checked": 3, "out_of_tolerance": 1, "missing": [], "in_tolerance": False}
+
+
+def test_no_hole_at_all_means_the_nominal_is_missing():
+    out = check(_record(), nominal_spec(diameter=3.0, tolerance=0.02))
+    assert out["holes"] == []
+    assert out["verdict"] == {"checked": 0, "out_of_tolerance": 0, "missing": [None], "in_tolerance": False}
+
+
+def test_check_keeps_the_record_and_adds_the_verdict_after_the_holes():
+    record = _record(_hole(0, (0, 0, 0), 3.0))
+    before = copy.deepcopy(record)
+    out = check(record, nominal_spec(diameter=3.0, tolerance=0.02))
+    assert record == before  # not modified
+    assert list(out) == ["file", "points", "method", "holes", "verdict", "elapsed_ms"]
+    for key in record["holes"][0]:
+        assert out["holes"][0][key] == record["holes"][0][key]
+    assert list(out["holes"][0])[-5:] == ["diameter_deviation", "position_deviation", "tilt_deg", "in_tolerance",
+                                          "failed_checks"]
+
+
+# --- verdicts: position and tilt ---------------------------------------------------------------------
+
+
+def test_position_deviation_in_the_plane_and_along_the_normal():
+    # Hole normal tilted about x by 30 degrees; the center 0.03 off in the plane, 0.02 along the normal.
+    normal = np.array([0.0, -np.sin(np.radians(30)), np.cos(np.radians(30))])
+    in_plane_direction = np.array([1.0, 0.0, 0.0])
+    nominal = np.array([5.0, 6.0, 7.0])
+    center = nominal + 0.03 * in_plane_direction + 0.02 * normal
+    spec = nominal_spec(center=tuple(nominal), position_tolerance=0.05)
+    out = check(_record(_hole(0, center, 3.0, normal)), spec)
+    hole = out["holes"][0]
+    assert hole["position_deviation"]["in_plane"] == pytest.approx(0.03, abs=1e-12)
+    assert hole["position_deviation"]["along_normal"] == pytest.approx(0.02, abs=1e-12)
+    assert hole["diameter_deviation"] is None
+    assert hole["in_tolerance"] is True
+    out = check(_record(_hole(0, center, 3.0, -normal)), spec)
+    assert out["holes"][0]["position_deviation"]["along_normal"] == pytest.approx(-0.02, abs=1e-12)
+    tight = nominal_spec(center=tuple(nominal), position_tolerance=0.029)
+    hole = check(_record(_hole(0, center, 3.0, normal)), tight)["holes"][0]
+    assert hole["in_tolerance"] is False and hole["failed_checks"] == ["position"]
+
+
+def test_the_nominal_center_picks_the_nearest_hole_and_leaves_the_others_unchecked():
+    record = _record(_hole(0, (0, 0, 0), 3.5), _hole(1, (10.02, 0, 0), 3.01), _hole(2, (20, 0, 0), 2.0))
+    out = check(record, nominal_spec(diameter=3.0, tolerance=0.02, center=(10, 0, 0), position_tolerance=0.05))
+    first, second, third = out["holes"]
+    assert second["in_tolerance"] is True
+    assert second["position_deviation"]["in_plane"] == pytest.approx(0.02)
+    assert first["in_tolerance"] is None and third["in_tolerance"] is None
+    assert first["diameter_deviation"] is None and first["failed_checks"] is None
+    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 0, "missing": [], "in_tolerance": True}
+
+
+def test_the_nominal_center_of_the_command_line_has_no_match_radius():
+    out = check(_record(_hole(0, (50, 0, 0), 3.0)), nominal_spec(center=(0, 0, 0), position_tolerance=0.1))
+    hole = out["holes"][0]
+    assert hole["position_deviation"]["in_plane"] == pytest.approx(50.0)
+    assert hole["in_tolerance"] is False and hole["failed_checks"] == ["position"]
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_tilt_is_the_angle_between_the_lines(sign):
+    angle = np.radians(0.7)
+    normal = sign * np.array([np.sin(angle), 0.0, np.cos(angle)])
+    spec = nominal_spec(normal=(0, 0, 5), max_tilt=1.0)
+    hole = check(_record(_hole(0, (0, 0, 0), 3.0, normal)), spec)["holes"][0]
+    assert hole["tilt_deg"] == pytest.approx(0.7, abs=1e-12)
+    assert hole["in_tolerance"] is True
+    hole = check(_record(_hole(0, (0, 0, 0), 3.0, normal)), nominal_spec(normal=(0, 0, -1), max_tilt=0.5))["holes"][0]
+    assert hole["in_tolerance"] is False and hole["failed_checks"] == ["tilt"]
+
+
+def test_tilt_is_accurate_near_zero():
+    tiny = 1e-9
+    hole = check(_record(_hole(0, (0, 0, 0), 3.0, (tiny, 0.0, 1.0))), nominal_spec(normal=(0, 0, 1), max_tilt=1))
+    assert hole["holes"][0]["tilt_deg"] == pytest.approx(np.degrees(tiny), rel=1e-6)
+
+
+def test_a_normal_without_max_tilt_only_reports_the_tilt():
+    spec = nominal_spec(diameter=3.0, tolerance=0.1, normal=(0, 1, 0))
+    hole = check(_record(_hole(0, (0, 0, 0), 3.0)), spec)["holes"][0]
+    assert hole["tilt_deg"] == pytest.approx(90.0)
+    assert hole["in_tolerance"] is True
+
+
+def test_several_failed_checks_are_all_listed():
+    spec = nominal_spec(diameter=3.0, tolerance=0.01, center=(0, 0, 0), position_tolerance=0.01, normal=(1, 0, 0),
+                        max_tilt=5)
+    hole = check(_record(_hole(0, (0.5, 0, 0), 3.1)), spec)["holes"][0]
+    assert hole["failed_checks"] == ["diameter", "position", "tilt"]
+
+
+def test_verdicts_are_invariant_under_a_rigid_motion(rng):
+    rotation = synth.random_rotation(rng)
+    shift = rng.normal(scale=100.0, size=3)
+    nominal_center, nominal_normal = np.array([1.0, 2.0, 3.0]), np.array([0.0, 0.1, 1.0])
+    center, normal = nominal_center + [0.02, -0.01, 0.005], np.array([0.01, 0.08, 1.0])
+    normal /= np.linalg.norm(normal)
+
+    def verdict(transform, turn):
+        spec = nominal_spec(diameter=3.0, tolerance=0.05, center=tuple(transform(nominal_center)),
+                            position_tolerance=0.03, normal=tuple(turn(nominal_normal)), max_tilt=2.0)
+        return check(_record(_hole(0, transform(center), 3.01, turn(normal))), spec)["holes"][0]
+
+    plain = verdict(lambda p: p, lambda v: v)
+    moved = verdict(lambda p: rotation @ p + shift, lambda v: rotation @ v)
+    for key in ("in_plane", "along_normal"):
+        assert moved["position_deviation"][key] == pytest.approx(plain["position_deviation"][key], abs=1e-9)
+    assert moved["tilt_deg"] == pytest.approx(plain["tilt_deg"], abs=1e-7)
+    assert moved["in_tolerance"] == plain["in_tolerance"] is True
+
+
+# --- verdicts: spec files and matching ---------------------------------------------------------------
+
+
+def test_spec_matching_names_missing_and_extra_holes():
+    spec = parse_spec(SPEC_TEXT)
+    record = _record(_hole(0, (0.02, 0.0, 0.0), 3.01), _hole(1, (30.0, 0.0, 0.0), 4.0))
+    out = check(record, spec)
+    matched, extra = out["holes"]
+    assert matched["name"] == "A1" and matched["in_tolerance"] is True
+    assert matched["diameter_deviation"] == pytest.approx(0.01)
+    assert matched["position_deviation"]["in_plane"] == pytest.approx(0.02)
+    assert matched["tilt_deg"] == pytest.approx(0.0)
+    # a measured hole without a nominal one is reported, not checked, and does not fail the verdict
+    assert extra["name"] is None and extra["in_tolerance"] is None
+    assert extra["diameter_deviation"] is None and extra["position_deviation"] is None
+    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 0, "missing": ["A2"], "in_tolerance": False}
+
+
+def test_spec_all_matched_and_in_tolerance():
+    record = _record(_hole(0, (10.1, 0.0, 0.0), 4.03), _hole(1, (0.0, 0.05, 0.0), 3.03))
+    out = check(record, parse_spec(SPEC_TEXT))
+    assert [hole["name"] for hole in out["holes"]] == ["A2", "A1"]
+    assert out["verdict"] == {"checked": 2, "out_of_tolerance": 0, "missing": [], "in_tolerance": True}
+
+
+def test_spec_match_radius_is_the_nominal_diameter():
+    record = _record(_hole(0, (3.01, 0.0, 0.0), 3.0))  # just beyond A1's 3 mm
+    out = check(record, parse_spec(SPEC_TEXT))
+    assert out["holes"][0]["name"] is None
+    assert out["verdict"]["missing"] == ["A1", "A2"]
+
+
+def test_spec_matching_is_one_to_one_and_greedy_by_distance():
+    text = "\n".join(f'[[hole]]\nname = "{name}"\ncenter = [{x}, 0, 0]\ndiameter = 3\ntolerance = 0.1\n'
+                     for name, x in (("left", 0.0), ("right", 2.0)))
+    spec = parse_spec(text)
+    # One measured hole between both, nearer to "right": "right" takes it and "left" is missing.
+    out = check(_record(_hole(0, (1.2, 0, 0), 3.0)), spec)
+    assert out["holes"][0]["name"] == "right"
+    assert out["verdict"]["missing"] == ["left"]
+    # Two measured holes: the closest pair first, then the next, each hole once.
+    out = check(_record(_hole(0, (1.1, 0, 0), 3.0), _hole(1, (1.9, 0, 0), 3.0)), spec)
+    assert [hole["name"] for hole in out["holes"]] == ["left", "right"]
+    assert out["verdict"]["missing"] == []
