@@ -707,7 +707,12 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
     with display, closing(records):
         for record in records:
             try:
-                writer.write(record)
+                try:
+                    writer.write(record)
+                except ValueError as error:  # a NaN in the record: a bug, but the batch goes on
+                    record = {"file": record["file"], "error": f"{record['file']}: internal error (a bug: please "
+                                                              f"report it): the record cannot be written: {error}"}
+                    writer.write(record)
             except BrokenPipeError:
                 raise
             except OSError as error:
@@ -718,7 +723,7 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
             if "error" in record:
                 display.message(f"holecli: failed: {record['error']}")
     summary = _batch_summary(tally, time.monotonic() - started, spec is not None, len(earlier), output)
-    if stop.signal is not None:
+    if stop.signal is not None and measured_now < len(todo):
         display.message(f"holecli batch: interrupted after {measured_now} of {len(todo)} files ({summary})."
                         + (f" The finished records are in {output}: run again with --resume to measure the rest."
                            if output else ""))

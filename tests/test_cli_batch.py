@@ -535,3 +535,22 @@ def test_interrupt_a_real_batch_then_resume(repo_root, many_scans, tmp_path, sig
     assert sorted(files) == sorted(str(path) for path in many_scans.iterdir())
     assert files[: len(done)] == done
     assert f"({len(done)} files from the earlier run in" in stderr or f"({len(done)} file from" in stderr
+
+
+def test_a_record_that_cannot_be_written_becomes_an_error_record(run, good_scans, monkeypatch):
+    from holecli import batch
+
+    measure = batch.measure_record
+
+    def with_nan(path, options, spec=None):
+        record = measure(path, options, spec)
+        record["holes"][0]["fit_rms"] = float("nan")
+        return record
+
+    monkeypatch.setattr(batch, "measure_record", with_nan)
+    first = next(iter(good_scans))
+    result = run("batch", first, "--jobs", "1")
+    assert result.exit_code == cli.EXIT_FILE_FAILED
+    (record,) = _lines(result.stdout)
+    assert record["file"] == str(first)
+    assert "the record cannot be written" in record["error"]
