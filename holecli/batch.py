@@ -27,7 +27,6 @@ import re
 import signal
 from collections import deque
 from dataclasses import dataclass, replace
-from typing import Optional
 
 from holecli.errors import HoleCliError, LoadError
 from holecli.io import SUPPORTED_EXTENSIONS
@@ -216,9 +215,9 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
         (the pipeline, and open3d when a binary_compressed PCD is among the files) are paid once per
         worker, in the pool initializer.
     should_stop : callable, optional
-        Called without arguments after every finished file and at least every ``poll_seconds``; when
-        it returns true the workers are ended at once and the generator returns. The records already
-        yielded are the finished ones.
+        Called without arguments whenever files have finished (after their records are yielded) and
+        at least every ``poll_seconds``; when it returns true the workers are ended at once and the
+        generator returns. The records already yielded are the finished ones.
     poll_seconds : float
         See ``should_stop``.
 

@@ -528,7 +528,8 @@ def _batch_summary(tally, seconds, checked, earlier, output):
     def count(number, noun):
         return f"{number} {noun}{'' if number == 1 else 's'}"
 
-    text = f"{count(tally.files, 'file')}: {tally.measured} measured, {tally.failed} failed; {count(tally.holes, 'hole')} found"
+    text = (f"{count(tally.files, 'file')}: {tally.measured} measured, {tally.failed} failed; "
+            f"{count(tally.holes, 'hole')} found")
     if tally.without_hole:
         text += f" ({count(tally.without_hole, 'file')} without a hole)"
     if checked:
@@ -553,7 +554,7 @@ def batch_exit_code(tally):
 
 
 @main.command(epilog=BATCH_EXIT_CODES_HELP)
-@click.argument("paths", nargs=-1, required=True, type=click.Path(path_type=str))
+@click.argument("paths", metavar="PATH...", nargs=-1, required=True, type=click.Path(path_type=str))
 @click.option("--recursive", "-r", is_flag=True, help="Also take the clouds in the subfolders of each folder.")
 @click.option("--pattern", metavar="GLOB", default=None,
               help="Take only the clouds in folders whose name matches GLOB (case-insensitive; a GLOB with "
@@ -562,7 +563,7 @@ def batch_exit_code(tally):
               help="JSON Lines (one detect record per file) or CSV (one row per hole).")
 @click.option("--output", "-o", type=click.Path(dir_okay=False, path_type=str), default=None,
               help="Write the records to this file (each as soon as its file is measured) instead of stdout.")
-@click.option("--jobs", "-j", type=click.IntRange(min=1), default=None,
+@click.option("--jobs", "-j", type=click.IntRange(min=1), default=None, metavar="N",
               help="Worker processes [default: the number of cores].")
 @click.option("--resume", is_flag=True,
               help="Keep the records already in --output, skip their files and append the others.")
@@ -570,7 +571,7 @@ def batch_exit_code(tally):
 @tolerance_option_decorators
 def batch(paths, recursive, pattern, fmt, output, jobs, resume, method, view_dir, min_diameter, max_holes, full_only,
           nominal_diameter, tolerance, nominal_center, position_tolerance, nominal_normal, max_tilt, spec_file):
-    """Measure every point cloud in the folders and files PATH... .
+    """Measure every point cloud in the folders and files PATH.
 
     A folder contributes the .ply, .pcd, .csv, .txt and .xyz files directly in it (any case; with
     --recursive also those below it), in sorted order; a file named on the command line is measured

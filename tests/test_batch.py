@@ -361,3 +361,24 @@ def test_csv_summary_of_a_record_written_by_the_writer_matches_the_record():
 def test_module_does_not_import_click():
     source = Path(batch.__file__).read_text()
     assert "import click" not in source and "from click" not in source
+
+
+def test_open3d_is_imported_by_the_pool_initializer_when_a_compressed_pcd_is_in_the_batch(scans, tmp_path,
+                                                                                          monkeypatch):
+    header = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 30\nHEIGHT 1\nPOINTS 30\n"
+    compressed = str(_touch(tmp_path / "c.pcd", header + "DATA binary_compressed\n"))
+    log = tmp_path / "initializer.log"
+    start = batch._start_worker
+
+    def logged(options, spec, preload):
+        start(options, spec, preload)
+        with open(log, "a") as stream:
+            stream.write(f"{','.join(preload)}\n")
+
+    monkeypatch.setattr(batch, "_start_worker", logged)
+    records = list(batch.measure_all([*scans, compressed] * 2, OPTIONS, jobs=2))
+    assert len(records) == 8
+    assert log.read_text().splitlines() == ["open3d", "open3d"]  # once per worker, not per file
+    log.unlink()
+    list(batch.measure_all(scans, OPTIONS, jobs=1))
+    assert log.read_text().splitlines() == [""]  # no compressed PCD: not paid at all
