@@ -13,10 +13,19 @@ import pytest
 from holecli.errors import LoadError
 from holecli.io import SUPPORTED_EXTENSIONS, Cloud, load_points, read_cloud, save_points
 
-REALDATA = Path(
-    os.environ.get("HOLECLI_REALDATA")
-    or Path(__file__).resolve().parents[2] / "shared" / "realdata" / "formats"
-)
+def _realdata_folder():
+    """The shared real-file corpus: $HOLECLI_REALDATA, else ../shared beside the checkout, else the
+    workplace's /work/shared (CI runs in a clean clone elsewhere)."""
+    if os.environ.get("HOLECLI_REALDATA"):
+        return Path(os.environ["HOLECLI_REALDATA"])
+    for base in (Path(__file__).resolve().parents[2], Path("/work")):
+        folder = base / "shared" / "realdata" / "formats"
+        if folder.is_dir():
+            return folder
+    return Path(__file__).resolve().parents[2] / "shared" / "realdata" / "formats"
+
+
+REALDATA = _realdata_folder()
 
 _PLY_TYPE_NAMES = {
     "f4": "float", "f8": "double", "u1": "uchar", "i1": "char",
