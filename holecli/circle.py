@@ -156,17 +156,23 @@ def _least_quantile_circle(xy, hypotheses=200, quantile=75):
     The algebraic fit of every point is the start when the points are clean; a circle through three
     points that minimises the 75th percentile of the absolute residuals survives up to a quarter of
     the points being outliers (the median would survive half, but on a sparse rim it also prefers a
-    circle through one side of the hole). The triples are drawn with a fixed seed: the result does
-    not depend on global random state.
+    circle through one side of the hole). The triples are drawn with a fixed seed from the points
+    sorted by their coordinates: the result depends neither on global random state nor on the order
+    of the points.
     """
     center, radius = fit_circle_algebraic(xy)
     best = float(np.percentile(np.abs(np.hypot(*(xy - center).T) - radius), quantile))
     if len(xy) < 6:
         return center, radius
+    # Triples drawn from the points in coordinate order, so that the order they came in is irrelevant.
+    ordered = xy[np.lexsort((xy[:, 1], xy[:, 0]))]
     rng = np.random.default_rng(0)
-    triples = rng.integers(0, len(xy), size=(hypotheses, 3))
-    centers, radii = _circles_through(xy[triples[:, 0]], xy[triples[:, 1]], xy[triples[:, 2]])
-    valid = np.isfinite(radii) & (radii > 0)
+    triples = rng.integers(0, len(ordered), size=(hypotheses, 3))
+    centers, radii = _circles_through(ordered[triples[:, 0]], ordered[triples[:, 1]], ordered[triples[:, 2]])
+    # Nearly collinear triples give huge circles whose residuals round to nothing: a circle larger
+    # than ten times the points' extent is no rim.
+    size = float(np.max(np.ptp(xy, axis=0)))
+    valid = np.isfinite(radii) & (radii > 0) & (radii < 10.0 * size)
     if not np.any(valid):
         return center, radius
     centers, radii = centers[valid], radii[valid]

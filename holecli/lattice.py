@@ -107,10 +107,14 @@ def separating_circle(local_xy, rim_xy, steps, center, radius):
     angles = np.sort(np.arctan2(*(inner - center).T[::-1]))
     if np.max(np.diff(np.concatenate([angles, [angles[0] + 2 * np.pi]]))) > np.pi / 2:
         return None
-    others = local_xy[np.hypot(*(local_xy - center).T) < radius + 2.0 * step_length] - center
-    outer = outer - center
-    inner = inner - center
-    # Variables (cx, cy, k, t), centred on the current center, k = |c|^2 - r^2; f(p) = |p|^2 - 2 c.p + k.
+    # Coordinates centred on the current center and in units of its radius: the programme (and its
+    # solver's absolute tolerances) is then the same in millimetres and in metres.
+    others = (local_xy[np.hypot(*(local_xy - center).T) < radius + 2.0 * step_length] - center) / radius
+    outer = (outer - center) / radius
+    inner = (inner - center) / radius
+    unit = radius
+    radius, step_length = 1.0, step_length / unit
+    # Variables (cx, cy, k, t), k = |c|^2 - r^2; f(p) = |p|^2 - 2 c.p + k.
     # Outside by the margin: f(p) >= 2 r t; inside: f(q) <= -2 r t; other material: f(p) >= 0.
     scale = 2.0 * radius
     rows = [
@@ -132,4 +136,4 @@ def separating_circle(local_xy, rim_xy, steps, center, radius):
     radius_sq = cx * cx + cy * cy - k
     if radius_sq <= 0:
         return None
-    return center + np.array([cx, cy]), float(np.sqrt(radius_sq)), float(margin)
+    return center + unit * np.array([cx, cy]), unit * float(np.sqrt(radius_sq)), unit * float(margin)

@@ -105,14 +105,46 @@ def _hypothesis_normals(sample, rng, count):
     return a[good], normals[good] / lengths[good, None]
 
 
+def _faces(sample, rng, hypotheses, quantile, clip, floor, max_faces=3):
+    """Planar faces in a sample, one after the other: (count, normal, offset, sigma) each.
+
+    Each round takes the RANSAC hypothesis with the smallest ``quantile`` of absolute residuals
+    (least quantile of squares) over the points not yet assigned, sets its noise from that quantile,
+    and removes its points (within ``clip`` sigma). Taking faces one by one lets a noisy main surface
+    win over a flatter but smaller side face, which a single threshold would favour.
+    """
+    from scipy.special import ndtri
+
+    # |r| at quantile q of a normal distribution is sigma * z((1 + q) / 2): 0.385 sigma for q = 0.3.
+    z = float(ndtri((1.0 + quantile) / 2.0))
+    faces = []
+    remaining = sample
+    for _ in range(max_faces):
+        if len(remaining) < max(10, len(sample) // 10):
+            break
+        anchors, normals = _hypothesis_normals(remaining, rng, hypotheses)
+        if len(normals) == 0:
+            break
+        offsets = np.sum(normals * anchors, axis=1)
+        residuals = np.abs(normals @ remaining.T - offsets[:, None])
+        k = max(2, int(quantile * len(remaining)))
+        quantiles = np.partition(residuals, k, axis=1)[:, k]
+        best = int(np.argmin(quantiles))
+        sigma = max(float(quantiles[best]) / z, floor)
+        members = residuals[best] <= clip * sigma
+        faces.append((int(members.sum()), normals[best], float(offsets[best]), sigma))
+        remaining = remaining[~members]
+    return faces
+
+
 def fit_plane_robust(points, *, rng=0, sample=2000, hypotheses=96, quantile=0.3, clip=4.0, max_rounds=20,
                      refine_sample=50000):
     """Plane of the dominant surface, ignoring bore-wall, countersink, inside-hole and outlier points.
 
     RANSAC hypotheses from point triples are scored by the ``quantile`` of their absolute residuals
-    (least quantile of squares: no threshold to choose); the residual scale of the best one sets the
-    inlier band, and the hypothesis with the most inliers in that band wins (the dominant face when
-    the scan holds several). The plane is then refined by least squares (:func:`fit_plane_scatter`)
+    (least quantile of squares: no threshold to choose); faces are taken one after the other from a
+    sample, each with its own noise, and the face holding the most points wins (the dominant face
+    when the scan holds several). The plane is then refined by least squares (:func:`fit_plane_scatter`)
     on the points within ``clip`` robust standard deviations (1.4826 * MAD) until the inlier set
     stops changing: on a subsample of ``refine_sample`` points first, then on all points.
 
@@ -137,19 +169,11 @@ def fit_plane_robust(points, *, rng=0, sample=2000, hypotheses=96, quantile=0.3,
     extent = float(np.max(np.ptp(local, axis=0)))
     floor = 1e-9 * (extent + float(np.max(np.abs(origin))))
     subset = local[rng.choice(len(local), size=sample, replace=False)] if len(local) > sample else local
-    anchors, normals = _hypothesis_normals(subset, rng, hypotheses)
-    if len(normals) == 0:
+    faces = _faces(subset, rng, hypotheses, quantile, clip, floor)
+    if not faces:
         raise PointsError("the points are collinear (or coincide): no plane is defined")
-    residuals = np.abs(np.einsum("hj,sj->hs", normals, subset) - np.sum(normals * anchors, axis=1)[:, None])
-    k = max(2, int(quantile * subset.shape[0]))
-    quantiles = np.partition(residuals, k, axis=1)[:, k]
-    # |r| at quantile q of a normal distribution is sigma * z((1 + q) / 2): 0.385 sigma for q = 0.3.
-    from scipy.special import ndtri
-
-    sigma = max(float(quantiles.min()) / float(ndtri((1.0 + quantile) / 2.0)), floor)
-    counts = np.sum(residuals <= clip * sigma, axis=1)
-    best = int(np.argmax(counts))
-    normal, offset = normals[best], float(normals[best] @ anchors[best])
+    # The dominant face is the one that holds the most points, whatever its noise.
+    _, normal, offset, sigma = max(faces, key=lambda face: face[0])
     # Iterate on a subsample (a million points need not be refitted ten times), then settle the
     # inlier set on every point: the result depends on the subsample only through points exactly at
     # the band's edge.

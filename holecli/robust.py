@@ -83,14 +83,14 @@ def _rim_arc(rim_xy, center):
 
 
 def _material_arc(grid, center, radius, samples=720):
-    """Degrees of the circle with scanned material just outside it (half a cell beyond the edge).
+    """Degrees of the circle with scanned material just outside it (a cell beyond the edge).
 
     Counted on the occupancy grid rather than from the rim points, whose spacing along a sparse rim
     (or near the scan's edge) would understate the coverage.
     """
     angles = np.linspace(0.0, 2 * np.pi, samples, endpoint=False)
-    ring = center + (radius + 0.5 * grid.cell) * np.column_stack([np.cos(angles), np.sin(angles)])
-    return 360.0 * float(np.mean(grid.lookup(grid.material, ring)))
+    ring = center + (radius + grid.cell) * np.column_stack([np.cos(angles), np.sin(angles)])
+    return 360.0 * float(np.mean(grid.lookup(grid.solid, ring)))
 
 
 def _within(xy, center, inner, outer):
@@ -206,10 +206,9 @@ def _measure_void(scene, grid, void, settings):
     # Keep rim points next to the void: an open region also runs along the scan's outer edge.
     near = _near_void(grid, void, 2)
     rim_xy = rim_xy[near(rim_xy)]
-    partial = rim.open
     # A void open to the scan's outside (a bay) needs the stronger evidence of a partial hole even
     # when its rim closes: dents of a ragged border are bays too.
-    fewest = settings.min_partial_rim_points if partial or not void.enclosed else settings.min_rim_points
+    fewest = settings.min_partial_rim_points if not void.enclosed else settings.min_rim_points
     if len(rim_xy) < fewest:
         return None
     floor = settings.clip_floor_spacings * scene.sampling.spacing
@@ -239,14 +238,16 @@ def _measure_void(scene, grid, void, settings):
     if scatter > settings.max_relative_scatter * radius + scene.gap_scatter:
         return None
     # A closed region whose rim still misses a third of the circle lost its rim to missing data.
-    rim_arc = _rim_arc(rim_xy[used], center)
-    partial = partial or rim_arc < settings.closed_rim_min_arc_deg
-    arc = 360.0
+    # Partial: the circle is not surrounded by scanned material (cut by the scan's border, or its
+    # rim lost to missing data). Such a hole is accepted on the rim points' own (conservative)
+    # coverage and reported with the scanned coverage.
+    arc = _material_arc(grid, center, radius)
+    partial = arc < settings.full_arc_deg
     if partial:
-        # Accept on the rim points' own (conservative) coverage; report the scanned coverage.
-        if rim_arc < settings.min_partial_arc_deg or used.sum() < settings.min_partial_rim_points:
+        if _rim_arc(rim_xy[used], center) < settings.min_partial_arc_deg or used.sum() < settings.min_partial_rim_points:
             return None
-        arc = max(rim_arc, _material_arc(grid, center, radius))
+    else:
+        arc = 360.0
     if _is_boss(scene, center, radius, settings):
         return None
     cone = _countersink(scene, center, radius)

@@ -33,15 +33,14 @@ class RobustSettings:
     # Default smallest reported diameter, in gaps (natural gaps of random sampling reach ~4 g).
     min_diameter_gaps: float = 6.0
     # Rim circle fit: sigma clipping threshold, and a floor of the residual scale (in spacings).
-    clip_sigmas: float = 3.0
+    clip_sigmas: float = 4.0
     clip_floor_spacings: float = 0.05
     # A void whose rim is this far from a circle (robust sd of residuals / radius) is not a hole.
     max_relative_scatter: float = 0.06
     # A partial hole must keep at least this much of its rim.
     min_partial_arc_deg: float = 120.0
-    # A closed rim with a larger angular gap than 360 minus this is reported as partial too (sparse
-    # scans leave gaps of up to ~75 degrees between the rim points of a full hole).
-    closed_rim_min_arc_deg: float = 240.0
+    # A hole whose circle has scanned material around less than this many degrees is partial.
+    full_arc_deg: float = 350.0
     # A void is a boss (not a hole) when this fraction of its expected surface points stand above it.
     boss_fraction: float = 0.25
     # Sampling-bias correction: synthetic holes cut at r + k * period for these k (the pattern's

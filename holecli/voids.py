@@ -32,6 +32,12 @@ class Grid:
     cell: float
     material: np.ndarray  # (nx, ny) bool, after removing specks smaller than 3 x 3 cells
 
+    @property
+    def solid(self):
+        """The material with isolated empty cells (natural gaps of random sampling) filled."""
+        closed = ndimage.binary_closing(self.material, structure=_SQUARE)
+        return closed | self.material
+
     def cell_of(self, xy):
         """Integer (i, j) cell indices of 2D points (may fall outside the grid)."""
         return np.floor((xy - self.origin) / self.cell).astype(np.int64)

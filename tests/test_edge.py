@@ -89,11 +89,6 @@ STRIPES_RIM = np.array([
 ])
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "circle._least_quantile_circle takes a circle through three points collinear up to round-off "
-    "(radius 3.7e16): its residuals |p - c| - r cancel to 0 in floating point, so it beats the "
-    "algebraic fit, and the clipped fit stays on that 'line'. Which triple is drawn depends on the "
-    "order of the points: in the order below and in 2 of 40 permutations the radius is 3.7e16"))
 def test_a_rim_with_collinear_runs_gives_the_hole_in_any_order():
     depth, floor = 0.3953, 0.005
     radii = []

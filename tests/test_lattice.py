@@ -88,10 +88,7 @@ def test_separating_circle_needs_brackets_all_round():
 
 
 @pytest.mark.parametrize("factor", [
-    pytest.param(0.001, marks=pytest.mark.xfail(strict=True, reason=(
-        "the LP is solved by HiGHS with absolute feasibility tolerances (1e-7) on unscaled lifted "
-        "coordinates (|p|^2 ~ 1e-6 in metres): at x 0.001 the circle moves by 0.08 h and the margin "
-        "is 10 times larger"))),
+    0.001,
     25.4,
     1000.0,
 ])

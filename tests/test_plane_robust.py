@@ -88,10 +88,6 @@ def test_picks_the_dominant_of_two_faces(rng, share):
     assert fit.inliers[4000:].mean() < 0.05
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "the RANSAC band comes from the lowest 30 % residual quantile over the hypotheses: an exactly flat "
-    "face with a third of the points sets a band at the round-off floor, in which it has the most "
-    "inliers, so it beats a noisy face with twice as many points"))
 def test_an_exact_smaller_face_does_not_beat_a_noisy_dominant_one(rng):
     big = face(rng, 4000, 0.01)
     small = face(rng, 2000) @ rotation_matrix((90.0, 0.0, 0.0)).T + [0.0, 4.0, 4.0]
