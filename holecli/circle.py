@@ -12,6 +12,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from holecli.errors import PointsError
+from holecli.geometry import circles_through
 
 # A radial residual above this many robust standard deviations marks a rim point as an outlier.
 CLIP_SIGMAS = 3.0
@@ -85,6 +86,19 @@ def fit_circle_algebraic(xy):
     return center * scale + mean, float(np.sqrt(radius_sq) * scale)
 
 
+def _normalised(xy, start):
+    """Points centred on their mean and scaled by the start radius, and the start as parameters.
+
+    Returns ``(mean, scale, u, params)`` with ``u = (xy - mean) / scale`` and ``params`` the start
+    circle ``(cx, cy, r)`` in those units (its radius 1).
+    """
+    center, radius = start
+    mean = xy.mean(axis=0)
+    scale = max(float(radius), 1e-300)
+    params = np.array([(center[0] - mean[0]) / scale, (center[1] - mean[1]) / scale, 1.0])
+    return mean, scale, (xy - mean) / scale, params
+
+
 def _radial(params, u):
     return np.hypot(u[:, 0] - params[0], u[:, 1] - params[1]) - params[2]
 
@@ -112,11 +126,7 @@ def fit_circle_geometric(xy, start=None):
     CircleFit
     """
     xy = _check(xy)
-    center0, radius0 = start if start is not None else fit_circle_algebraic(xy)
-    mean = xy.mean(axis=0)
-    scale = max(float(radius0), 1e-300)
-    u = (xy - mean) / scale
-    x0 = np.array([(center0[0] - mean[0]) / scale, (center0[1] - mean[1]) / scale, 1.0])
+    mean, scale, u, x0 = _normalised(xy, start if start is not None else fit_circle_algebraic(xy))
     solution = least_squares(_radial, x0, jac=_radial_jacobian, args=(u,), method="lm", xtol=1e-14,
                              ftol=1e-14, gtol=1e-14)
     center = solution.x[:2] * scale + mean
@@ -137,19 +147,6 @@ def _gauss_newton(u, params, iterations=50):
     return params
 
 
-def _circles_through(a, b, c):
-    """Circumcenters (k, 2) and radii (k,) of the triangles a, b, c (each (k, 2)); NaN if collinear."""
-    b = b - a
-    c = c - a
-    d = 2.0 * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0])
-    b2 = np.sum(b * b, axis=1)
-    c2 = np.sum(c * c, axis=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ux = (c[:, 1] * b2 - b[:, 1] * c2) / d
-        uy = (b[:, 0] * c2 - c[:, 0] * b2) / d
-    return a + np.column_stack([ux, uy]), np.hypot(ux, uy)
-
-
 def _least_quantile_circle(xy, hypotheses=200, quantile=75):
     """Initial circle by least quantile of squares over circles through point triples.
 
@@ -168,7 +165,7 @@ def _least_quantile_circle(xy, hypotheses=200, quantile=75):
     ordered = xy[np.lexsort((xy[:, 1], xy[:, 0]))]
     rng = np.random.default_rng(0)
     triples = rng.integers(0, len(ordered), size=(hypotheses, 3))
-    centers, radii = _circles_through(ordered[triples[:, 0]], ordered[triples[:, 1]], ordered[triples[:, 2]])
+    centers, radii = circles_through(ordered[triples[:, 0]], ordered[triples[:, 1]], ordered[triples[:, 2]])
     # Nearly collinear triples give huge circles whose residuals round to nothing: a circle larger
     # than ten times the points' extent is no rim.
     size = float(np.max(np.ptp(xy, axis=0)))
@@ -210,11 +207,7 @@ def fit_circle_robust(xy, *, clip=CLIP_SIGMAS, floor=0.0, max_rounds=10, start=N
         ``kept`` marks the points of the final fit.
     """
     xy = _check(xy)
-    center0, radius0 = start if start is not None else _least_quantile_circle(xy)
-    mean = xy.mean(axis=0)
-    scale = max(float(radius0), 1e-300)
-    u = (xy - mean) / scale
-    params = np.array([(center0[0] - mean[0]) / scale, (center0[1] - mean[1]) / scale, 1.0])
+    mean, scale, u, params = _normalised(xy, start if start is not None else _least_quantile_circle(xy))
     # Start from the points the initial circle explains (within 3 robust sd), not from all of them:
     # a fit to every point leans toward the outliers and the clipping then keeps them.
     residual = _radial(params, u)

@@ -25,6 +25,26 @@ def triangulate(xy):
     return Delaunay(xy + (_WOBBLE * scale) * wobble)
 
 
+def circles_through(a, b, c):
+    """Circles through the point triples ``a``, ``b``, ``c`` (each (k, 2)).
+
+    Returns
+    -------
+    center : (k, 2) float
+    radius : (k,) float
+        NaN or inf for a collinear triple.
+    """
+    b = b - a
+    c = c - a
+    d = 2.0 * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0])
+    b2 = np.sum(b * b, axis=1)
+    c2 = np.sum(c * c, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ux = (c[:, 1] * b2 - b[:, 1] * c2) / d
+        uy = (b[:, 0] * c2 - c[:, 0] * b2) / d
+    return a + np.column_stack([ux, uy]), np.hypot(ux, uy)
+
+
 def circumradii(xy, simplices):
     """Circumradius and circumcenter of each triangle.
 
@@ -40,20 +60,11 @@ def circumradii(xy, simplices):
     center : (m, 2) float
         The circumcenter (the centroid for a degenerate triangle).
     """
-    a = xy[simplices[:, 0]]
-    b = xy[simplices[:, 1]] - a
-    c = xy[simplices[:, 2]] - a
-    d = 2.0 * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0])
-    b2 = np.sum(b * b, axis=1)
-    c2 = np.sum(c * c, axis=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ux = (c[:, 1] * b2 - b[:, 1] * c2) / d
-        uy = (b[:, 0] * c2 - c[:, 0] * b2) / d
-    radius = np.hypot(ux, uy)
-    center = a + np.column_stack([ux, uy])
+    a, b, c = xy[simplices[:, 0]], xy[simplices[:, 1]], xy[simplices[:, 2]]
+    center, radius = circles_through(a, b, c)
     degenerate = ~np.isfinite(radius)
     if np.any(degenerate):
         # A collinear triangle's circle is unbounded; its centroid stands in for the center.
         radius[degenerate] = np.inf
-        center[degenerate] = (a[degenerate] + xy[simplices[degenerate, 1]] + xy[simplices[degenerate, 2]]) / 3.0
+        center[degenerate] = (a[degenerate] + b[degenerate] + c[degenerate]) / 3.0
     return radius, center
