@@ -92,11 +92,30 @@ def slide_onto_plane(points, origin, normal, direction):
     """
     n = _unit(normal, "normal")
     d = _unit(direction, "view direction")
-    along = float(np.dot(d, n))
-    if abs(along) < 0.05:
-        raise PointsError(
-            f"view direction {d.round(4).tolist()} is within 3 degrees of the surface plane; "
-            "points cannot be slid onto it"
-        )
+    along = _check_slide(d, float(np.dot(d, n)))
     heights = (np.asarray(points, dtype=np.float64) - origin) @ n
     return points - np.outer(heights / along, d)
+
+
+def _check_slide(direction, along):
+    if abs(along) < 0.05:
+        raise PointsError(
+            f"view direction {np.round(direction, 4).tolist()} is within 3 degrees of the surface plane; "
+            "points cannot be slid onto it"
+        )
+    return along
+
+
+def slide_in_plane_frame(local, direction):
+    """:func:`slide_onto_plane` for points already in the plane frame, in place.
+
+    Parameters
+    ----------
+    local : (n, 3) float
+        Plane-frame coordinates (x, y in the plane, z the height); x and y are updated.
+    direction : (3,) float
+        The unit slide direction in the plane frame.
+    """
+    along = _check_slide(direction, float(direction[2]))
+    local[:, 0] -= local[:, 2] * (direction[0] / along)
+    local[:, 1] -= local[:, 2] * (direction[1] / along)
