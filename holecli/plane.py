@@ -91,8 +91,8 @@ def fit_plane_scatter(points):
     if values[1] <= 1e-24 * max(values[2], 1e-300):
         raise PointsError("the points are collinear (or coincide): no plane is defined")
     normal = orient_normal(vectors[:, 0])
-    # The smallest eigenvalue is the sum of squared residuals: no second pass over the points.
-    rms = float(np.sqrt(max(float(values[0]), 0.0) / len(points)))
+    # From the residuals, not from the smallest eigenvalue: that carries the round-off of the largest.
+    rms = float(np.sqrt(np.mean((centred @ normal) ** 2)))
     return PlaneFit(point=centroid, normal=normal, rms=rms)
 
 
@@ -163,12 +163,19 @@ def fit_plane_robust(points, *, rng=0, sample=2000, hypotheses=96, quantile=0.3,
     if points.ndim != 2 or points.shape[1] != 3 or len(points) < 3:
         raise PointsError(f"a plane needs an (n >= 3, 3) array, got shape {points.shape}")
     rng = np.random.default_rng(rng)
-    origin = points.mean(axis=0)
-    local = points - origin
+    # Work relative to a point of the cloud (the first one: any will do) without a centred copy of all
+    # the points; only samples are copied.
+    origin = points[0].copy()
+    low, high = points.min(axis=0), points.max(axis=0)
     # Round-off floor for the band: far below any real noise, far above float error.
-    extent = float(np.max(np.ptp(local, axis=0)))
-    floor = 1e-9 * (extent + float(np.max(np.abs(origin))))
-    subset = local[rng.choice(len(local), size=sample, replace=False)] if len(local) > sample else local
+    extent = float(np.max(high - low))
+    floor = 1e-9 * (extent + float(np.max(np.abs(np.concatenate([low, high])))))
+
+    def sample_of(size):
+        chosen = rng.choice(len(points), size=size, replace=False) if len(points) > size else slice(None)
+        return points[chosen] - origin
+
+    subset = sample_of(sample)
     faces = _faces(subset, rng, hypotheses, quantile, clip, floor)
     if not faces:
         raise PointsError("the points are collinear (or coincide): no plane is defined")
@@ -177,7 +184,7 @@ def fit_plane_robust(points, *, rng=0, sample=2000, hypotheses=96, quantile=0.3,
     # Iterate on a subsample (a million points need not be refitted ten times), then settle the
     # inlier set on every point: the result depends on the subsample only through points exactly at
     # the band's edge.
-    refine = local[rng.choice(len(local), size=refine_sample, replace=False)] if len(local) > refine_sample else local
+    refine = sample_of(refine_sample)
     inliers = np.abs(refine @ normal - offset) <= clip * sigma
     for _ in range(max_rounds):
         if inliers.sum() < 3:
@@ -190,8 +197,8 @@ def fit_plane_robust(points, *, rng=0, sample=2000, hypotheses=96, quantile=0.3,
         if np.array_equal(new_inliers, inliers):
             break
         inliers = new_inliers
-    inliers = np.abs(local @ normal - offset) <= clip * sigma
+    inliers = np.abs(points @ normal - (offset + float(normal @ origin))) <= clip * sigma
     if inliers.sum() < 3:
         raise PointsError("no plane holds enough of the points")
-    fit = fit_plane_scatter(local[inliers])
-    return PlaneFit(point=fit.point + origin, normal=fit.normal, rms=fit.rms, inliers=inliers)
+    fit = fit_plane_scatter(points[inliers])
+    return PlaneFit(point=fit.point, normal=fit.normal, rms=fit.rms, inliers=inliers)

@@ -15,7 +15,7 @@ Steps (each its own module):
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -68,6 +68,7 @@ class _Measured:
     rim_xy: np.ndarray
     partial: bool
     arc_deg: float
+    surface_plane: object = None  # PlaneFit of the surface around the hole (None: the global plane)
 
 
 def _box_indices(xy, low, high):
@@ -293,13 +294,33 @@ def _sampling_bias(scene, center, radius, settings, floor, partial):
     return bias
 
 
+def _measure_voids(scene, grid, voids, settings):
+    """:func:`_measure_void` of every void, in order; on a large cloud two at a time in threads.
+
+    The per-hole work is mostly Qhull and numpy, which release the interpreter lock, so a second
+    thread uses the second core of the machine; small clouds are not worth the threads.
+    """
+    def measure(void):
+        measured = _measure_void(scene, grid, void, settings)
+        if measured is None:
+            return None
+        return replace(measured, surface_plane=_local_normal(scene, measured.center, measured.radius))
+
+    if len(voids) < 2 or len(scene.xy) < settings.threads_from_points:
+        return [measure(void) for void in voids]
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=min(settings.threads, len(voids))) as pool:
+        return list(pool.map(measure, voids))
+
+
 def _overlaps(a, b):
     return np.hypot(*(a.center - b.center)) < max(a.radius, b.radius)
 
 
 def _to_hole(scene, measured, index):
     center2d = measured.center
-    local_plane = _local_normal(scene, center2d, measured.radius)
+    local_plane = measured.surface_plane
     on_plane = from_plane_frame(np.array([center2d[0], center2d[1], 0.0]), scene.origin, scene.rotation)
     normal = scene.rotation[2]
     if local_plane is not None:
@@ -371,8 +392,7 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
                    alpha=settings.alpha_gaps * gap, cell=cell, min_radius=min_radius,
                    gap_scatter=0.5 * gap)
     found = []
-    for void in find_voids(grid):
-        measured = _measure_void(scene, grid, void, settings)
+    for measured in _measure_voids(scene, grid, find_voids(grid), settings):
         if measured is None:
             continue
         twin = next((i for i, other in enumerate(found) if _overlaps(measured, other)), None)

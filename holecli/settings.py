@@ -49,6 +49,9 @@ class RobustSettings:
     bias_passes: int = 2
     # As many of those synthetic holes as give about this many rim points in all.
     bias_rim_points: int = 400
+    # Holes are measured in this many threads when the cloud has at least this many points.
+    threads: int = 2
+    threads_from_points: int = 200_000
     # Fewest rim points for a full hole, and for a partial hole or any hole found in a bay of the
     # scan's border (where the dents of a ragged border must not pass for holes).
     min_rim_points: int = 6

@@ -31,12 +31,7 @@ class Grid:
     origin: np.ndarray
     cell: float
     material: np.ndarray  # (nx, ny) bool, after removing specks smaller than 3 x 3 cells
-
-    @property
-    def solid(self):
-        """The material with isolated empty cells (natural gaps of random sampling) filled."""
-        closed = ndimage.binary_closing(self.material, structure=_SQUARE)
-        return closed | self.material
+    solid: np.ndarray     # the material with isolated empty cells (natural gaps of random sampling) filled
 
     def cell_of(self, xy):
         """Integer (i, j) cell indices of 2D points (may fall outside the grid)."""
@@ -105,7 +100,8 @@ def occupancy_grid(xy, cell):
             keep[np.unique(removed[touching])] = True
         keep[0] = False
         opened |= keep[removed]
-    return Grid(origin=origin, cell=float(cell), material=opened)
+    solid = ndimage.binary_closing(opened, structure=_SQUARE) | opened
+    return Grid(origin=origin, cell=float(cell), material=opened, solid=solid)
 
 
 def _hull_mask(material):
