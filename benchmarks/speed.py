@@ -152,7 +152,7 @@ def main(argv=None):
         return 0
 
     sizes = [(416, "table1", 21), (1572, "table1", 21), (6733, "table1", 21), (9498, "table1", 21),
-             (100_000, "stripes", 5), (1_000_000, "stripes", 3), (10_000_000, "stripes", 1)]
+             (100_000, "stripes", 5), (1_000_000, "stripes", 5), (10_000_000, "stripes", 1)]
     print(f"{'points':>10} {'holes':>5} {'load s':>8} {'pipeline s':>11} {'vs Table II':>12} "
           f"{'Delaunay s':>11} {'vs Delaunay':>12} {'peak MB':>8}")
     for size, kind, repeats in sizes:
