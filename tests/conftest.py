@@ -54,3 +54,18 @@ def table1_files(table1_scan, tmp_path_factory):
         save_points(path, table1_scan.points)
         files[extension] = path
     return files
+
+
+@pytest.fixture
+def run():
+    """Invoke the CLI in-process; stdout and stderr come back separately (click >= 8.2)."""
+    from click.testing import CliRunner
+
+    from holecli import cli
+
+    runner = CliRunner()
+
+    def invoke(*args):
+        return runner.invoke(cli.main, [str(arg) for arg in args])
+
+    return invoke

@@ -9,7 +9,6 @@ import sys
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
 from holecli import __version__, cli, report, synth
 from holecli.io import load_points, save_points
@@ -20,17 +19,6 @@ HOLE_KEYS = {
     "index", "center", "diameter", "normal", "rim_points", "fit_rms", "max_residual", "roundness",
     "bias_correction", "partial", "arc_deg", "scan_lines",
 }  # fmt: skip
-
-
-@pytest.fixture
-def run():
-    """Invoke the CLI in-process; stdout and stderr come back separately (click >= 8.2)."""
-    runner = CliRunner()
-
-    def invoke(*args):
-        return runner.invoke(cli.main, [str(arg) for arg in args])
-
-    return invoke
 
 
 def _assert_one_line_error(result, *names, code=cli.EXIT_INPUT):

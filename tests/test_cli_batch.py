@@ -12,7 +12,6 @@ import sys
 import time
 
 import pytest
-from click.testing import CliRunner
 
 from holecli import cli, report, synth
 from holecli.io import save_points
@@ -63,15 +62,6 @@ def mixed(tmp_path, good_scans):
     (tmp_path / "notes.md").write_text("not a cloud\n")
     return tmp_path, [tmp_path / path.name for path in good_scans], broken
 
-
-@pytest.fixture
-def run():
-    runner = CliRunner()
-
-    def invoke(*args):
-        return runner.invoke(cli.main, [str(arg) for arg in args])
-
-    return invoke
 
 
 def _lines(text):
