@@ -2,15 +2,17 @@
 
 Steps (each its own module):
 
-1. plane of the dominant surface by RANSAC and iterated SVD (:func:`holecli.plane.fit_plane_robust`);
+1. plane of the dominant surface by RANSAC and iterated least squares (:func:`holecli.plane.fit_plane_robust`);
 2. rotation into the plane frame, with an orthogonal projection or a slide along the sensor's view
    direction (:mod:`holecli.frame`);
 3. the sampling's spacing and gap scale (:mod:`holecli.spacing`): every threshold below is a multiple;
 4. hole candidates as voids of an occupancy grid, linear in the point count (:mod:`holecli.voids`);
 5. per candidate, a local Delaunay triangulation and its alpha-shape rim (:mod:`holecli.boundary`);
-6. a robust geometric circle fit (:mod:`holecli.circle`), checks that the void is a round hole and not a
-   boss, a dent of the border or a natural gap;
-7. the sampling-bias correction (:mod:`holecli.bias`), a local plane for the normal and the 3D center.
+6. a robust geometric circle fit (:mod:`holecli.edge`, :mod:`holecli.circle`), checks that the void is
+   a round hole and not a boss, a dent of the border or a natural gap, and its scanned coverage;
+7. the edge: where a countersink cone meets the surface (:mod:`holecli.countersink`), else the rim fit
+   corrected for the sampling bias, by lattice brackets on regular scans (:mod:`holecli.lattice`) or
+   by synthetic holes (:mod:`holecli.bias`); a local plane gives the normal and the 3D center.
 """
 
 from __future__ import annotations
@@ -19,19 +21,20 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from scipy import ndimage
+
 from holecli.bias import sampling_bias
-from holecli.countersink import fit_cone_edge
 from holecli.boundary import hole_rim, near_box_edge
+from holecli.countersink import fit_cone_edge
 from holecli.edge import fit_edge
 from holecli.errors import PointsError
-from holecli.lattice import lattice_steps, separating_circle
 from holecli.frame import from_plane_frame, rotation_to_z, slide_in_plane_frame
+from holecli.lattice import lattice_steps, separating_circle
 from holecli.plane import fit_plane_robust, fit_plane_scatter
 from holecli.results import Hole, Plane
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.spacing import estimate_sampling
 from holecli.voids import find_voids, occupancy_grid
-from scipy import ndimage
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,8 +50,6 @@ class _Scene:
     points: np.ndarray       # (n, 3) the cloud, world coordinates
     surface_index: np.ndarray  # (m,) rows of the plane inliers in points
     heights: np.ndarray      # (n,) signed distance from the plane
-    surface: np.ndarray      # (n,) bool, plane inliers
-    band: float              # half-width of the surface band
     origin: np.ndarray
     rotation: np.ndarray
     direction: np.ndarray    # projection direction (unit, world)
@@ -99,9 +100,7 @@ def _within(xy, center, inner, outer):
 
     A box test first: on a million points it is several times cheaper than the distances.
     """
-    box = ((xy[:, 0] >= center[0] - outer) & (xy[:, 0] <= center[0] + outer)
-           & (xy[:, 1] >= center[1] - outer) & (xy[:, 1] <= center[1] + outer))
-    index = np.flatnonzero(box)
+    index = _box_indices(xy, center - outer, center + outer)
     distance = np.hypot(xy[index, 0] - center[0], xy[index, 1] - center[1])
     return index[(distance >= inner) & (distance < outer)]
 
@@ -385,12 +384,12 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     material_xy = np.asfortranarray(surface_xy[grid.lookup(grid.material, surface_xy)])
     above_xy = np.asfortranarray(xy[(heights > band) & ~surface])
     surface_density = len(surface_xy) / max(float(np.count_nonzero(grid.material)) * cell * cell, 1e-300)
+    height_noise = 1.4826 * float(np.median(np.abs(heights[surface])))
     scene = _Scene(xy=xy, surface_xy=surface_xy, material_xy=material_xy, above_xy=above_xy,
-                   surface_density=surface_density, height_noise=1.4826 * float(np.median(np.abs(heights[surface]))),
-                   heights=heights, surface=surface, points=points, surface_index=np.flatnonzero(surface), band=band,
-                   origin=origin, rotation=rotation, direction=direction, sampling=sampling,
-                   alpha=settings.alpha_gaps * gap, cell=cell, min_radius=min_radius,
-                   gap_scatter=0.5 * gap)
+                   surface_density=surface_density, height_noise=height_noise, heights=heights,
+                   points=points, surface_index=np.flatnonzero(surface), origin=origin, rotation=rotation,
+                   direction=direction, sampling=sampling, alpha=settings.alpha_gaps * gap, cell=cell,
+                   min_radius=min_radius, gap_scatter=0.5 * gap)
     found = []
     for measured in _measure_voids(scene, grid, find_voids(grid), settings):
         if measured is None:
