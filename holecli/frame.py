@@ -119,3 +119,23 @@ def slide_in_plane_frame(local, direction):
     along = _check_slide(direction, float(direction[2]))
     local[:, 0] -= local[:, 2] * (direction[0] / along)
     local[:, 1] -= local[:, 2] * (direction[1] / along)
+
+
+def principal_frame(xy):
+    """A canonical in-plane frame of 2D points: their centroid and principal axes.
+
+    Returns ``(center, axes)`` with ``axes`` a proper 2 x 2 rotation whose first column is the
+    direction of largest spread, turned so that the points' third moment along it is not negative.
+    ``(xy - center) @ axes`` are then coordinates that move with the points: a rigid motion of the
+    cloud leaves them unchanged, so grids and windows laid out in them do not depend on how the part
+    sat in the world (when the two spreads are exactly equal the axes are arbitrary).
+    """
+    xy = np.asarray(xy, dtype=np.float64)
+    center = xy.mean(axis=0)
+    centred = xy - center
+    _, vectors = np.linalg.eigh(centred.T @ centred)
+    first = vectors[:, 1]
+    if float(np.sum((centred @ first) ** 3)) < 0.0:
+        first = -first
+    axes = np.column_stack([first, [-first[1], first[0]]])
+    return center, axes

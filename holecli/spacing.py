@@ -107,19 +107,21 @@ def estimate_sampling(xy, windows=5, window_points=900):
     area = max(float(np.prod(3.12 * spread)) / 0.81, 1e-300)
     density = n / area  # about a lower bound: the scan need not fill its bounding box
     half = 0.5 * np.sqrt(window_points / density)
-    # Off-centre first: a scan is often centred on its hole.
-    offsets = [(-1, -1), (1, 1), (-1, 1), (1, -1), (0, -1), (0, 1), (-1, 0), (1, 0), (0, 0)]
+    # Windows in pairs placed symmetrically about the mean (the same set after a half turn of the
+    # frame), off-centre first: a scan is often centred on its hole.
+    pairs = [((-1, -1), (1, 1)), ((-1, 1), (1, -1)), ((0, -1), (0, 1)), ((-1, 0), (1, 0)), ((0, 0),)]
     spacings, gaps, angles = [], [], []
     windows_used = []
     enough = max(10, min(window_points // 2, n // 2))
     chosen, largest = [], None
-    for dx, dy in offsets:
-        index = _window_indices(x, y, mean + 0.7 * spread * np.array([dx, dy]), half)
-        if largest is None or len(index) > len(largest):
-            largest = index
-        if len(index) >= enough:
-            chosen.append(index)
-            if len(chosen) == max(1, windows):
+    for pair in pairs:
+        indices = [_window_indices(x, y, mean + 0.7 * spread * np.array(offset), half) for offset in pair]
+        for index in indices:
+            if largest is None or len(index) > len(largest):
+                largest = index
+        if all(len(index) >= enough for index in indices):
+            chosen.extend(indices)
+            if len(chosen) >= max(1, windows):
                 break
     if not chosen:
         chosen = [largest]

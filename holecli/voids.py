@@ -74,13 +74,15 @@ class Void:
 
 
 def occupancy_grid(xy, cell):
-    """The occupancy grid of ``xy`` at ``cell``, padded by two empty cells on every side.
+    """The occupancy grid of ``xy`` at ``cell``, padded by at least two empty cells on every side.
 
     Specks (small clusters of occupied cells that hold no 3 x 3 block and touch no material: random
     reflections inside a hole) are removed by a morphological opening; they cannot be the edge of a
     hole.
     """
-    origin = xy.min(axis=0) - 2.0 * cell
+    # Cell boundaries at whole multiples of the cell from the frame's origin (the points' centroid in
+    # the pipeline), so that the grid is the same after a half turn of the frame.
+    origin = (np.floor(xy.min(axis=0) / cell) - 2.0) * cell
     shape = tuple(np.floor((xy.max(axis=0) - origin) / cell).astype(int) + 3)
     ij = np.floor((xy - origin) / cell).astype(np.int64)
     occupied = np.zeros(shape, dtype=bool)

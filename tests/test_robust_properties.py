@@ -5,7 +5,7 @@ The result of ``detect(points, method="robust")`` must move with the cloud: unde
 rotate (up to the sign convention); under a uniform scaling every length scales; and a permutation of
 the rows changes nothing beyond round-off (1e-6 h). Clouds: the Table I-like panel of the scene suite
 on a grid and on stripes, with 10 % of h noise on the world z and without noise; random and jittered
-sampling with noise where they show a known failure (xfail).
+sampling with noise.
 """
 
 from dataclasses import replace
@@ -78,22 +78,13 @@ def rigid_differences(pattern, noise, seeds):
     return worst
 
 
-RIGID_NOISY = ("with noise the robust plane and the in-plane frame (rotation_to_z of the normal, which "
-               "depends on the world orientation) shift under the motion, and the occupancy grid, the "
-               "sampling windows and the bias correction follow: over motions 0-4 the "
-               "diameter changes by up to {}")
-
-
 @pytest.mark.parametrize("pattern, noise", [
     pytest.param("grid", 0.0, id="grid"),
     pytest.param("stripes", 0.0, id="stripes"),
-    pytest.param("grid", 0.1, id="grid-noise-10pct", marks=pytest.mark.xfail(
-        strict=True, reason=RIGID_NOISY.format("5.5e-3 h (motion 4), 2.0e-3 h (motion 0)"))),
+    pytest.param("grid", 0.1, id="grid-noise-10pct"),
     pytest.param("stripes", 0.1, id="stripes-noise-10pct"),
-    pytest.param("random", 0.1, id="random-noise-10pct", marks=pytest.mark.xfail(
-        strict=True, reason=RIGID_NOISY.format("0.069 h (motion 2)"))),
-    pytest.param("jittered", 0.1, id="jittered-noise-10pct", marks=pytest.mark.xfail(
-        strict=True, reason=RIGID_NOISY.format("0.096 h (motion 1)"))),
+    pytest.param("random", 0.1, id="random-noise-10pct"),
+    pytest.param("jittered", 0.1, id="jittered-noise-10pct"),
 ])
 def test_result_moves_with_a_rigid_motion(pattern, noise):
     center, diameter, normal = rigid_differences(pattern, noise, seeds=range(5))

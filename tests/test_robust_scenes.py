@@ -435,9 +435,7 @@ def test_no_hole_no_report(pattern, noise):
 
 @pytest.mark.parametrize("scene, seed, normal", [
     pytest.param(panel("grid", extent=(-5.0, 5.0, -5.0, 5.0), ragged_border=1.0), 28, NORMAL,
-                 id="ragged-grid-seed-28", marks=xfail(
-                     "1 of seeds 12-35: a dent of the ragged border is reported as a partial 1.32 mm hole "
-                     "(arc 128 deg, 13 rim points)")),
+                 id="ragged-grid-seed-28"),
     pytest.param(panel("stripes", rotation_deg=(70.0, 0.0, 0.0), noise=0.1), 13, NORMAL_NOISY,
                  id="tilt-70-stripes-noise-seed-13", marks=xfail(
                      "1 of seeds 6-17: center 0.302 h off (diameter -0.160 h); seed 14 at tilt 50 gives 0.257 h")),
