@@ -121,21 +121,19 @@ def slide_in_plane_frame(local, direction):
     local[:, 1] -= local[:, 2] * (direction[1] / along)
 
 
-def principal_frame(xy):
-    """A canonical in-plane frame of 2D points: their centroid and principal axes.
+def canonical_rotation(points, plane):
+    """Rotation into a frame that moves with the points: rows (major, minor, normal).
 
-    Returns ``(center, axes)`` with ``axes`` a proper 2 x 2 rotation whose first column is the
-    direction of largest spread, turned so that the points' third moment along it is not negative.
-    ``(xy - center) @ axes`` are then coordinates that move with the points: a rigid motion of the
-    cloud leaves them unchanged, so grids and windows laid out in them do not depend on how the part
-    sat in the world (when the two spreads are exactly equal the axes are arbitrary).
+    ``plane`` is a :class:`holecli.plane.PlaneFit` of ``points`` with ``inliers`` and ``major`` (the
+    in-plane direction of largest spread of its points). The major axis is turned so that the inliers'
+    third moment along it is not negative, and ``minor = normal x major``. Coordinates in this frame
+    (about the plane's centroid) do not change under a rigid motion of the cloud, so grids and windows
+    laid out in them do not depend on how the part sat in the world (when the two in-plane spreads are
+    exactly equal the axes are arbitrary).
     """
-    xy = np.asarray(xy, dtype=np.float64)
-    center = xy.mean(axis=0)
-    centred = xy - center
-    _, vectors = np.linalg.eigh(centred.T @ centred)
-    first = vectors[:, 1]
-    if float(np.sum((centred @ first) ** 3)) < 0.0:
-        first = -first
-    axes = np.column_stack([first, [-first[1], first[0]]])
-    return center, axes
+    normal = np.asarray(plane.normal, dtype=np.float64)
+    major = np.asarray(plane.major, dtype=np.float64)
+    along = points @ major - float(plane.point @ major)
+    if float(np.sum(along[plane.inliers] ** 3)) < 0.0:
+        major = -major
+    return np.vstack([major, np.cross(normal, major), normal])

@@ -23,12 +23,16 @@ class PlaneFit:
         Root mean square of the fitted points' distances to the plane.
     inliers : (n,) bool or None
         Which points the plane was fitted to (None: all of them).
+    major : (3,) float or None
+        Unit in-plane direction along which the fitted points spread most (its sign arbitrary), when
+        the fit computed it.
     """
 
     point: np.ndarray
     normal: np.ndarray
     rms: float
     inliers: np.ndarray | None = None
+    major: np.ndarray | None = None  # (3,) in-plane direction of largest spread of the fitted points
 
     @property
     def inlier_count(self) -> int:
@@ -93,7 +97,7 @@ def fit_plane_scatter(points):
     normal = orient_normal(vectors[:, 0])
     # From the residuals, not from the smallest eigenvalue: that carries the round-off of the largest.
     rms = float(np.sqrt(np.mean((centred @ normal) ** 2)))
-    return PlaneFit(point=centroid, normal=normal, rms=rms)
+    return PlaneFit(point=centroid, normal=normal, rms=rms, major=vectors[:, 2])
 
 
 def _hypothesis_normals(sample, rng, count):
@@ -201,4 +205,4 @@ def fit_plane_robust(points, *, rng=0, sample=2000, hypotheses=96, quantile=0.3,
     if inliers.sum() < 3:
         raise PointsError("no plane holds enough of the points")
     fit = fit_plane_scatter(points[inliers])
-    return PlaneFit(point=fit.point, normal=fit.normal, rms=fit.rms, inliers=inliers)
+    return PlaneFit(point=fit.point, normal=fit.normal, rms=fit.rms, inliers=inliers, major=fit.major)

@@ -28,7 +28,7 @@ from holecli.boundary import hole_rim, near_box_edge
 from holecli.countersink import fit_cone_edge
 from holecli.edge import fit_edge
 from holecli.errors import PointsError
-from holecli.frame import from_plane_frame, principal_frame, rotation_to_z, slide_in_plane_frame
+from holecli.frame import canonical_rotation, from_plane_frame, slide_in_plane_frame
 from holecli.lattice import lattice_steps, separating_circle
 from holecli.plane import fit_plane_robust, fit_plane_scatter
 from holecli.results import Hole, Plane
@@ -359,7 +359,9 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
                              hypotheses=settings.ransac_hypotheses, quantile=settings.ransac_quantile,
                              clip=settings.plane_clip)
     normal, origin = plane.normal, plane.point
-    rotation = rotation_to_z(normal)
+    # In-plane axes from the surface points themselves (centroid, principal axes), so that the grid
+    # and the windows below move with the cloud under any rigid motion.
+    rotation = canonical_rotation(points, plane)
     # One (n, 3) @ (3, 3) product with a C-ordered right factor (BLAS); the rows of the rotation are
     # the in-plane axes and the normal, so the third coordinate is the height above the plane.
     local = (points - origin) @ np.ascontiguousarray(rotation.T)
@@ -370,13 +372,8 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         direction = np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir)
         slide_in_plane_frame(local, rotation @ direction)
     surface = plane.inliers
-    # In-plane axes from the surface points themselves (centroid, principal axes), so that the grid
-    # and the windows below move with the cloud under any rigid motion.
-    center, axes = principal_frame(local[surface, :2])
-    origin = origin + center @ rotation[:2]
-    rotation = np.vstack([axes.T @ rotation[:2], rotation[2]])
     # Column-major: the box tests below read x and y as contiguous columns.
-    xy = np.asfortranarray((local[:, :2] - center) @ axes)
+    xy = np.asfortranarray(local[:, :2])
     del local
     band = float(np.max(np.abs(heights[surface])))
     sampling = estimate_sampling(xy[surface], windows=settings.sampling_windows,
