@@ -59,16 +59,6 @@ def rotation_to_z(normal):
     return np.eye(3) + sine * k + (1.0 - cosine) * (k @ k)
 
 
-def plane_basis(normal):
-    """Orthonormal in-plane axes ``(e1, e2)`` of the frame of :func:`rotation_to_z`.
-
-    The rows of ``rotation_to_z(normal)`` are ``e1, e2, n``: in-plane coordinates of a point ``p`` are
-    ``(p - origin) @ e1`` and ``(p - origin) @ e2``.
-    """
-    rotation = rotation_to_z(normal)
-    return rotation[0], rotation[1]
-
-
 def to_plane_frame(points, origin, rotation):
     """Coordinates of ``points`` (n, 3) in the frame centred on ``origin`` and rotated by ``rotation``."""
     return (np.asarray(points, dtype=np.float64) - origin) @ rotation.T
@@ -79,46 +69,33 @@ def from_plane_frame(local, origin, rotation):
     return np.asarray(local, dtype=np.float64) @ rotation + origin
 
 
-def slide_onto_plane(points, origin, normal, direction):
-    """Move each point along ``direction`` until it lies on the plane ``(origin, normal)``.
+def slide_in_plane_frame(local, direction):
+    """Move each point along ``direction`` until it lies on the plane, in plane-frame coordinates.
 
     A laser triangulation sensor's range noise lies along its viewing ray; sliding along that ray,
     rather than projecting orthogonally, keeps the noise out of the in-plane coordinates.
 
+    Parameters
+    ----------
+    local : (n, 3) float
+        Plane-frame coordinates (x, y in the plane, z the height above it); x and y are updated in
+        place, z is left as it is.
+    direction : (3,) float
+        The slide direction in the plane frame; need not be unit length.
+
     Raises
     ------
     PointsError
-        When ``direction`` is (nearly) parallel to the plane.
+        When ``direction`` is zero or (nearly) parallel to the plane.
     """
-    n = _unit(normal, "normal")
-    d = _unit(direction, "view direction")
-    along = _check_slide(d, float(np.dot(d, n)))
-    heights = (np.asarray(points, dtype=np.float64) - origin) @ n
-    return points - np.outer(heights / along, d)
-
-
-def _check_slide(direction, along):
-    if abs(along) < 0.05:
+    direction = _unit(direction, "view direction")
+    if abs(direction[2]) < 0.05:
         raise PointsError(
             f"view direction {np.round(direction, 4).tolist()} is within 3 degrees of the surface plane; "
             "points cannot be slid onto it"
         )
-    return along
-
-
-def slide_in_plane_frame(local, direction):
-    """:func:`slide_onto_plane` for points already in the plane frame, in place.
-
-    Parameters
-    ----------
-    local : (n, 3) float
-        Plane-frame coordinates (x, y in the plane, z the height); x and y are updated.
-    direction : (3,) float
-        The unit slide direction in the plane frame.
-    """
-    along = _check_slide(direction, float(direction[2]))
-    local[:, 0] -= local[:, 2] * (direction[0] / along)
-    local[:, 1] -= local[:, 2] * (direction[1] / along)
+    local[:, 0] -= local[:, 2] * (direction[0] / direction[2])
+    local[:, 1] -= local[:, 2] * (direction[1] / direction[2])
 
 
 def canonical_rotation(points, plane):

@@ -7,9 +7,8 @@ from scipy.spatial.transform import Rotation
 from holecli.errors import PointsError
 from holecli.frame import (
     from_plane_frame,
-    plane_basis,
     rotation_to_z,
-    slide_onto_plane,
+    slide_in_plane_frame,
     to_plane_frame,
 )
 
@@ -19,6 +18,15 @@ Z = np.array([0.0, 0.0, 1.0])
 def _random_unit_vectors(rng, count):
     vectors = rng.normal(size=(count, 3))
     return vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
+
+
+def slide_onto_plane(points, origin, normal, direction):
+    """World-frame slide through the plane frame, as the robust method does it."""
+    rotation = rotation_to_z(normal)
+    local = to_plane_frame(points, origin, rotation)
+    slide_in_plane_frame(local, rotation @ np.asarray(direction, dtype=np.float64))
+    local[:, 2] = 0.0
+    return from_plane_frame(local, origin, rotation)
 
 
 def _rodrigues(normal):
@@ -112,9 +120,9 @@ def test_rotation_to_z_refuses_bad_normals(normal, match):
         rotation_to_z(normal)
 
 
-def test_plane_basis_is_the_first_two_rows(rng):
+def test_the_first_two_rows_are_the_in_plane_basis(rng):
     normal = _random_unit_vectors(rng, 1)[0]
-    e1, e2 = plane_basis(normal)
+    e1, e2 = rotation_to_z(normal)[:2]
     np.testing.assert_allclose([e1 @ normal, e2 @ normal, e1 @ e2], 0.0, atol=1e-12)
     np.testing.assert_allclose(np.cross(e1, e2), normal, atol=1e-12)
 
@@ -133,7 +141,7 @@ def test_plane_frame_round_trip(rng):
 
 def test_points_on_the_plane_have_zero_local_z(rng):
     normal = _random_unit_vectors(rng, 1)[0]
-    e1, e2 = plane_basis(normal)
+    e1, e2 = rotation_to_z(normal)[:2]
     origin = np.array([3.0, 4.0, 5.0])
     uv = rng.uniform(-5, 5, size=(100, 2))
     points = origin + uv[:, :1] * e1 + uv[:, 1:] * e2
