@@ -16,6 +16,16 @@ Every problem with a file raises :class:`holecli.errors.LoadError`, never anothe
 and a file is never half-read: a count that disagrees with its header is refused rather than
 padded or cut. Messages name rows and lines by their 1-based line number in the file.
 
+A PLY or PCD file must be exactly as long as its header says: a binary body (every element of a
+PLY, the records of a PCD, the sizes and LZF stream of a ``binary_compressed`` PCD) neither
+shorter nor longer, an ascii body one non-blank line per record with nothing but blank lines
+after the last. The one exception is the NUL padding of old PCL releases (up to about 1.8), whose
+binary and binary_compressed writers stretch the file to one memory page plus the data: a PCD
+exactly that long and ending in NUL bytes is read. Bytes after the data are otherwise the sign of
+a damaged file or a wrong header (a count halved, a type relabelled, DATA ascii marked binary),
+and reading on would measure reinterpreted bytes. A header is checked against the file's size
+before anything is allocated, so a count of 10^12 costs nothing.
+
 open3d reads PLY and PCD, but not defensively: a missing, truncated or malformed file comes back as
 an empty cloud, or as the header's point count filled with zeros or garbage, with at most a warning
 on the console. So the headers are parsed and checked here, and the vertex data of PLY and of
@@ -103,7 +113,7 @@ def read_cloud(path) -> Cloud:
         raw = _read_raw(name)
     except _BadFile as exc:
         raise LoadError(name, str(exc)) from None
-    except (OSError, ValueError, struct.error, OverflowError, MemoryError) as exc:
+    except (OSError, ValueError, struct.error, csv.Error, OverflowError, MemoryError) as exc:
         # Every known bad input is reported above with its own message; this is the safety net
         # that keeps an unforeseen one a one-line error instead of a traceback.
         raise LoadError(name, f"unreadable file ({_describe(exc)})") from exc
@@ -185,8 +195,8 @@ def _read_raw(name: str) -> np.ndarray:
     if stat.S_ISDIR(info.st_mode):
         raise _BadFile("is a directory")
     if not stat.S_ISREG(info.st_mode):
-        # A FIFO or a device would block or never end.
-        raise _BadFile("not a regular file")
+        # Decided before opening: opening a FIFO blocks until a writer comes, and a device never ends.
+        raise _BadFile(f"not a regular file ({_file_kind(info.st_mode)})")
     extension = os.path.splitext(name)[1].lower()
     if extension not in SUPPORTED_EXTENSIONS:
         shown = repr(extension) if extension else "(none)"
@@ -202,6 +212,18 @@ def _read_raw(name: str) -> np.ndarray:
     if extension == ".ply":
         return _read_ply(name, data)
     return _read_pcd(name, data)
+
+
+def _file_kind(mode: int) -> str:
+    for test, kind in (
+        (stat.S_ISFIFO, "a FIFO"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    ):
+        if test(mode):
+            return kind
+    return f"file type {stat.S_IFMT(mode):#o}"
 
 
 def _finite_cloud(raw: np.ndarray, name: str) -> Cloud:
@@ -243,8 +265,10 @@ def _missing_xyz(names, singular: str, plural: str, where: str) -> str:
 def _xyz_from_records(records: np.ndarray) -> np.ndarray:
     """The x, y, z fields of a structured array as an (n, 3) float64 array."""
     points = np.empty((len(records), 3), dtype=np.float64)
-    for column, axis in enumerate("xyz"):
-        points[:, column] = records[axis]
+    # A float32 signalling NaN sets the "invalid" flag when widened; it is a NaN like any other here.
+    with np.errstate(invalid="ignore"):
+        for column, axis in enumerate("xyz"):
+            points[:, column] = records[axis]
     return points
 
 
@@ -330,10 +354,9 @@ def _read_ply(name: str, data: bytes) -> np.ndarray:
         raise _BadFile(_missing_xyz(vertex.scalar_names, "property", "properties", "PLY vertex element"))
     if vertex.count == 0:
         raise _BadFile("no points (PLY header announces 0 vertices)")
-    before = header.elements[: header.elements.index(vertex)]
     if header.format == "ascii":
-        return _read_ply_ascii(name, data, header, before, vertex)
-    return _read_ply_binary(data, header, before, vertex)
+        return _read_ply_ascii(name, data, header, vertex)
+    return _read_ply_binary(data, header, vertex)
 
 
 def _read_ply_header(data: bytes) -> _PlyHeader:
@@ -394,34 +417,43 @@ def _parse_ply_property(words: list, line: str) -> _PlyProperty:
     raise _BadFile(f"garbled PLY header (bad property line {_quote(line)})")
 
 
-def _read_ply_binary(data: bytes, header: _PlyHeader, before: tuple, vertex: _PlyElement) -> np.ndarray:
+def _read_ply_binary(data: bytes, header: _PlyHeader, vertex: _PlyElement) -> np.ndarray:
+    """The vertices' x, y, z; every element is stepped over, and the data must end with the last."""
     byteorder = _PLY_BYTEORDER[header.format]
     offset = header.data_offset
-    for element in before:
-        offset = _walk_binary_records(data, offset, element, byteorder)[0]
-    if vertex.has_lists:
-        return _walk_binary_records(data, offset, vertex, byteorder, keep=True)[1]
-    offsets, formats, size = {}, {}, 0
-    for prop in vertex.properties:
-        offsets[prop.name], formats[prop.name] = size, prop.dtype
-        size += np.dtype(prop.dtype).itemsize
-    needed = vertex.count * size
-    available = max(len(data) - offset, 0)
-    if available < needed:
+    points = None
+    layout = []  # what each element took, for the message
+    for element in header.elements:
+        start = offset
+        offset, kept, record_size = _walk_binary_records(data, offset, element, byteorder, keep=element is vertex)
+        if element is vertex:
+            points = kept
+        if element.count:
+            unit = _unit(element)
+            layout.append(
+                f"{element.count} {unit} of {record_size} bytes" if record_size else f"{element.count} {unit} in {offset - start} bytes"
+            )
+    if offset != len(data):
+        # No PLY writer is known to pad its binary data; bytes past the last element mean a count or a
+        # type in the header does not describe the data (or the file was joined to something).
         raise _BadFile(
-            f"truncated binary PLY: header announces {vertex.count} vertices ({needed} bytes) "
-            f"but only {available} bytes follow"
+            f"garbled binary PLY: {len(data) - header.data_offset} bytes of data but the header declares "
+            f"{offset - header.data_offset} ({', '.join(layout)})"
         )
-    records = np.frombuffer(data, _record_dtype(offsets, formats, size, byteorder), vertex.count, offset)
-    return _xyz_from_records(records)
+    return points
+
+
+def _unit(element: _PlyElement) -> str:
+    """How messages call the records of an element."""
+    return {"vertex": "vertices", "point": "points"}.get(element.name, f"{element.name!r} records")
 
 
 def _walk_binary_records(data: bytes, offset: int, element: _PlyElement, byteorder: str, keep: bool = False):
     """Step over the records of a binary PLY element; with ``keep``, also collect x, y, z.
 
-    Records without list properties have a fixed size and are skipped by arithmetic; records with
-    lists are walked one by one, which is slow but only needed for rare layouts (a list property
-    on the vertex element, or an element with lists before it).
+    Records without list properties have a fixed size and are skipped by arithmetic. So are records
+    whose lists all have the lengths of the first record's (the triangles of a mesh): one numpy pass
+    checks every length. Anything else is walked record by record, which is slow but rare.
 
     Returns
     -------
@@ -429,9 +461,27 @@ def _walk_binary_records(data: bytes, offset: int, element: _PlyElement, byteord
         The offset just past the element's data.
     points : (count, 3) float64 ndarray or None
         The x, y, z of each record when ``keep`` is true.
+    record_size : int or None
+        The size of every record, None when they differ.
     """
-    if not element.has_lists and not keep:
-        return offset + element.count * sum(np.dtype(p.dtype).itemsize for p in element.properties), None
+    available = len(data) - offset
+    minimum = element.count * _minimum_record_size(element)
+    if minimum > available:
+        # Checked first so that a count of 10**12 is refused before any work.
+        at_least = "at least " if element.has_lists else ""
+        raise _BadFile(
+            f"truncated binary PLY: header announces {element.count} {_unit(element)} ({at_least}{minimum} bytes) "
+            f"but only {available} bytes follow"
+        )
+    layout = _uniform_layout(data, offset, element, byteorder)
+    if layout is not None:
+        offsets, size = layout
+        points = None
+        if keep:
+            formats = {prop.name: prop.dtype for prop in element.properties}
+            dtype = _record_dtype(offsets, formats, size, byteorder)
+            points = _xyz_from_records(np.frombuffer(data, dtype, element.count, offset))
+        return offset + element.count * size, points, size
     # Per property: struct format and size of the value (or list item), and of a list's length.
     layout = []
     for prop in element.properties:
@@ -466,24 +516,87 @@ def _walk_binary_records(data: bytes, offset: int, element: _PlyElement, byteord
             f"truncated binary PLY: data ends in {element.name} {index + 1} "
             f"of the {element.count} the header announces"
         ) from None
-    return offset, (np.array(rows, dtype=np.float64).reshape(-1, 3) if keep else None)
+    return offset, (np.array(rows, dtype=np.float64).reshape(-1, 3) if keep else None), None
 
 
-def _read_ply_ascii(
-    name: str, data: bytes, header: _PlyHeader, before: tuple, vertex: _PlyElement
-) -> np.ndarray:
-    if not before and not vertex.has_lists:
-        # The usual layout: vertices first, one per line, fixed number of values. loadtxt allocates
-        # max_rows rows up front, so a count the file cannot hold must not reach it.
-        rows = min(vertex.count, data.count(b"\n", header.data_offset) + 1)
-        table = _loadtxt(name, skiprows=header.lines, max_rows=rows, comments=None, encoding="latin-1")
+def _minimum_record_size(element: _PlyElement) -> int:
+    """The bytes a binary record takes at least: its scalars and the lengths of its lists."""
+    return sum(np.dtype(prop.length_dtype or prop.dtype).itemsize for prop in element.properties)
+
+
+def _uniform_layout(data: bytes, offset: int, element: _PlyElement, byteorder: str):
+    """The scalar offsets and the size of the records, if all are laid out like the first; else None.
+
+    Without lists that is always so. With lists, the first record's lengths give a candidate size;
+    if every record's length fields, read at that stride, hold the same lengths, then by induction
+    every record has that size.
+    """
+    scalar_offsets, size = {}, 0
+    if element.count == 0:
+        return scalar_offsets, 0
+    lengths = []  # (offset in the record, numpy format, value) of each list length
+    for prop in element.properties:
+        if not prop.length_dtype:
+            scalar_offsets[prop.name] = size
+            size += np.dtype(prop.dtype).itemsize
+            continue
+        length_type = np.dtype(prop.length_dtype).newbyteorder(byteorder)
+        if offset + size + length_type.itemsize > len(data):
+            return None
+        length = int(np.frombuffer(data, length_type, 1, offset + size)[0])
+        if length < 0:
+            return None
+        lengths.append((size, length_type, length))
+        size += length_type.itemsize + length * np.dtype(prop.dtype).itemsize
+    if not lengths:
+        return scalar_offsets, size
+    if size == 0 or offset + element.count * size > len(data):
+        return None
+    dtype = np.dtype(
+        {
+            "names": [f"n{i}" for i in range(len(lengths))],
+            "formats": [length_type for _, length_type, _ in lengths],
+            "offsets": [position for position, _, _ in lengths],
+            "itemsize": size,
+        }
+    )
+    records = np.frombuffer(data, dtype, element.count, offset)
+    if all((records[f"n{i}"] == length).all() for i, (_, _, length) in enumerate(lengths)):
+        return scalar_offsets, size
+    return None
+
+
+def _read_ply_ascii(name: str, data: bytes, header: _PlyHeader, vertex: _PlyElement) -> np.ndarray:
+    # Nothing here allocates by the header's counts before checking them against the file: the fast
+    # path needs as many lines as records, and the slow path stops at the first line missing.
+    records = sum(element.count for element in header.elements)
+    if (
+        header.elements[0] is vertex
+        and not vertex.has_lists
+        and _count_content_lines(data, header.data_offset) == records
+    ):
+        # The usual layout: vertices first, one per line, fixed number of values, and the file has
+        # as many lines as the header has records (loadtxt allocates max_rows rows up front).
+        table = _loadtxt(name, skiprows=header.lines, max_rows=vertex.count, comments=None, encoding="latin-1")
         if table is not None and table.shape == (vertex.count, len(vertex.properties)):
             names = [prop.name for prop in vertex.properties]
             return np.ascontiguousarray(table[:, [names.index(axis) for axis in "xyz"]])
     lines = _numbered_lines(data, header.data_offset, header.lines + 1)
-    for element in before:
-        _parse_ascii_records(lines, element, "PLY")
-    return _parse_ascii_records(lines, vertex, "PLY")
+    points = None
+    for element in header.elements:
+        records = _parse_ascii_records(lines, element, "PLY")
+        if element is vertex:
+            points = records
+    _refuse_lines_after(lines, header.elements[-1], "PLY")
+    return points
+
+
+_CONTENT_LINE = re.compile(rb"^[ \t\r\f\v]*\S", re.MULTILINE)
+
+
+def _count_content_lines(data: bytes, offset: int) -> int:
+    """The number of non-blank lines from ``offset`` on (which is at a line start)."""
+    return sum(1 for _ in _CONTENT_LINE.finditer(data, offset))
 
 
 def _numbered_lines(data: bytes, offset: int, first_number: int):
@@ -494,7 +607,7 @@ def _numbered_lines(data: bytes, offset: int, first_number: int):
             yield number, tokens
 
 
-def _parse_ascii_records(lines, element: _PlyElement, what: str, exact_end: bool = False) -> np.ndarray:
+def _parse_ascii_records(lines, element: _PlyElement, what: str) -> np.ndarray:
     """Parse the records of one element from an ascii body, one record per line.
 
     The slow reference path: it handles list properties and names the line of every problem.
@@ -507,8 +620,6 @@ def _parse_ascii_records(lines, element: _PlyElement, what: str, exact_end: bool
         The layout of each record (a PCD header is described as one element too).
     what : str
         ``"PLY"`` or ``"PCD"``, for the messages.
-    exact_end : bool
-        Refuse lines after the last record (PCD; a PLY has further elements there).
 
     Returns
     -------
@@ -516,7 +627,7 @@ def _parse_ascii_records(lines, element: _PlyElement, what: str, exact_end: bool
         The x, y, z of each record (zeros where the element has no such property).
     """
     column = {"x": 0, "y": 1, "z": 2}
-    unit = {"vertex": "vertices", "point": "points"}.get(element.name, f"{element.name!r} records")
+    unit = _unit(element)
     rows = []
     while len(rows) < element.count:
         item = next(lines, None)
@@ -551,14 +662,17 @@ def _parse_ascii_records(lines, element: _PlyElement, what: str, exact_end: bool
                 f"the header declares {position}"
             )
         rows.append(row)
-    if exact_end:
-        extra = next(lines, None)
-        if extra is not None:
-            raise _BadFile(
-                f"malformed ascii {what}: line {extra[0]} is past the {element.count} {unit} "
-                "the header announces"
-            )
     return np.array(rows, dtype=np.float64).reshape(-1, 3)
+
+
+def _refuse_lines_after(lines, last: _PlyElement, what: str) -> None:
+    """Refuse a non-blank line after the last record: the counts in the header are not the file's."""
+    extra = next(lines, None)
+    if extra is not None:
+        raise _BadFile(
+            f"malformed ascii {what}: line {extra[0]} is past the {last.count} {_unit(last)} "
+            "the header announces"
+        )
 
 
 def _ascii_value(token: bytes, number: int, what: str) -> float:
@@ -704,13 +818,25 @@ def _pcd_as_element(header: _PcdHeader) -> _PlyElement:
 
 
 def _read_pcd_ascii(name: str, data: bytes, header: _PcdHeader) -> np.ndarray:
+    # The record layout has one entry per value, and COUNT can ask for 10**9 of them: check first
+    # that one record fits in the file (a value takes a digit and a separator, the last no separator).
+    # Missing or extra records are found line by line below, without allocating by the count.
+    values = sum(header.counts)
+    available = len(data) - header.data_offset
+    if 2 * values - 1 > available:
+        raise _BadFile(
+            f"truncated ascii PCD: header announces points of {values} values (at least {2 * values - 1} "
+            f"bytes each) but only {available} bytes follow"
+        )
     element = _pcd_as_element(header)
     table = _loadtxt(name, skiprows=header.lines, comments=None, encoding="latin-1")
     if table is not None and table.shape == (header.points, len(element.properties)):
         names = [prop.name for prop in element.properties]
         return np.ascontiguousarray(table[:, [names.index(axis) for axis in "xyz"]])
     lines = _numbered_lines(data, header.data_offset, header.lines + 1)
-    return _parse_ascii_records(lines, element, "PCD", exact_end=True)
+    points = _parse_ascii_records(lines, element, "PCD")
+    _refuse_lines_after(lines, element, "PCD")
+    return points
 
 
 def _read_pcd_binary(data: bytes, header: _PcdHeader) -> np.ndarray:
@@ -725,6 +851,11 @@ def _read_pcd_binary(data: bytes, header: _PcdHeader) -> np.ndarray:
         raise _BadFile(
             f"truncated binary PCD: header announces {header.points} points ({needed} bytes) "
             f"but only {available} bytes follow"
+        )
+    if available > needed and not _is_pcl_padding(data, header.data_offset + needed, needed):
+        raise _BadFile(
+            f"garbled binary PCD: {available} bytes of data but the header declares {needed} "
+            f"({header.points} points of {size} bytes)"
         )
     records = np.frombuffer(data, _record_dtype(offsets, formats, size), header.points, header.data_offset)
     return _xyz_from_records(records)
@@ -763,7 +894,32 @@ def _read_pcd_compressed(name: str, data: bytes, header: _PcdHeader) -> np.ndarr
             f"truncated binary_compressed PCD: {compressed} compressed bytes announced "
             f"but only {available - 8} follow"
         )
+    if available - 8 > compressed and not _is_pcl_padding(data, header.data_offset + 8 + compressed, 8 + compressed):
+        raise _BadFile(
+            f"garbled binary_compressed PCD: {available - 8} bytes of data after the sizes but "
+            f"{compressed} compressed bytes announced"
+        )
+    if uncompressed > _LZF_MAX_EXPANSION * compressed:
+        # open3d would allocate the unpacked size (up to 4 GiB) before finding the stream too short.
+        raise _BadFile(
+            f"garbled binary_compressed PCD: {compressed} compressed bytes cannot unpack to "
+            f"{uncompressed} (LZF expands at most {_LZF_MAX_EXPANSION} times)"
+        )
     return _read_with_open3d(name, header.points)
+
+
+# An LZF back-reference of 3 bytes copies at most 264; literal runs never expand.
+_LZF_MAX_EXPANSION = 88
+
+# PCL up to about 1.8 writes binary and binary_compressed PCD through a memory map of a file it
+# first stretches to getpagesize() + the data size: such a file ends in NUL bytes filling the page
+# the header took (all eleven PCL binary files of the real-file corpus are like that).
+_PCL_PAGE_SIZES = (4096, 16384, 65536)
+
+
+def _is_pcl_padding(data: bytes, end: int, data_size: int) -> bool:
+    """Whether the bytes from ``end`` on are an old PCL writer's padding of a ``data_size`` body."""
+    return len(data) - data_size in _PCL_PAGE_SIZES and data.count(b"\0", end) == len(data) - end
 
 
 def _read_with_open3d(name: str, expected: int) -> np.ndarray:
@@ -797,8 +953,20 @@ class _TableLayout:
     columns: tuple  # indices of the x, y, z columns
 
 
+# A row of a point table is at most a few hundred characters. A much longer line is not a table (and
+# the csv module refuses a field over 131,072 characters); this limit keeps it a one-line error.
+_MAX_LINE_BYTES = 1 << 16
+_LINE_BREAK = re.compile(rb"\r\n|\r|\n")
+
+
 def _read_text_table(name: str) -> np.ndarray:
     """Read x, y, z from a delimited text table (.csv, .txt, .xyz)."""
+    with open(name, "rb") as stream:
+        raw = stream.read()
+    # Checked on the whole file, not only where the slow reader looks, so that both readers agree.
+    if b"\0" in raw:
+        raise _BadFile("not a text file (contains NUL bytes)")
+    _check_line_lengths(raw)
     layout = _scan_table_head(name)
     table = _loadtxt(
         name,
@@ -811,7 +979,20 @@ def _read_text_table(name: str) -> np.ndarray:
     )
     if table is not None and len(table) > 0:
         return np.ascontiguousarray(table)
-    return _parse_table_rows(name, layout)
+    return _parse_table_rows(raw, layout)
+
+
+def _check_line_lengths(raw: bytes) -> None:
+    """Refuse a line longer than _MAX_LINE_BYTES, naming it (line breaks: LF, CR LF or CR)."""
+    codes = np.frombuffer(raw, dtype=np.uint8)
+    breaks = np.flatnonzero((codes == 10) | (codes == 13))
+    starts = np.concatenate(([0], breaks + 1))
+    ends = np.concatenate((breaks, [len(raw)]))
+    long = np.flatnonzero(ends - starts > _MAX_LINE_BYTES)
+    if len(long):
+        start = int(starts[long[0]])
+        number = 1 + len(_LINE_BREAK.findall(raw, 0, start))
+        raise _BadFile(f"line {number} is longer than {_MAX_LINE_BYTES} bytes (not a point table)")
 
 
 def _scan_table_head(name: str) -> _TableLayout:
@@ -837,7 +1018,18 @@ def _scan_table_head(name: str) -> _TableLayout:
         raise _BadFile("no points (only a header row)")
     data_number, data = content[1]
     delimiter = _delimiter_of(data)
+    # The delimiter is taken from the data; a header written with another one ("id,x,y,z" over
+    # "1;2;3;4") would be read as one unnamed column and the first three numbers taken as x, y, z.
+    named, found = len(_split_fields(first, delimiter)), len(_split_fields(data, delimiter))
+    if named != found:
+        raise _BadFile(
+            f"the header (line {first_number}) has {named} field{'s' if named != 1 else ''} but row "
+            f"{data_number} has {found}, split at {_DELIMITER_NAMES[delimiter]}"
+        )
     return _TableLayout(first_number, delimiter, _choose_columns(first, data, data_number, delimiter))
+
+
+_DELIMITER_NAMES = {";": "semicolons", ",": "commas", "\t": "tabs", None: "whitespace"}
 
 
 def _choose_columns(header: str, data: str, data_number: int, delimiter: Optional[str]) -> tuple:
@@ -861,12 +1053,8 @@ def _choose_columns(header: str, data: str, data_number: int, delimiter: Optiona
     return tuple(numeric[:3])
 
 
-def _parse_table_rows(name: str, layout: _TableLayout) -> np.ndarray:
+def _parse_table_rows(raw: bytes, layout: _TableLayout) -> np.ndarray:
     """The slow reference reader of a text table, row by row; names the row of any problem."""
-    with open(name, "rb") as stream:
-        raw = stream.read()
-    if b"\0" in raw:
-        raise _BadFile("not a text file (contains NUL bytes)")
     text = raw.decode("utf-8-sig", errors="replace").replace("\r\n", "\n").replace("\r", "\n")
     needed = max(layout.columns) + 1
     rows = []

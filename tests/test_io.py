@@ -2,9 +2,15 @@
 
 import dataclasses
 import os
+import re
+import stat
 import struct
 import subprocess
 import sys
+import threading
+import time
+import tracemalloc
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -505,7 +511,7 @@ _BAD_FILES = [
     ("a.ply", "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n4 5 6 7\n", r"malformed ascii PLY: line 9 has 4 values, the header declares 3$"),
     ("a.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty list uchar int idx\nend_header\n1 2 3\n", r"malformed ascii PLY: line 9 has 3 values, too few"),
     ("a.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty list uchar int idx\nend_header\n1 2 3 1.5 1\n", r"malformed ascii PLY: list length '1\.5' of 'idx' in line 9 is not a count$"),
-    ("a.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nproperty list uchar int idx\nend_header\n" + "\0" * 12 + "\x05", r"truncated binary PLY: data ends in vertex 1 of the 2"),
+    ("a.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nproperty list uchar int idx\nend_header\n" + "\0" * 12 + "\x05" + "\0" * 13, r"truncated binary PLY: data ends in vertex 1 of the 2"),
     ("a.ply", b"ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty list char int idx\nend_header\n" + b"\0" * 12 + b"\xff", r"negative list length in vertex 1$"),
     ("a.pcd", "VERSION 0.7\nFIELDS x y z\n", r"garbled PCD header \(no DATA line\)$"),
     ("a.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nBANANA 3\nDATA ascii\n1 2 3\n", r"garbled PCD header \(unexpected line 'BANANA 3'\)$"),
@@ -589,7 +595,9 @@ def test_truncation_anywhere_is_refused_or_keeps_the_count(tmp_path, kind):
             # A table has no count to check: a cut at a line end is a shorter table.
             assert len(cloud.points) <= 40
         else:
-            # Only a cut inside the last number of an ascii file, or in the faces, can load.
+            # A binary file must be as long as its header says; only a cut inside the last number of
+            # an ascii file can load.
+            assert kind == "ascii_ply", f"cut at {end} loaded"
             assert len(cloud.points) == 40
 
 
@@ -613,6 +621,284 @@ def test_corrupted_bytes_give_load_error_or_points(tmp_path):
             except LoadError:
                 continue
             assert points.ndim == 2 and points.shape[1] == 3 and np.isfinite(points).all()
+
+
+# --- damaged files: sizes and counts that disagree with the header -----------------------------
+
+
+def _binary_ply_with_faces(byteorder="little", faces=((0, 1, 2), (2, 3, 4), (4, 5, 6))):
+    fmt = f"binary_{byteorder}_endian"
+    return _ply_bytes(fmt, _vertices(_points(10), "f8"), np.array(faces))
+
+
+def test_pcd_ascii_body_relabelled_binary_is_refused(tmp_path):
+    # Issue 8: read as 12-byte records, the text gave 10 "points" and a 0.00024 mm hole.
+    text = "".join(f"{x!r} {y!r} {z!r}\n" for x, y, z in _as_float32(_points(10)))
+    content = _pcd_bytes("binary", text.encode(), points=10)
+    with pytest.raises(LoadError, match=rf"garbled binary PCD: {len(text)} bytes of data but the header declares "
+                       r"120 \(10 points of 12 bytes\)$"):  # fmt: skip
+        read_cloud(_write(tmp_path / "a.pcd", content))
+
+
+@pytest.mark.parametrize(
+    "count, problem",
+    [
+        (5, r"garbled binary PLY: 240 bytes of data but the header declares 120 \(5 vertices of 24 bytes\)$"),
+        (9, r"garbled binary PLY: 240 bytes of data but the header declares 216 \(9 vertices of 24 bytes\)$"),
+        (11, r"truncated binary PLY: header announces 11 vertices \(264 bytes\) but only 240 bytes follow$"),
+    ],
+    ids=["halved", "minus-one", "plus-10-percent"],
+)
+def test_binary_ply_vertex_count_that_disagrees_with_the_data_is_refused(tmp_path, count, problem):
+    content = _GOOD_BINARY_PLY.replace(b"element vertex 10\n", f"element vertex {count}\n".encode())
+    with pytest.raises(LoadError, match=problem):
+        read_cloud(_write(tmp_path / "a.ply", content))
+
+
+def test_binary_ply_double_relabelled_float_is_refused(tmp_path):
+    content = _GOOD_BINARY_PLY.replace(b"property double", b"property float")
+    with pytest.raises(LoadError, match=r"240 bytes of data but the header declares 120 \(10 vertices of 12 bytes\)$"):
+        read_cloud(_write(tmp_path / "a.ply", content))
+
+
+@pytest.mark.parametrize("tail", [b"\n", b"\0", b"\r\n", b"junk", b"\0" * 24], ids=repr)
+@pytest.mark.parametrize("kind", ["ply", "ply_faces_big_endian", "pcd", "pcd_compressed"])
+def test_bytes_after_binary_data_are_refused(tmp_path, kind, tail):
+    if kind == "pcd_compressed":
+        pytest.importorskip("open3d")
+    content, name = {
+        "ply": (_GOOD_BINARY_PLY, "a.ply"),
+        "ply_faces_big_endian": (_binary_ply_with_faces("big"), "a.ply"),
+        "pcd": (_GOOD_BINARY_PCD, "a.pcd"),
+        "pcd_compressed": (_compressed_pcd_bytes(_vertices(_points(10), "<f4")), "a.pcd"),
+    }[kind]
+    path = _write(tmp_path / name, content)
+    read_cloud(path)
+    path.write_bytes(content + tail)
+    with pytest.raises(LoadError, match=r"garbled binary\S* (PLY|PCD): (\d+) bytes of data.* (\d+)") as info:
+        read_cloud(path)
+    actual, declared = map(int, re.search(r"(\d+) bytes of data\D+(\d+)", info.value.problem).groups())
+    assert actual - declared == len(tail)
+
+
+def test_binary_ply_message_names_every_element(tmp_path):
+    path = _write(tmp_path / "a.ply", _binary_ply_with_faces() + b"\n")
+    with pytest.raises(LoadError, match=r"garbled binary PLY: 280 bytes of data but the header declares 279 "
+                       r"\(10 vertices of 24 bytes, 3 'face' records of 13 bytes\)$"):  # fmt: skip
+        read_cloud(path)
+
+
+def test_binary_ply_faces_of_mixed_sizes_are_walked(tmp_path):
+    # Triangles and quads: the records differ in size, so the uniform fast path must hand over.
+    faces = [(0, 1, 2), (2, 3, 4, 5), (4, 5, 6)]
+    byteorder = "<"
+    head = _ply_bytes("binary_little_endian", _vertices(_points(10), "f8"), np.zeros((3, 3), int))
+    head = head[: head.index(b"end_header\n") + len(b"end_header\n")]
+    body = _vertices(_points(10), "f8").tobytes()
+    body += b"".join(struct.pack(byteorder + f"B{len(f)}i", len(f), *f) for f in faces)
+    path = _write(tmp_path / "a.ply", head + body)
+    _check_cloud(read_cloud(path), _points(10))
+    path.write_bytes(head + body[:-1])
+    with pytest.raises(LoadError, match=r"truncated binary PLY: data ends in face 3 of the 3"):
+        read_cloud(path)
+    path.write_bytes(head + body + b"\0")
+    with pytest.raises(LoadError, match=r"284 bytes of data but the header declares 283 \(10 vertices of 24 "
+                       r"bytes, 3 'face' records in 43 bytes\)$"):  # fmt: skip
+        read_cloud(path)
+
+
+@pytest.mark.parametrize("page", [4096, 16384])
+@pytest.mark.parametrize("data", ["binary", "binary_compressed"])
+def test_pcd_with_old_pcl_page_padding_is_read(tmp_path, page, data):
+    # PCL up to about 1.8 stretches the file to getpagesize() + the data size, padded with NUL.
+    if data == "binary_compressed":
+        pytest.importorskip("open3d")
+        content = _compressed_pcd_bytes(_vertices(_points(10), "<f4"))
+        body = len(content) - content.index(b"DATA binary_compressed\n") - len(b"DATA binary_compressed\n")
+    else:
+        content, body = _GOOD_BINARY_PCD, 120
+    padded = content + b"\0" * (page + body - len(content))
+    _check_cloud(read_cloud(_write(tmp_path / "a.pcd", padded)), _as_float32(_points(10)))
+    for damaged in (padded[:-1], padded + b"\0", padded[:-1] + b"\n"):
+        with pytest.raises(LoadError, match=r"garbled binary\S* PCD: \d+ bytes of data"):
+            read_cloud(_write(tmp_path / "a.pcd", damaged))
+
+
+@pytest.mark.parametrize(
+    "content, problem",
+    [
+        (_GOOD_ASCII_PLY + b"1 2 3\n", r"malformed ascii PLY: line 19 is past the 10 vertices the header announces$"),
+        (_GOOD_ASCII_PLY + b"garbage\n", r"line 19 is past the 10 vertices"),
+        (_ply_bytes("ascii", _vertices(_points(4), "f4"), np.array([[0, 1, 2]])) + b"3 1 2 3\n",
+         r"malformed ascii PLY: line 16 is past the 1 'face' records the header announces$"),
+        (_ply_bytes("ascii", _vertices(_points(4), "f4"), np.array([[0, 1, 2], [1, 2, 3]])).rsplit(b"3 ", 1)[0],
+         r"truncated ascii PLY: header announces 2 'face' records but only 1 line follows$"),
+        (_pcd_bytes("ascii", b"1 2 3\n4 5 6\nextra\n", points=2),
+         r"malformed ascii PCD: line 14 is past the 2 points the header announces$"),
+    ],
+    ids=["ply-extra-vertex-line", "ply-garbage-line", "ply-extra-face-line", "ply-face-line-missing", "pcd-extra-line"],
+)
+def test_ascii_lines_past_or_short_of_the_header_counts_are_refused(tmp_path, content, problem):
+    with pytest.raises(LoadError, match=problem):
+        read_cloud(_write(tmp_path / "a.ply" if content.startswith(b"ply") else tmp_path / "a.pcd", content))
+
+
+def test_ascii_blank_lines_after_the_data_are_fine(tmp_path):
+    content = _ply_bytes("ascii", _vertices(_points(4), "f8"), np.array([[0, 1, 2]])) + b"\n  \r\n\t\n"
+    _check_cloud(read_cloud(_write(tmp_path / "a.ply", content)), _points(4))
+    content = _pcd_bytes("ascii", b"1 2 3\n4 5 6\n\n \n", points=2)
+    _check_cloud(read_cloud(_write(tmp_path / "a.pcd", content)), [[1, 2, 3], [4, 5, 6]])
+
+
+def test_float32_signalling_nan_is_dropped_without_a_warning(tmp_path):
+    signalling_nan = struct.unpack("<f", struct.pack("<I", 0x7F800001))[0]
+    points = np.array([[1.0, 2.0, 3.0], [signalling_nan, 0.0, 0.0]])
+    content = _ply_bytes("binary_little_endian", _vertices(points, "f4"))
+    content = content[:-12] + struct.pack("<I", 0x7F800001) + content[-8:]  # keep the exact bit pattern
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        cloud = read_cloud(_write(tmp_path / "a.ply", content))
+    _check_cloud(cloud, [[1.0, 2.0, 3.0]], dropped=1)
+
+
+# --- headers that ask for more than the file holds ---------------------------------------------
+
+_HUGE_HEADERS = [
+    # name, content, problem: each is a few hundred bytes asking for gigabytes.
+    ("a.pcd", "FIELDS x y z n\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 10000000\nWIDTH 1\nDATA ascii\n1 2 3 4\n",
+     r"truncated ascii PCD: header announces points of 10000003 values \(at least 20000005 bytes each\) but only 8 bytes follow$"),
+    ("a.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1000000000000\nDATA binary\n" + "\0" * 24,
+     r"truncated binary PCD: header announces 1000000000000 points \(12000000000000 bytes\) but only 24 bytes follow$"),
+    ("a.pcd", b"FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 100000000\nHEIGHT 1\nPOINTS 100000000\nDATA binary_compressed\n"
+     + struct.pack("<II", 16, 1200000000) + b"\xe0\xff\0" * 5 + b"\0",
+     r"garbled binary_compressed PCD: 16 compressed bytes cannot unpack to 1200000000 \(LZF expands at most 88 times\)$"),
+    ("a.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\nproperty float x\nproperty float y\n"
+     "property float z\nend_header\n" + "\0" * 24,
+     r"truncated binary PLY: header announces 1000000000000 vertices \(12000000000000 bytes\) but only 24 bytes follow$"),
+    ("a.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+     "property list uint float tags\nend_header\n" + "\0" * 12 + "\xff\xff\xff\x7f" + "\0" * 8,
+     r"truncated binary PLY: data ends in vertex 1 of the 1 the header announces$"),
+    ("a.ply", "ply\nformat binary_little_endian 1.0\nelement camera 1000000000000\nproperty list uchar float v\n"
+     "element vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n" + "\0" * 40,
+     r"truncated binary PLY: header announces 1000000000000 'camera' records \(at least 1000000000000 bytes\) but only 40"),
+    ("a.ply", "ply\nformat ascii 1.0\nelement vertex 1000000000000\nproperty float x\nproperty float y\nproperty float z\n"
+     "end_header\n1 2 3\n", r"truncated ascii PLY: header announces 1000000000000 vertices but only 1 line follows$"),
+    ("a.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+     "property list uint float tags\nend_header\n1 2 3 4000000000 1\n",
+     r"malformed ascii PLY: line 9 has 5 values, the header declares 4000000004$"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "name, content, problem", _HUGE_HEADERS, ids=[f"{i}-{row[0]}" for i, row in enumerate(_HUGE_HEADERS)]
+)
+def test_header_asking_for_more_than_the_file_holds_is_refused_fast(tmp_path, name, content, problem):
+    if b"binary_compressed" in (content if isinstance(content, bytes) else content.encode()):
+        pytest.importorskip("open3d")
+    path = _write(tmp_path / name, content)
+    tracemalloc.start()
+    started = time.perf_counter()
+    try:
+        with pytest.raises(LoadError) as info:
+            read_cloud(path)
+        elapsed = time.perf_counter() - started
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    # Time and Python-side memory first: they are the point (open3d's own allocations are not traced,
+    # which is why the compressed case is refused before open3d is called).
+    assert elapsed < 1.0
+    assert peak < 5_000_000
+    assert re.search(problem, info.value.problem)
+
+
+# --- text tables: long lines, odd bytes, headers that do not fit the rows -----------------------
+
+
+@pytest.mark.parametrize(
+    "name, content, line",
+    [
+        # The header's long field went to the csv module, which raised _csv.Error (a traceback).
+        ("a.csv", "x,y,z," + "a" * 140_000 + "\n1,2,3,4\n", 1),
+        ("a.csv", "x,y,z\n1,2,3\n" + '"' + "1" * 140_000 + '",2,3\n', 3),
+        ("a.csv", "x,y,z\r\n1,2,3\r\n4,5,6\r\n" + "1" * 70_000 + ",2,3\r\n", 4),
+        ("a.xyz", "1 2 3\r" + "9" * 1_000_000, 2),
+        ("a.txt", "1 2 3 " * 20_000 + "\n", 1),
+    ],
+    ids=["csv-header-field", "csv-quoted-field", "csv-crlf", "xyz-cr", "txt-many-columns"],
+)
+def test_text_line_too_long_is_refused(tmp_path, name, content, line):
+    with pytest.raises(LoadError, match=rf"line {line} is longer than 65536 bytes \(not a point table\)$"):
+        read_cloud(_write(tmp_path / name, content))
+
+
+@pytest.mark.parametrize(
+    "content, problem",
+    [
+        (b"1 2 3\n4 5 6 # a NUL \0 in a comment\n", r"not a text file \(contains NUL bytes\)$"),
+        (b"\xff\xfe1\0 \0002\0 \0003\0\n\0", r"not a text file \(contains NUL bytes\)$"),  # UTF-16
+        (b"1 2 3\n4 5\xe9 6\n", r"non-numeric value '5\ufffd' in row 2$"),
+    ],
+    ids=["nul-in-comment", "utf-16", "latin-1-in-value"],
+)
+def test_text_with_odd_bytes_is_refused(tmp_path, content, problem):
+    with pytest.raises(LoadError, match=problem):
+        read_cloud(_write(tmp_path / "a.xyz", content))
+
+
+def test_text_with_a_non_utf8_byte_in_a_comment_loads(tmp_path):
+    path = _write(tmp_path / "a.xyz", b"# caf\xe9\n1 2 3\n4 5 6 # \xe9\n")
+    _check_cloud(read_cloud(path), [[1, 2, 3], [4, 5, 6]])
+
+
+@pytest.mark.parametrize(
+    "text, problem",
+    [
+        ("id,x,y,z\n1;10;20;30\n2;11;21;31\n", r"the header \(line 1\) has 1 field but row 2 has 4, split at semicolons$"),
+        ("x y z\n1,2,3\n", r"the header \(line 1\) has 1 field but row 2 has 3, split at commas$"),
+        ("# made by hand\nx,y,z,intensity\n1,2,3\n", r"the header \(line 2\) has 4 fields but row 3 has 3, split at commas$"),
+        ("x;y;z\n1 2 3\n", r"the header \(line 1\) has 1 field but row 2 has 3, split at whitespace$"),
+    ],
+    ids=["comma-header-semicolon-rows", "space-header-comma-rows", "header-longer", "semicolon-header-space-rows"],
+)
+def test_csv_header_that_does_not_fit_the_rows_is_refused(tmp_path, text, problem):
+    # Issue 8: "id,x,y,z" over ";" rows was one unnamed column, and (id, x, y) were read as (x, y, z).
+    with pytest.raises(LoadError, match=problem):
+        read_cloud(_write(tmp_path / "a.csv", text))
+
+
+# --- files that are not regular files ----------------------------------------------------------
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
+def test_fifo_is_refused_without_being_opened(tmp_path):
+    fifo = tmp_path / "scan.ply"
+    os.mkfifo(fifo)
+    outcome = []
+
+    def read():
+        try:
+            read_cloud(fifo)
+        except LoadError as exc:
+            outcome.append(exc)
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    reader.join(timeout=5)
+    try:
+        assert not reader.is_alive(), "read_cloud blocked on the FIFO"
+    finally:
+        if reader.is_alive():  # opening the FIFO for writing releases a reader blocked in open()
+            os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+    assert len(outcome) == 1
+    assert outcome[0].problem == "not a regular file (a FIFO)"
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/null") or not stat.S_ISCHR(os.stat("/dev/null").st_mode),
+                    reason="no /dev/null character device")  # fmt: skip
+def test_character_device_is_refused():
+    with pytest.raises(LoadError, match=r"not a regular file \(a character device\)$"):
+        read_cloud("/dev/null")
 
 
 def test_cloud_is_frozen(tmp_path):
