@@ -9,7 +9,6 @@ Public API::
 """
 
 from holecli.errors import HoleCliError, LoadError, PointsError, SpecError
-from holecli.results import Detection, Hole, Plane
 
 __version__ = "0.1.0"
 
@@ -29,12 +28,17 @@ __all__ = [
 
 
 def __getattr__(name):
-    # Deferred so that ``import holecli`` stays cheap: io pulls in the readers (and open3d lazily),
-    # pipeline pulls in scipy.
+    # Deferred so that ``import holecli`` stays cheap (the ``holecli`` program handles signals only
+    # once it has been imported): io pulls in the readers (and open3d lazily), pipeline pulls in
+    # scipy, results pulls in dataclasses.
     if name in ("load_points", "read_cloud"):
         from holecli import io
 
         return getattr(io, name)
+    if name in ("Detection", "Hole", "Plane"):
+        from holecli import results
+
+        return getattr(results, name)
     if name == "detect":
         from holecli.pipeline import detect
 

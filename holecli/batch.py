@@ -9,8 +9,9 @@ The command line's ``holecli batch`` is a thin layer over this module:
   finishes;
 * :class:`RecordWriter` writes each record as JSON Lines or CSV with one write and a flush, so that an
   interrupted run leaves only whole lines;
-* :func:`prepare_resume` reads what an interrupted run wrote (cutting off a partial last line) and
-  :class:`Tally` counts records for the summary and the exit code.
+* :class:`BatchOutput` holds the output file locked for the run and, to resume, reads what an
+  interrupted run wrote (cutting off a partial last line); :func:`files_to_do` leaves out the files
+  already there, and :class:`Tally` counts records for the summary and the exit code.
 
 Nothing here prints or exits, and nothing imports click.
 """
@@ -25,6 +26,7 @@ import json
 import os
 import re
 import signal
+import stat
 from collections import deque
 from dataclasses import dataclass, replace
 
@@ -32,8 +34,9 @@ from holecli.errors import HoleCliError, LoadError
 from holecli.io import SUPPORTED_EXTENSIONS
 from holecli.report import BATCH_CSV_COLUMNS, csv_text, to_json_line
 
-__all__ = ["FORMATS", "FileSummary", "RecordWriter", "ResumeError", "Tally", "default_jobs", "failure_message",
-           "find_scans", "measure_all", "measure_record", "open_output", "prepare_resume"]
+__all__ = ["FORMATS", "BatchOutput", "FileSummary", "OutputBusyError", "RecordWriter", "ResumeError", "Tally",
+           "default_jobs", "failure_message", "files_to_do", "find_scans", "measure_all", "measure_record",
+           "resolved_path"]
 
 FORMATS = ("jsonl", "csv")
 
@@ -155,36 +158,58 @@ def measure_record(path, options, spec=None) -> dict:
     -------
     dict
         The ``detect`` record (``Detection.to_dict()`` with ``file`` and ``dropped_points``, and the
-        verdicts of :func:`holecli.tolerance.check` when ``spec`` is given); for a file that cannot be
-        measured ``{"file": path, "error": message}``. An unexpected exception (a bug) becomes such an
+        verdicts of :func:`holecli.tolerance.check` when ``spec`` is given) and ``path``, the file's
+        :func:`resolved_path`; for a file that cannot be measured ``{"file": path, "path": ...,
+        "error": message}``. An unexpected exception (a bug) becomes such an
         error record too, so that one file cannot stop a batch.
     """
     from holecli import tolerance
     from holecli.io import read_cloud
     from holecli.pipeline import detect
 
+    resolved = resolved_path(path)
     try:
         cloud = read_cloud(path)
         detection = detect(cloud.points, **options)
     except HoleCliError as error:
-        return {"file": str(path), "error": failure_message(path, error)}
+        return {"file": str(path), "path": resolved, "error": failure_message(path, error)}
     except Exception as error:  # noqa: BLE001 - a bug in one file must not stop the batch
         problem = " ".join(f"{type(error).__name__}: {error}".splitlines())
-        return {"file": str(path), "error": f"{path}: internal error (a bug: please report it; "
-                                            f"holecli detect shows the traceback): {problem}"}
+        return {"file": str(path), "path": resolved,
+                "error": f"{path}: internal error (a bug: please report it; holecli detect shows the "
+                         f"traceback): {problem}"}
     record = replace(detection, file=str(path), dropped_points=cloud.dropped).to_dict()
+    record["path"] = resolved
     return tolerance.check(record, spec) if spec is not None else record
+
+
+def resolved_path(path) -> str:
+    """The absolute path of ``path`` with every symbolic link resolved: what ``--resume`` matches
+    files on, wherever the batch is run from."""
+    return os.path.realpath(os.fspath(path))
 
 
 _WORKER = {}
 
+# Descriptors of the parent that a forked worker must not keep open: the locked output file (a
+# worker holding it would keep the lock after the parent is gone).
+PARENT_ONLY_DESCRIPTORS = set()
 
-def _start_worker(options, spec, preload):
-    """Pool initializer: runs once in every worker process."""
+_PR_SET_PDEATHSIG = 1
+
+
+def _start_worker(options, spec, preload, parent):
+    """Pool initializer: runs once in every worker process (``parent``: the batch's process id)."""
     # The parent handles Ctrl-C and SIGTERM and then ends the workers; a worker must not die of the
     # terminal's SIGINT on its own (it would break the pool and lose its record).
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _die_with_parent(parent)
+    for descriptor in PARENT_ONLY_DESCRIPTORS:
+        try:
+            os.close(descriptor)
+        except OSError:
+            pass
     # Pay the heavy imports here, once per worker, rather than in the first file's measurement.
     importlib.import_module("holecli.pipeline")
     for name in preload:
@@ -193,6 +218,19 @@ def _start_worker(options, spec, preload):
         except (ImportError, OSError):
             pass  # the file that needs it reports the problem itself
     _WORKER.update(options=options, spec=spec)
+
+
+def _die_with_parent(parent):
+    """Have the kernel kill this worker when the batch's process dies, even by SIGKILL (Linux); a
+    worker whose parent is already gone exits at once."""
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):  # not Linux: the pool's own checks end the worker later
+        pass
+    if os.getppid() != parent:
+        os._exit(1)
 
 
 def _measure_in_worker(path):
@@ -225,8 +263,8 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
     ------
     dict
         The record of each file, see :func:`measure_record`. A file whose worker process dies (a
-        crash in a library, the out-of-memory killer) is measured again alone in a fresh worker, and
-        gets an error record when that worker dies too.
+        crash in a library, the out-of-memory killer, a kill from outside) is measured again alone in
+        a fresh pool, and gets an error record when that worker dies too.
     """
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
@@ -240,7 +278,7 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
     while waiting or suspects:
         executor = ProcessPoolExecutor(max_workers=max(1, min(jobs, len(waiting) + len(suspects))),
                                        mp_context=context, initializer=_start_worker,
-                                       initargs=(options, spec, preload))
+                                       initargs=(options, spec, preload, os.getpid()))
         in_flight = {}
         finished = False
         try:
@@ -260,8 +298,10 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
                         broken.append(path)
                 yield from records
                 if broken:
-                    # Every file in flight fails with the pool; only a file that was alone is known
-                    # to be the one that killed its worker.
+                    # Every file in flight fails with the pool. A file that was measured alone in
+                    # its own pool is known to be the one that killed its worker; every other one is
+                    # measured again, alone (the killer may have been the out-of-memory killer, or
+                    # a signal from outside, rather than the file).
                     wait(in_flight)
                     for future, path in in_flight.items():
                         if future.exception() is None:
@@ -269,13 +309,15 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
                         else:
                             broken.append(path)
                     in_flight.clear()
-                    if len(broken) == 1:
-                        yield {"file": str(broken[0]),
-                               "error": f"{broken[0]}: the worker process measuring this file died "
-                                        f"(a crash in a library, or out of memory)"}
-                    else:
-                        suspects.extend(sorted(broken))
-                        alone.update(broken)
+                    for path in sorted(broken):
+                        if path in alone:
+                            yield {"file": str(path), "path": resolved_path(path),
+                                   "error": f"{path}: the worker process measuring this file died twice, "
+                                            f"the second time measuring it alone (a crash in a library, "
+                                            f"or out of memory)"}
+                        else:
+                            suspects.append(path)
+                            alone.add(path)
                     break
                 if should_stop():
                     return
@@ -310,6 +352,8 @@ def _is_compressed_pcd(path) -> bool:
     if not str(path).lower().endswith(".pcd"):
         return False
     try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            return False  # never open a FIFO or a device here: it could block the batch forever
         with open(path, "rb") as stream:
             head = stream.read(_PCD_HEADER_BYTES)
     except OSError:
@@ -350,64 +394,129 @@ class RecordWriter:
             self._write(csv_text([record], BATCH_CSV_COLUMNS, header=False))
 
 
-def open_output(path, append):
-    """A function writing text to ``path`` with one ``os.write`` per call (retried only when the
-    system writes part of it), and a function closing it. ``append`` keeps what the file holds.
-
-    Raises
-    ------
-    OSError
-        When the file cannot be opened.
-    """
-    flags = os.O_WRONLY | os.O_CREAT | (os.O_APPEND if append else os.O_TRUNC)
-    descriptor = os.open(path, flags, 0o666)
-
-    def write(text):
-        data = memoryview(text.encode("utf-8"))
-        while data:
-            data = data[os.write(descriptor, data):]
-
-    return write, lambda: os.close(descriptor)
+class OutputBusyError(HoleCliError):
+    """The output file is locked by another running batch."""
 
 
-def prepare_resume(path, fmt):
-    """Read the output of an earlier run of the batch, to go on where it stopped.
+class BatchOutput:
+    """The ``--output`` of a batch, held for the whole run.
 
-    A last line without its newline is the one being written when the run was stopped; it is cut off
-    the file, so that appending continues with whole lines.
+    A regular file (or a new path, or a symbolic link to either) is opened without being emptied and
+    locked (``fcntl.flock``, exclusive): a second batch writing the same file is refused with
+    :class:`OutputBusyError` before it changes a byte. Only then is the file emptied, or, with
+    ``resume``, read (a last line left without its newline is cut off) and appended to. A character
+    device (``/dev/null``) or a FIFO is written directly, never locked, emptied or resumed. Anything
+    else is refused.
+
+    Each :meth:`write` is one ``os.write`` (retried only when the system writes part of it).
+    File names that are not valid UTF-8 are written as their own bytes (``surrogateescape``).
 
     Parameters
     ----------
     path : str
-        The output file; missing or empty means nothing was done yet.
+        The output file.
     fmt : {"jsonl", "csv"}
         Its format.
+    resume : bool
+        Keep what the file holds and tell what it holds (:attr:`earlier`, :attr:`needs_header`).
 
-    Returns
-    -------
-    summaries : list of FileSummary
-        One per file already in the output, in file order.
-    header : bool
-        True when the file still needs the CSV header (a new or empty CSV file).
+    Attributes
+    ----------
+    earlier : list of FileSummary
+        One per file already in the output (with ``resume``), in file order.
+    needs_header : bool
+        True when the file still needs the CSV header (a new, emptied or empty file).
 
     Raises
     ------
+    OutputBusyError
+        When another batch holds the lock.
     ResumeError
-        When the file is not a batch output of that format (a line that is not a JSON object with a
-        ``file``; a CSV header other than the batch's).
+        With ``resume``, when the file is not a regular file or not a batch output of that format
+        (a line that is not a JSON object with a ``file``; a CSV header other than the batch's).
     OSError
-        When it cannot be read or cut.
+        When the file cannot be opened, read or cut.
     """
+
+    def __init__(self, path, fmt, resume=False):
+        self.path = path
+        self.earlier, self.needs_header = [], True
+        try:
+            status = os.stat(path)
+        except FileNotFoundError:
+            status = None
+        if status is not None and not stat.S_ISREG(status.st_mode):
+            stream = stat.S_ISCHR(status.st_mode) or stat.S_ISFIFO(status.st_mode)
+            if resume:
+                raise ResumeError(f"{path}: cannot resume: not a regular file")
+            if not stream:
+                raise IsADirectoryError(21, "is a folder") if stat.S_ISDIR(status.st_mode) else \
+                    OSError(22, "not a regular file, character device or FIFO")
+            self._descriptor = os.open(path, os.O_WRONLY | os.O_CLOEXEC)
+            return
+        descriptor = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666)
+        try:
+            if not stat.S_ISREG(os.fstat(descriptor).st_mode):  # replaced since the stat above
+                raise OSError(22, "not a regular file")
+            import fcntl
+
+            try:
+                fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                raise OutputBusyError(f"{path}: another holecli batch is writing this file (it is locked); "
+                                      f"wait for it to finish or give another --output") from None
+            if resume:
+                data = _read_all(descriptor)
+                complete = data[: data.rfind(b"\n") + 1]
+                self.earlier, self.needs_header = _earlier_records(path, complete, fmt)
+                if len(complete) != len(data):
+                    os.ftruncate(descriptor, len(complete))
+            else:
+                os.ftruncate(descriptor, 0)
+            os.lseek(descriptor, 0, os.SEEK_END)
+        except BaseException:
+            os.close(descriptor)
+            raise
+        self._descriptor = descriptor
+        PARENT_ONLY_DESCRIPTORS.add(descriptor)
+
+    def write(self, text):
+        """Write ``text`` at the end of the output in one system call."""
+        data = memoryview(text.encode("utf-8", "surrogateescape"))
+        while data:
+            data = data[os.write(self._descriptor, data):]
+
+    def close(self):
+        """Close the file (and release the lock)."""
+        if self._descriptor is not None:
+            PARENT_ONLY_DESCRIPTORS.discard(self._descriptor)
+            os.close(self._descriptor)
+            self._descriptor = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc_info):
+        self.close()
+        return False
+
+
+def _read_all(descriptor):
+    os.lseek(descriptor, 0, os.SEEK_SET)
+    chunks = []
+    while True:
+        chunk = os.read(descriptor, 1 << 20)
+        if not chunk:
+            return b"".join(chunks)
+        chunks.append(chunk)
+
+
+def _earlier_records(path, complete, fmt):
+    """What the whole lines ``complete`` of an earlier run's output hold: (summaries, needs_header)."""
     try:
-        with open(path, "rb") as stream:
-            data = stream.read()
-    except FileNotFoundError:
-        return [], True
-    complete = data[: data.rfind(b"\n") + 1]
-    if len(complete) != len(data):
-        os.truncate(path, len(complete))
-    try:
-        text = complete.decode("utf-8")
+        # A CSV may hold a file name that is not UTF-8, as its own bytes (see BatchOutput); JSON
+        # escapes it, so a JSON Lines file is plain UTF-8 (ASCII) throughout.
+        text = complete.decode("utf-8", "surrogateescape" if fmt == "csv" else "strict")
     except UnicodeDecodeError:
         raise ResumeError(f"{path}: cannot resume: not a UTF-8 text file") from None
     if fmt == "jsonl":
@@ -416,7 +525,10 @@ def prepare_resume(path, fmt):
         return [], True
     rows = list(csv.reader(io.StringIO(text)))
     if tuple(rows[0]) != BATCH_CSV_COLUMNS:
-        raise ResumeError(f"{path}: cannot resume: its header is not the header of holecli batch --format csv")
+        older = tuple(rows[0]) == BATCH_CSV_COLUMNS[:-1]
+        raise ResumeError(f"{path}: cannot resume: its header is not the header of holecli batch --format csv"
+                          + (" (it was written by holecli 0.1, without the path column: start a new output)"
+                             if older else ""))
     by_file = {}
     for row in rows[1:]:
         if len(row) != len(BATCH_CSV_COLUMNS):
@@ -448,21 +560,25 @@ class FileSummary:
     holes: int = 0
     out_of_tolerance: int = 0
     missing: int = 0
+    path: str = ""  # resolved_path of the file; "" in records of holecli 0.1
 
     @classmethod
     def of_record(cls, record):
+        path = record.get("path") if isinstance(record.get("path"), str) else ""
         if "error" in record:
-            return cls(file=record["file"], failed=True)
+            return cls(file=record["file"], failed=True, path=path)
         verdict = record.get("verdict") or {}
         return cls(file=record["file"], failed=False, holes=len(record.get("holes", ())),
-                   out_of_tolerance=verdict.get("out_of_tolerance", 0), missing=len(verdict.get("missing", ())))
+                   out_of_tolerance=verdict.get("out_of_tolerance", 0), missing=len(verdict.get("missing", ())),
+                   path=path)
 
     @classmethod
     def of_csv_rows(cls, file, rows):
+        path = rows[0].get("path", "") if rows else ""
         if any(row["error"] for row in rows):
-            return cls(file=file, failed=True)
+            return cls(file=file, failed=True, path=path)
         holes = [row for row in rows if row["hole"]]
-        return cls(file=file, failed=False, holes=len(holes),
+        return cls(file=file, failed=False, holes=len(holes), path=path,
                    out_of_tolerance=sum(row["in_tolerance"] == "false" for row in holes),
                    missing=sum(row["in_tolerance"] == "false" for row in rows if not row["hole"]))
 
@@ -494,3 +610,11 @@ class Tally:
     @property
     def measured(self) -> int:
         return self.files - self.failed
+
+
+def files_to_do(files, earlier) -> list:
+    """The ``files`` that the ``earlier`` records (:class:`FileSummary`) do not hold, matched by
+    :func:`resolved_path`, so that a resumed batch may run from another folder than the first. (A
+    record of holecli 0.1 has no ``path``: its ``file`` is resolved from the current folder.)"""
+    done = {summary.path or resolved_path(summary.file) for summary in earlier}
+    return [path for path in files if resolved_path(path) not in done]

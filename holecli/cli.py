@@ -67,15 +67,31 @@ class FloatTuple(click.ParamType):
     def convert(self, value, param, ctx):
         if isinstance(value, tuple):
             return value
+        from holecli.decimal_text import parse_decimal
+
         parts = [part.strip() for part in str(value).split(",")]
         try:
-            numbers = tuple(float(part) for part in parts)
+            numbers = tuple(parse_decimal(part) for part in parts)
         except ValueError:
             self.fail(f"expected {self.count} comma-separated numbers ({self.name}), got {value!r}", param, ctx)
         if len(numbers) != self.count or not all(abs(n) < float("inf") for n in numbers):
             self.fail(f"expected {self.count} comma-separated finite numbers ({self.name}), got {value!r}",
                       param, ctx)
         return numbers
+
+
+class Decimal(click.FloatRange):
+    """A plain ASCII decimal number, optionally within a range (click's FloatRange, without the
+    leniency of ``float``: no ``1_0``, no non-ASCII digits, no ``inf`` or ``nan``)."""
+
+    name = "decimal"
+
+    def convert(self, value, param, ctx):
+        from holecli.decimal_text import is_decimal
+
+        if isinstance(value, str) and not is_decimal(value.strip()):
+            self.fail(f"{value!r} is not a plain decimal number", param, ctx)
+        return super().convert(value.strip() if isinstance(value, str) else value, param, ctx)
 
 
 class ToleranceBand(click.ParamType):
@@ -109,9 +125,16 @@ def fail(message, code):
 
 
 def run_guarded(function, *args, **kwargs):
-    """Run a command body, turning every expected failure into one line on stderr and an exit code."""
+    """Run a command body, turning every expected failure into one line on stderr and an exit code.
+
+    Within it SIGINT and SIGTERM raise KeyboardInterrupt (see :mod:`holecli.interrupts`), so that a
+    write in progress cleans up after itself before the exit with 130.
+    """
+    from holecli import interrupts
+
     try:
-        return function(*args, **kwargs)
+        with interrupts.raising():
+            return function(*args, **kwargs)
     except Failure as failure:
         fail(str(failure), failure.code)
     except KeyboardInterrupt:
@@ -119,8 +142,40 @@ def run_guarded(function, *args, **kwargs):
         sys.exit(EXIT_INTERRUPTED)
     except BrokenPipeError:
         # The reader of stdout went away (e.g. `| head`): nothing more to say to it.
+        _detach_stdout()
         sys.stderr.close()
         sys.exit(EXIT_OK)
+
+
+def write_stdout(text):
+    """Write ``text`` to stdout at once; :class:`Failure` (input/output code) when it cannot be written
+    (a full disk behind a redirection), with stdout detached so that the exit does not try again."""
+    try:
+        stream = getattr(sys.stdout, "buffer", None)
+        if stream is None:
+            sys.stdout.write(text)
+        else:
+            # UTF-8 bytes, a file name that is not UTF-8 as its own bytes (as ls prints it)
+            sys.stdout.flush()
+            stream.write(text.encode("utf-8", "surrogateescape"))
+            stream.flush()
+        sys.stdout.flush()
+    except BrokenPipeError:
+        raise
+    except OSError as error:
+        _detach_stdout()
+        raise Failure(f"stdout: cannot write output: {error.strerror or error}", EXIT_INPUT) from None
+
+
+def _detach_stdout():
+    # What stdout still buffers would be flushed again at exit, and fail again, with a traceback
+    # of the interpreter's own: point the descriptor at /dev/null instead.
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass
 
 
 @click.group(context_settings=CONTEXT, epilog=EXIT_CODES_HELP)
@@ -179,7 +234,7 @@ def detection_option_decorators(function):
         click.option("--view-dir", type=FloatTuple(3, "X,Y,Z"), default=None,
                      help="Sensor viewing direction: slide points along it onto the plane instead of "
                           "projecting orthogonally (e.g. 0,0,1)."),
-        click.option("--min-diameter", type=click.FloatRange(min=0), default=None,
+        click.option("--min-diameter", type=Decimal(min=0), default=None,
                      help="Smallest hole diameter reported, file units [default: 6 gap scales of the "
                           "sampling, see README]."),
         click.option("--max-holes", type=click.IntRange(min=1), default=None,
@@ -201,7 +256,7 @@ TOLERANCE_OPTION_NAMES = {
 def tolerance_option_decorators(function):
     """The tolerance options shared by ``detect`` and ``batch``."""
     options = [
-        click.option("--nominal-diameter", type=click.FloatRange(min=0, min_open=True), default=None,
+        click.option("--nominal-diameter", type=Decimal(min=0, min_open=True), default=None,
                      metavar="D", help="Nominal hole diameter, checked with --tolerance."),
         click.option("--tolerance", type=ToleranceBand(), default=None,
                      help="Diameter tolerance: T for +-T, or the upper/lower deviation as on a drawing, "
@@ -209,12 +264,12 @@ def tolerance_option_decorators(function):
         click.option("--nominal-center", type=FloatTuple(3, "X,Y,Z"), default=None,
                      help="Nominal hole center: the checks apply to the hole nearest to it (other holes "
                           "are not checked) and it gets position_deviation."),
-        click.option("--position-tolerance", type=click.FloatRange(min=0), default=None, metavar="R",
+        click.option("--position-tolerance", type=Decimal(min=0), default=None, metavar="R",
                      help="Largest distance of the measured center from --nominal-center in the plane "
                           "of the hole."),
         click.option("--nominal-normal", type=FloatTuple(3, "X,Y,Z"), default=None,
                      help="Nominal surface normal (either sign): tilt_deg is reported."),
-        click.option("--max-tilt", type=click.FloatRange(min=0, max=90), default=None, metavar="DEG",
+        click.option("--max-tilt", type=Decimal(min=0, max=90), default=None, metavar="DEG",
                      help="Largest angle between the hole's normal and --nominal-normal, degrees."),
         click.option("--spec", "spec_file", type=click.Path(path_type=str), default=None, metavar="FILE",
                      help="TOML file of the part's nominal holes ([[hole]] tables, see README); "
@@ -246,21 +301,52 @@ def nominal_from_options(nominal_diameter, tolerance, nominal_center, position_t
         raise click.UsageError(str(error)) from None
 
 
+# A spec file lists a part's holes: a few kB. Anything much larger is not a spec file.
+MAX_SPEC_BYTES = 16 << 20
+
+
 def read_spec(path):
-    """The :class:`holecli.tolerance.Spec` of a spec file; :class:`Failure` with the input-error code."""
+    """The :class:`holecli.tolerance.Spec` of a spec file; :class:`Failure` with the input-error code.
+
+    Only a regular file of at most :data:`MAX_SPEC_BYTES` is read (never a device such as
+    ``/dev/zero``, a FIFO or a folder).
+    """
+    import stat
+
     from holecli.tolerance import parse_spec
 
     try:
-        with open(path, encoding="utf-8") as stream:
-            text = stream.read()
+        status = os.stat(path)
+        if not stat.S_ISREG(status.st_mode):
+            raise Failure(f"{path}: not a regular file ({_file_kind(status.st_mode)}): a spec must be a TOML file",
+                          EXIT_INPUT)
+        if status.st_size > MAX_SPEC_BYTES:
+            raise Failure(f"{path}: {status.st_size} bytes is too large for a spec file "
+                          f"(at most {MAX_SPEC_BYTES} bytes)", EXIT_INPUT)
+        with open(path, "rb") as stream:
+            data = stream.read(MAX_SPEC_BYTES + 1)
     except OSError as error:
         raise Failure(f"{path}: cannot read: {error.strerror or error}", EXIT_INPUT) from None
+    if len(data) > MAX_SPEC_BYTES:
+        raise Failure(f"{path}: too large for a spec file (more than {MAX_SPEC_BYTES} bytes)", EXIT_INPUT)
+    try:
+        text = data.decode("utf-8")
     except UnicodeDecodeError:
         raise Failure(f"{path}: not a UTF-8 text file", EXIT_INPUT) from None
     try:
         return parse_spec(text, source=path)
     except SpecError as error:
         raise Failure(f"{path}: {error}", EXIT_INPUT) from None
+
+
+def _file_kind(mode):
+    import stat
+
+    for test, kind in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"), (stat.S_ISLNK, "a link")):
+        if test(mode):
+            return kind
+    return "not a file"
 
 
 def render(records, fmt):
@@ -318,14 +404,16 @@ def render_table(records):
 
 
 def emit(text, output):
-    """Write ``text`` to stdout, or atomically to ``output``."""
-    if output is None:
-        click.echo(text, nl=False)
+    """Write ``text`` to stdout (``output`` None or ``-``), or to ``output`` as :func:`holecli.outfile.write_text`
+    does: atomically onto a regular file or a new path, directly onto a device or FIFO, through a
+    symbolic link onto its target."""
+    if output is None or output == "-":
+        write_stdout(text)
         return
-    from holecli.outfile import write_text_atomic
+    from holecli.outfile import write_text
 
     try:
-        write_text_atomic(output, text)
+        write_text(output, text)
     except OSError as error:
         raise Failure(f"{output}: cannot write output: {error.strerror or error}", EXIT_INPUT) from None
 
@@ -384,40 +472,40 @@ def detect(scan, fmt, output, method, view_dir, min_diameter, max_holes, full_on
 
 @main.command(epilog="\b\nExit codes: 0 written, 2 usage error, 3 the scene or the output is invalid.")
 @click.argument("output", type=click.Path(dir_okay=False, path_type=str))
-@click.option("--diameter", type=click.FloatRange(min=0, min_open=True), default=3.0, show_default=True,
+@click.option("--diameter", type=Decimal(min=0, min_open=True), default=3.0, show_default=True,
               help="Hole diameter (ignored when --hole is given).")
 @click.option("--center", type=FloatTuple(2, "X,Y"), default="1,1", show_default=True,
               help="Hole center in the surface frame (ignored when --hole is given).")
 @click.option("--hole", "holes", type=FloatTuple(3, "X,Y,DIAMETER"), multiple=True,
               help="A hole X,Y,DIAMETER in the surface frame; repeat for several holes.")
 @click.option("--no-hole", is_flag=True, help="Scan a plain surface without any hole.")
-@click.option("--spacing", type=click.FloatRange(min=0, min_open=True), default=0.0908, show_default=True,
+@click.option("--spacing", type=Decimal(min=0, min_open=True), default=0.0908, show_default=True,
               help="Point spacing h (along a scan line).")
 @click.option("--extent", type=FloatTuple(4, "XMIN,XMAX,YMIN,YMAX"), default="-3,5,-3,5", show_default=True,
               help="Scanned patch in the surface frame.")
 @click.option("--pattern", type=click.Choice(["grid", "stripes", "jittered", "random"]), default="grid",
               show_default=True, help="Sampling pattern.")
-@click.option("--line-pitch", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--line-pitch", type=Decimal(min=0, min_open=True), default=None,
               help="Distance between scan lines for --pattern stripes [default: 3 x spacing].")
-@click.option("--scan-angle", type=float, default=0.0, show_default=True,
+@click.option("--scan-angle", type=Decimal(), default=0.0, show_default=True,
               help="Direction of the scan lines in the surface frame, degrees.")
 @click.option("--rotation", type=FloatTuple(3, "AX,AY,AZ"), default="32,0,20", show_default=True,
               help="Rotation in degrees about x, then y, then z (world axes).")
 @click.option("--translation", type=FloatTuple(3, "X,Y,Z"), default="3,4,5", show_default=True,
               help="Translation after the rotation.")
-@click.option("--noise-z", type=click.FloatRange(min=0), default=0.0, show_default=True,
+@click.option("--noise-z", type=Decimal(min=0), default=0.0, show_default=True,
               help="Gaussian noise sigma on the world z coordinate (the paper's noise).")
-@click.option("--noise-normal", type=click.FloatRange(min=0), default=0.0, show_default=True,
+@click.option("--noise-normal", type=Decimal(min=0), default=0.0, show_default=True,
               help="Gaussian noise sigma along the surface normal.")
 @click.option("--inside-points", type=click.IntRange(min=0), default=0, show_default=True,
               help="Random points inside each hole (reflections; the paper's Fig. 5 uses 10 and 100).")
-@click.option("--countersink", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--countersink", type=Decimal(min=0, min_open=True), default=None,
               help="Countersink diameter at the surface (100-degree cone) for every hole.")
-@click.option("--bore-depth", type=click.FloatRange(min=0), default=0.0, show_default=True,
+@click.option("--bore-depth", type=Decimal(min=0), default=0.0, show_default=True,
               help="Depth of bore-wall points below the surface (0: none).")
-@click.option("--outliers", type=click.FloatRange(min=0, max=1), default=0.0, show_default=True,
+@click.option("--outliers", type=Decimal(min=0, max=1), default=0.0, show_default=True,
               help="Fraction of gross outliers.")
-@click.option("--ragged", type=click.FloatRange(min=0), default=0.0, show_default=True,
+@click.option("--ragged", type=Decimal(min=0), default=0.0, show_default=True,
               help="Amplitude of a ragged outer border (0: straight).")
 @click.option("--nan-points", type=click.IntRange(min=0), default=0, show_default=True,
               help="NaN rows to append, as a profiler writes for missed points.")
@@ -446,7 +534,7 @@ def simulate(output, diameter, center, holes, no_hole, spacing, extent, pattern,
 
         from holecli import synth
         from holecli.io import SUPPORTED_EXTENSIONS, save_points
-        from holecli.outfile import write_text_atomic
+        from holecli.outfile import write_text
 
         if Path(output).suffix.lower() not in SUPPORTED_EXTENSIONS:
             raise Failure(f"{output}: unsupported extension (expected {', '.join(SUPPORTED_EXTENSIONS)})",
@@ -468,7 +556,7 @@ def simulate(output, diameter, center, holes, no_hole, spacing, extent, pattern,
         target = truth_path or str(Path(output).with_suffix(".truth.json"))
         try:
             save_points(output, scan.points)
-            write_text_atomic(target, json.dumps(truth, indent=2) + "\n")
+            write_text(target, json.dumps(truth, indent=2) + "\n")
         except OSError as error:
             raise Failure(f"{output}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
         click.echo(f"wrote {len(scan.points)} points to {output} and the ground truth to {target}", err=True)
@@ -520,8 +608,7 @@ class _StopRequests:
 
 
 def _stdout_writer(text):
-    sys.stdout.write(text)
-    sys.stdout.flush()
+    write_stdout(text)
 
 
 def _batch_summary(tally, seconds, checked, earlier, output):
@@ -590,7 +677,7 @@ def batch(paths, recursive, pattern, fmt, output, jobs, resume, method, view_dir
     options = detection_options(method, view_dir, min_diameter, max_holes, full_only)
     nominal = nominal_from_options(nominal_diameter, tolerance, nominal_center, position_tolerance,
                                    nominal_normal, max_tilt, spec_file)
-    if resume and output is None:
+    if resume and (output is None or output == "-"):
         raise click.UsageError("--resume needs --output (the file to go on with)")
 
     def body(stop):
@@ -606,30 +693,25 @@ def batch(paths, recursive, pattern, fmt, output, jobs, resume, method, view_dir
         if not files:
             raise Failure(f"{', '.join(paths)}: no point-cloud files ({', '.join(SUPPORTED_EXTENSIONS)})"
                           + (f" matching {pattern!r}" if pattern else "") + " found", EXIT_INPUT)
-        earlier, header = [], True
-        if resume:
-            try:
-                earlier, header = batching.prepare_resume(output, fmt)
-            except batching.ResumeError as error:
-                raise Failure(str(error), EXIT_INPUT) from None
-            except OSError as error:
-                raise Failure(f"{output}: cannot resume: {error.strerror or error}", EXIT_INPUT) from None
-        done = {os.path.realpath(summary.file) for summary in earlier}
-        todo = [path for path in files if os.path.realpath(path) not in done]
-        close = None
+        output_file = None
         try:
-            if output is None:
-                write = _stdout_writer
-            else:
+            if output is not None and output != "-":
                 try:
-                    write, close = batching.open_output(output, append=resume)
+                    output_file = batching.BatchOutput(output, fmt, resume=resume)
+                except (batching.ResumeError, batching.OutputBusyError) as error:
+                    raise Failure(str(error), EXIT_INPUT) from None
                 except OSError as error:
-                    raise Failure(f"{output}: cannot write output: {error.strerror or error}", EXIT_INPUT) from None
+                    action = "resume" if resume else "write output"
+                    raise Failure(f"{output}: cannot {action}: {error.strerror or error}", EXIT_INPUT) from None
+                write, earlier, header = output_file.write, output_file.earlier, output_file.needs_header
+            else:
+                write, earlier, header = _stdout_writer, [], True
+            todo = batching.files_to_do(files, earlier)
             return run_batch(batching, todo, options, spec, jobs or batching.default_jobs(), write, fmt, header,
                              earlier, output, stop)
         finally:
-            if close is not None:
-                close()
+            if output_file is not None:
+                output_file.close()
 
     with _StopRequests() as stop:
         sys.exit(run_guarded(body, stop))
@@ -694,7 +776,15 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
     tally = batching.Tally()
     for summary in earlier:
         tally.add(summary)
-    writer = batching.RecordWriter(write, fmt, header=header)
+    def failed_write(error):
+        return Failure(f"{output or 'stdout'}: cannot write output: {error.strerror or error}", EXIT_INPUT)
+
+    try:
+        writer = batching.RecordWriter(write, fmt, header=header)
+    except BrokenPipeError:
+        raise
+    except OSError as error:
+        raise failed_write(error) from None
     display = _BatchDisplay(len(todo), spec is not None)
     started = time.monotonic()
     measured_now = 0
@@ -717,8 +807,7 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
             except BrokenPipeError:
                 raise
             except OSError as error:
-                raise Failure(f"{output or 'stdout'}: cannot write output: {error.strerror or error}",
-                              EXIT_INPUT) from None
+                raise failed_write(error) from None
             measured_now += 1
             tally.add(record)
             if "error" in record:

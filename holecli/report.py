@@ -15,8 +15,9 @@ CSV_COLUMNS = (
     "in_tolerance", "failed_checks",
 )
 
-# ``holecli batch`` adds the message of a file that could not be measured.
-BATCH_CSV_COLUMNS = CSV_COLUMNS + ("error",)
+# ``holecli batch`` adds the message of a file that could not be measured, and the file's resolved
+# absolute path (what --resume matches on).
+BATCH_CSV_COLUMNS = CSV_COLUMNS + ("error", "path")
 
 
 def to_json(record):
@@ -49,10 +50,10 @@ def csv_rows(record, columns=CSV_COLUMNS):
     ``in_tolerance`` false); one row with only ``file`` (and ``error`` for a failed file of a batch)
     when the record has neither.
     """
-    file = record.get("file")
+    file, path = record.get("file"), record.get("path")
     rows = []
     for hole in record.get("holes", []):
-        values = dict(hole, file=file, hole=hole.get("index"))
+        values = dict(hole, file=file, path=path, hole=hole.get("index"))
         for axis, name in enumerate("xyz"):
             values[f"center_{name}"] = hole["center"][axis]
             values[f"normal_{name}"] = hole["normal"][axis]
@@ -61,9 +62,9 @@ def csv_rows(record, columns=CSV_COLUMNS):
         values["position_along_normal"] = position.get("along_normal")
         rows.append(values)
     for name in record.get("verdict", {}).get("missing", []):
-        rows.append({"file": file, "name": name, "in_tolerance": False})
+        rows.append({"file": file, "path": path, "name": name, "in_tolerance": False})
     if not rows:
-        rows.append({"file": file, "error": record.get("error")})
+        rows.append({"file": file, "path": path, "error": record.get("error")})
     return [[_cell(values.get(column)) for column in columns] for values in rows]
 
 

@@ -36,6 +36,7 @@ import tomllib
 from dataclasses import dataclass, replace
 from typing import Optional
 
+from holecli.decimal_text import parse_decimal
 from holecli.errors import SpecError
 
 __all__ = ["Band", "NominalHole", "Spec", "check", "nominal_spec", "parse_band", "parse_spec"]
@@ -151,7 +152,7 @@ def parse_band(value) -> Band:
     text = value.strip()
     for prefix in ("±", "+/-", "+-"):
         if text.startswith(prefix):
-            return _symmetric(_float(text[len(prefix):], value), value)
+            return _symmetric(_float(text[len(prefix):].strip(), value), value)
     if "/" not in text:
         return _symmetric(_float(text, value), value)
     upper_text, _, lower_text = (part.strip() for part in text.partition("/"))
@@ -229,6 +230,9 @@ def parse_spec(text, source="spec") -> Spec:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise SpecError(f"invalid TOML: {error}") from None
+    except RecursionError:
+        # tomllib parses nested arrays and inline tables recursively; a spec nests two levels.
+        raise SpecError("invalid TOML: arrays or tables nested too deeply for a spec file") from None
     unknown = sorted(set(data) - {"hole"})
     if unknown:
         raise SpecError(f"unknown top-level key {unknown[0]!r} (expected [[hole]] tables only)")
@@ -247,6 +251,10 @@ def parse_spec(text, source="spec") -> Spec:
             raise SpecError(f"{where}: missing key {missing[0]!r}")
         if not isinstance(name, str) or not name.strip():
             raise SpecError(f"{where}: 'name' must be a non-empty string, got {name!r}")
+        if name != name.strip() or not name.isprintable():
+            # "A1" and "A1 " would be two holes to the matching and one to a reader of the report.
+            raise SpecError(f"{where}: 'name' must not start or end with spaces or hold control characters, "
+                            f"got {name!r}")
         if name in seen:
             raise SpecError(f"{where}: the name {name!r} is used twice")
         seen.add(name)
@@ -300,7 +308,7 @@ def _nominal_hole(entry, name, names, where) -> NominalHole:
 
 def _float(text, given) -> float:
     try:
-        number = float(text)
+        number = parse_decimal(text)
     except ValueError:
         raise SpecError(f"expected a number >= 0 or a string like \"+0.036/-0\" (upper/lower deviation), "
                         f"got {given!r}") from None

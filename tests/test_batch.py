@@ -122,7 +122,8 @@ def test_measure_record_is_the_detect_record(scans):
     record = batch.measure_record(scans[0], OPTIONS)
     expected = detect(load_points(scans[0]), **OPTIONS).to_dict()
     assert record["file"] == scans[0]
-    assert set(record) == set(expected)
+    assert record["path"] == os.path.realpath(scans[0])
+    assert set(record) == set(expected) | {"path"}
     assert record["holes"] == expected["holes"]
     assert record["holes"][0]["diameter"] == pytest.approx(2.5, abs=0.05)
 
@@ -136,8 +137,9 @@ def test_measure_record_with_a_spec_has_the_verdicts(scans):
 def test_measure_record_of_a_bad_file_is_an_error_record(tmp_path):
     path = _touch(tmp_path / "empty.csv", "")
     record = batch.measure_record(str(path), OPTIONS)
-    assert set(record) == {"file", "error"}
+    assert set(record) == {"file", "path", "error"}
     assert record["file"] == str(path)
+    assert record["path"] == os.path.realpath(path)
     assert record["error"].startswith(f"{path}: ")
 
 
@@ -252,34 +254,38 @@ def test_record_writer_csv_header_once_and_one_call_per_file():
     writer.write(_records()[1])
     assert calls[0] == ",".join(BATCH_CSV_COLUMNS) + "\n"
     assert calls[1].count("\n") == 2 and calls[2].count("\n") == 1
-    assert calls[2].rstrip("\n").endswith("b.csv: empty file")
+    assert calls[2].rstrip("\n").endswith("b.csv: empty file,")  # then the empty path
     assert RecordWriter(calls.append, "csv", header=False) and len(calls) == 3
     with pytest.raises(ValueError, match="fmt must be one of"):
         RecordWriter(calls.append, "json")
 
 
-def test_open_output_appends_or_truncates(tmp_path):
+def test_output_appends_on_resume_or_empties(tmp_path):
     path = tmp_path / "out.jsonl"
-    path.write_text("old\n")
-    write, close = batch.open_output(str(path), append=True)
-    write("new\n")
-    close()
-    assert path.read_text() == "old\nnew\n"
-    write, close = batch.open_output(str(path), append=False)
-    write("fresh ü\n")
-    close()
+    path.write_text('{"file": "old.ply"}\n')
+    with batch.BatchOutput(str(path), "jsonl", resume=True) as output:
+        assert [summary.file for summary in output.earlier] == ["old.ply"]
+        output.write('{"file": "new.ply"}\n')
+    assert path.read_text() == '{"file": "old.ply"}\n{"file": "new.ply"}\n'
+    with batch.BatchOutput(str(path), "jsonl") as output:
+        assert output.earlier == [] and output.needs_header
+        output.write("fresh ü\n")
     assert path.read_text(encoding="utf-8") == "fresh ü\n"
 
 
-def test_prepare_resume_of_a_missing_file(tmp_path):
-    assert batch.prepare_resume(str(tmp_path / "none.jsonl"), "jsonl") == ([], True)
+def test_resume_of_a_missing_file(tmp_path):
+    with batch.BatchOutput(str(tmp_path / "none.jsonl"), "jsonl", resume=True) as output:
+        assert (output.earlier, output.needs_header) == ([], False)
+    with batch.BatchOutput(str(tmp_path / "none.csv"), "csv", resume=True) as output:
+        assert (output.earlier, output.needs_header) == ([], True)
 
 
-def test_prepare_resume_jsonl_cuts_a_partial_last_line(tmp_path):
+def test_resume_jsonl_cuts_a_partial_last_line(tmp_path):
     path = tmp_path / "out.jsonl"
     lines = [json.dumps(record) + "\n" for record in _records()]
     path.write_text("".join(lines) + '{"file": "d.ply", "poi')
-    summaries, header = batch.prepare_resume(str(path), "jsonl")
+    with batch.BatchOutput(str(path), "jsonl", resume=True) as output:
+        summaries, header = output.earlier, output.needs_header
     assert path.read_text() == "".join(lines)
     assert [summary.file for summary in summaries] == ["a.ply", "b.csv", "c.ply"]
     assert [summary.failed for summary in summaries] == [False, True, False]
@@ -287,20 +293,22 @@ def test_prepare_resume_jsonl_cuts_a_partial_last_line(tmp_path):
     assert header is False
 
 
-def test_prepare_resume_csv(tmp_path):
+def test_resume_csv(tmp_path):
     path = tmp_path / "out.csv"
     calls = []
     writer = RecordWriter(calls.append, "csv")
     for record in _records():
         writer.write(record)
     path.write_text("".join(calls) + "d.ply,0,1.0")
-    summaries, header = batch.prepare_resume(str(path), "csv")
+    with batch.BatchOutput(str(path), "csv", resume=True) as output:
+        summaries, header = output.earlier, output.needs_header
     assert path.read_text() == "".join(calls)
     assert [(summary.file, summary.failed, summary.holes) for summary in summaries] == [
         ("a.ply", False, 1), ("b.csv", True, 0), ("c.ply", False, 0)]
     assert header is False
     path.write_text(",".join(BATCH_CSV_COLUMNS)[:20])  # cut inside the header: start again
-    assert batch.prepare_resume(str(path), "csv") == ([], True)
+    with batch.BatchOutput(str(path), "csv", resume=True) as output:
+        assert (output.earlier, output.needs_header) == ([], True)
     assert path.read_text() == ""
 
 
@@ -311,18 +319,18 @@ def test_prepare_resume_csv(tmp_path):
         ("jsonl", '[1, 2]\n', "line 1 is not a holecli batch record"),
         ("jsonl", '{"points": 3}\n', "line 1 is not a holecli batch record"),
         ("csv", "file,hole,center_x\na.ply,0,1\n", "its header is not the header of holecli batch"),
+        ("csv", ",".join(BATCH_CSV_COLUMNS[:-1]) + "\na.ply,0\n", "written by holecli 0.1, without the path"),
         ("csv", ",".join(BATCH_CSV_COLUMNS) + "\na.ply,0\n", "a row has 2 columns"),
         ("jsonl", b"\xff\xfe\n", "not a UTF-8 text file"),
     ],
 )
-def test_prepare_resume_refuses_other_files(tmp_path, fmt, text, match):
+def test_resume_refuses_other_files_and_leaves_them_untouched(tmp_path, fmt, text, match):
     path = tmp_path / f"out.{fmt}"
-    if isinstance(text, bytes):
-        path.write_bytes(text)
-    else:
-        path.write_text(text)
+    data = text if isinstance(text, bytes) else text.encode()
+    path.write_bytes(data + b"partial last line")
     with pytest.raises(ResumeError, match=match):
-        batch.prepare_resume(str(path), fmt)
+        batch.BatchOutput(str(path), fmt, resume=True)
+    assert path.read_bytes() == data + b"partial last line"
 
 
 # --- counting ----------------------------------------------------------------------------------------
@@ -370,8 +378,8 @@ def test_open3d_is_imported_by_the_pool_initializer_when_a_compressed_pcd_is_in_
     log = tmp_path / "initializer.log"
     start = batch._start_worker
 
-    def logged(options, spec, preload):
-        start(options, spec, preload)
+    def logged(options, spec, preload, parent):
+        start(options, spec, preload, parent)
         with open(log, "a") as stream:
             stream.write(f"{','.join(preload)}\n")
 

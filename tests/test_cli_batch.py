@@ -17,6 +17,7 @@ from holecli import cli, report, synth
 from holecli.io import save_points
 
 RECORD_KEYS = {"file", "points", "dropped_points", "method", "plane", "holes", "elapsed_ms"}
+BATCH_RECORD_KEYS = RECORD_KEYS | {"path"}
 VERDICT_HOLE_KEYS = {"diameter_deviation", "position_deviation", "tilt_deg", "in_tolerance", "failed_checks"}
 
 
@@ -84,14 +85,15 @@ def test_batch_jsonl_one_record_per_file_broken_files_included(run, mixed):
     by_file = {record["file"]: record for record in records}
     for path in good:
         record = by_file[str(path)]
-        assert set(record) == RECORD_KEYS
+        assert set(record) == BATCH_RECORD_KEYS
+        assert record["path"] == os.path.realpath(path)
         assert len(record["holes"]) == 1 and record["holes"][0]["diameter"] == pytest.approx(2.5, abs=0.05)
-        # exactly the detect record
+        # exactly the detect record, and the resolved path
         detected = json.loads(run("detect", path).stdout)
-        assert _without_time(record) == _without_time(detected)
+        assert _without_time(record) == dict(_without_time(detected), path=os.path.realpath(path))
     for path in broken:
         record = by_file[str(path)]
-        assert set(record) == {"file", "error"}
+        assert set(record) == {"file", "path", "error"}
         detected = run("detect", path)
         assert detected.exit_code == cli.EXIT_INPUT
         assert record["error"] == detected.stderr.strip().removeprefix("Error: ")
@@ -112,7 +114,7 @@ def test_batch_csv_header_once_one_row_per_hole_or_failure(run, mixed, tmp_path)
     result = run("batch", folder, "--format", "csv", "--jobs", "1")
     assert result.exit_code == cli.EXIT_FILE_FAILED, result.stderr
     rows = list(csv.reader(io.StringIO(result.stdout)))
-    assert rows[0] == list(report.BATCH_CSV_COLUMNS) == [*report.CSV_COLUMNS, "error"]
+    assert rows[0] == list(report.BATCH_CSV_COLUMNS) == [*report.CSV_COLUMNS, "error", "path"]
     assert list(report.BATCH_CSV_COLUMNS) not in rows[1:]
     rows = [dict(zip(rows[0], row)) for row in rows[1:]]
     by_file = {}
@@ -430,7 +432,7 @@ def test_bad_spec_file_is_a_one_line_input_error(run, tmp_path, one_scan, text, 
 def test_spec_file_that_is_a_folder(run, tmp_path, one_scan):
     result = run("detect", one_scan[0], "--spec", tmp_path)
     assert result.exit_code == cli.EXIT_INPUT
-    assert result.stderr.startswith(f"Error: {tmp_path}: cannot read: ")
+    assert result.stderr == f"Error: {tmp_path}: not a regular file (a folder): a spec must be a TOML file\n"
 
 
 # --- resume (in process) -------------------------------------------------------------------------------
