@@ -425,14 +425,14 @@ def _read_ply_binary(data: bytes, header: _PlyHeader, vertex: _PlyElement) -> np
     layout = []  # what each element took, for the message
     for element in header.elements:
         start = offset
-        offset, kept, record_size = _walk_binary_records(data, offset, element, byteorder, keep=element is vertex)
+        offset, kept, record_size = _walk_binary_records(
+            data, offset, element, byteorder, keep=element is vertex, vertices=vertex.count
+        )
         if element is vertex:
             points = kept
         if element.count:
-            unit = _unit(element)
-            layout.append(
-                f"{element.count} {unit} of {record_size} bytes" if record_size else f"{element.count} {unit} in {offset - start} bytes"
-            )
+            size = f"of {record_size} bytes" if record_size else f"in {offset - start} bytes"
+            layout.append(f"{element.count} {_unit(element)} {size}")
     if offset != len(data):
         # No PLY writer is known to pad its binary data; bytes past the last element mean a count or a
         # type in the header does not describe the data (or the file was joined to something).
@@ -448,12 +448,19 @@ def _unit(element: _PlyElement) -> str:
     return {"vertex": "vertices", "point": "points"}.get(element.name, f"{element.name!r} records")
 
 
-def _walk_binary_records(data: bytes, offset: int, element: _PlyElement, byteorder: str, keep: bool = False):
+def _walk_binary_records(
+    data: bytes, offset: int, element: _PlyElement, byteorder: str, keep: bool = False, vertices: int = 0
+):
     """Step over the records of a binary PLY element; with ``keep``, also collect x, y, z.
 
     Records without list properties have a fixed size and are skipped by arithmetic. So are records
     whose lists all have the lengths of the first record's (the triangles of a mesh): one numpy pass
     checks every length. Anything else is walked record by record, which is slow but rare.
+
+    The vertex indices of faces are checked too (at least 3 per face, each below ``vertices``):
+    binary records have no separators, and a vertex count or a type that is off makes the faces
+    read from the wrong offset. That is usually seen as a wrong size at the end, but a misread
+    face of length 0 can fall back in step with the next and end the file exactly.
 
     Returns
     -------
@@ -470,12 +477,15 @@ def _walk_binary_records(data: bytes, offset: int, element: _PlyElement, byteord
         # Checked first so that a count of 10**12 is refused before any work.
         at_least = "at least " if element.has_lists else ""
         raise _BadFile(
-            f"truncated binary PLY: header announces {element.count} {_unit(element)} ({at_least}{minimum} bytes) "
-            f"but only {available} bytes follow"
+            f"truncated binary PLY: header announces {element.count} {_unit(element)} "
+            f"({at_least}{minimum} bytes) but only {available} bytes follow"
         )
+    faces = _face_list(element)
     layout = _uniform_layout(data, offset, element, byteorder)
     if layout is not None:
-        offsets, size = layout
+        offsets, size, lists = layout
+        if faces is not None and element.count:
+            _check_uniform_faces(data, offset, element, faces, lists[faces.name], size, byteorder, vertices)
         points = None
         if keep:
             formats = {prop.name: prop.dtype for prop in element.properties}
@@ -502,6 +512,9 @@ def _walk_binary_records(data: bytes, offset: int, element: _PlyElement, byteord
                         raise _BadFile(
                             f"malformed binary PLY: negative list length in {element.name} {index + 1}"
                         )
+                    if faces is not None and name == faces.name:
+                        items = f"{byteorder}{length}{value_format[-1]}"
+                        _check_face(index, struct.unpack_from(items, data, offset + length_size), vertices)
                     offset += length_size + length * value_size
                 else:
                     if keep and name in column:
@@ -519,13 +532,54 @@ def _walk_binary_records(data: bytes, offset: int, element: _PlyElement, byteord
     return offset, (np.array(rows, dtype=np.float64).reshape(-1, 3) if keep else None), None
 
 
+_FACE_LISTS = ("vertex_indices", "vertex_index")
+
+
+def _face_list(element: _PlyElement) -> Optional[_PlyProperty]:
+    """The vertex index list of a face element, or None for any other element."""
+    if element.name != "face":
+        return None
+    return next((prop for prop in element.properties if prop.length_dtype and prop.name in _FACE_LISTS), None)
+
+
+def _check_face(index: int, indices, vertices: int) -> None:
+    """Refuse face ``index`` (0-based) unless it has 3 or more indices of existing vertices."""
+    if len(indices) < 3:
+        raise _BadFile(
+            f"garbled binary PLY: face {index + 1} has {len(indices)} vertex indices (a face has at least 3)"
+        )
+    for value in indices:
+        if not 0 <= value < vertices:
+            shown = int(value) if float(value).is_integer() else value  # a list of floats is allowed
+            raise _BadFile(
+                f"garbled binary PLY: face {index + 1} refers to vertex {shown}, but the header declares "
+                f"{vertices} vertices"
+            )
+
+
+def _check_uniform_faces(data, offset, element, faces, position, size, byteorder, vertices) -> None:
+    """:func:`_check_face` for every face, when all have the first one's length, in one numpy pass."""
+    length_position, length = position
+    items = np.dtype(faces.dtype).newbyteorder(byteorder)
+    if length < 3:
+        _check_face(0, [0] * length, vertices)
+    start = length_position + np.dtype(faces.length_dtype).itemsize
+    dtype = np.dtype({"names": ["v"], "formats": [(items, (length,))], "offsets": [start], "itemsize": size})
+    indices = np.frombuffer(data, dtype, element.count, offset)["v"]
+    bad = np.flatnonzero(((indices < 0) | (indices >= vertices)).any(axis=1))
+    if len(bad):
+        _check_face(int(bad[0]), indices[bad[0]].tolist(), vertices)
+
+
 def _minimum_record_size(element: _PlyElement) -> int:
     """The bytes a binary record takes at least: its scalars and the lengths of its lists."""
     return sum(np.dtype(prop.length_dtype or prop.dtype).itemsize for prop in element.properties)
 
 
 def _uniform_layout(data: bytes, offset: int, element: _PlyElement, byteorder: str):
-    """The scalar offsets and the size of the records, if all are laid out like the first; else None.
+    """The layout of the records, if all are laid out like the first; else None.
+
+    Returns (scalar offsets by name, record size, {list name: (offset of its length, length)}).
 
     Without lists that is always so. With lists, the first record's lengths give a candidate size;
     if every record's length fields, read at that stride, hold the same lengths, then by induction
@@ -533,7 +587,7 @@ def _uniform_layout(data: bytes, offset: int, element: _PlyElement, byteorder: s
     """
     scalar_offsets, size = {}, 0
     if element.count == 0:
-        return scalar_offsets, 0
+        return scalar_offsets, 0, {}
     lengths = []  # (offset in the record, numpy format, value) of each list length
     for prop in element.properties:
         if not prop.length_dtype:
@@ -548,8 +602,10 @@ def _uniform_layout(data: bytes, offset: int, element: _PlyElement, byteorder: s
             return None
         lengths.append((size, length_type, length))
         size += length_type.itemsize + length * np.dtype(prop.dtype).itemsize
+    lists = {prop.name: (position, length) for prop, (position, _, length) in
+             zip([prop for prop in element.properties if prop.length_dtype], lengths)}  # fmt: skip
     if not lengths:
-        return scalar_offsets, size
+        return scalar_offsets, size, lists
     if size == 0 or offset + element.count * size > len(data):
         return None
     dtype = np.dtype(
@@ -562,7 +618,7 @@ def _uniform_layout(data: bytes, offset: int, element: _PlyElement, byteorder: s
     )
     records = np.frombuffer(data, dtype, element.count, offset)
     if all((records[f"n{i}"] == length).all() for i, (_, _, length) in enumerate(lengths)):
-        return scalar_offsets, size
+        return scalar_offsets, size, lists
     return None
 
 
@@ -829,7 +885,11 @@ def _read_pcd_ascii(name: str, data: bytes, header: _PcdHeader) -> np.ndarray:
             f"bytes each) but only {available} bytes follow"
         )
     element = _pcd_as_element(header)
-    table = _loadtxt(name, skiprows=header.lines, comments=None, encoding="latin-1")
+    # loadtxt takes more characters for blanks than the line parser does (form feeds, NBSP, ...);
+    # it is trusted only where both see the same lines.
+    table = None
+    if _count_content_lines(data, header.data_offset) == header.points:
+        table = _loadtxt(name, skiprows=header.lines, comments=None, encoding="latin-1")
     if table is not None and table.shape == (header.points, len(element.properties)):
         names = [prop.name for prop in element.properties]
         return np.ascontiguousarray(table[:, [names.index(axis) for axis in "xyz"]])
@@ -894,7 +954,8 @@ def _read_pcd_compressed(name: str, data: bytes, header: _PcdHeader) -> np.ndarr
             f"truncated binary_compressed PCD: {compressed} compressed bytes announced "
             f"but only {available - 8} follow"
         )
-    if available - 8 > compressed and not _is_pcl_padding(data, header.data_offset + 8 + compressed, 8 + compressed):
+    end = header.data_offset + 8 + compressed
+    if available - 8 > compressed and not _is_pcl_padding(data, end, 8 + compressed):
         raise _BadFile(
             f"garbled binary_compressed PCD: {available - 8} bytes of data after the sizes but "
             f"{compressed} compressed bytes announced"

@@ -707,6 +707,33 @@ def test_binary_ply_faces_of_mixed_sizes_are_walked(tmp_path):
         read_cloud(path)
 
 
+@pytest.mark.parametrize(
+    "edit",
+    [(b"element vertex 30\n", b"element vertex 31\n"), (b"property float x\n", b"property double x\n")],
+    ids=["vertex-plus-one", "x-relabelled-double"],
+)
+def test_binary_ply_faces_misread_after_a_wrong_vertex_layout_are_refused(tmp_path, edit):
+    # Found by the fuzz test: the vertices take 12 bytes more and end inside the first face, on the
+    # high byte (0) of its last index, which reads as a face of length 0; the faces after it read in
+    # step again and the sizes add up exactly.
+    content = _ply_bytes("binary_little_endian", _vertices(_points(30), "f4"), np.arange(30).reshape(10, 3))
+    path = _write(tmp_path / "a.ply", content)
+    read_cloud(path)
+    path.write_bytes(content.replace(*edit))
+    with pytest.raises(LoadError, match=r"garbled binary PLY: face \d+ has 0 vertex indices \(a face has at least 3\)$"):
+        read_cloud(path)
+
+
+@pytest.mark.parametrize("index", [30, -1, 2**31 - 1])
+def test_binary_ply_face_index_past_the_vertices_is_refused(tmp_path, index):
+    faces = np.arange(30).reshape(10, 3)
+    faces[6, 1] = index
+    content = _ply_bytes("binary_big_endian", _vertices(_points(30), "f4"), faces)
+    with pytest.raises(LoadError, match=rf"garbled binary PLY: face 7 refers to vertex {index}, but the header "
+                       r"declares 30 vertices$"):  # fmt: skip
+        read_cloud(_write(tmp_path / "a.ply", content))
+
+
 @pytest.mark.parametrize("page", [4096, 16384])
 @pytest.mark.parametrize("data", ["binary", "binary_compressed"])
 def test_pcd_with_old_pcl_page_padding_is_read(tmp_path, page, data):
@@ -1045,3 +1072,12 @@ def test_real_ascii_ply_with_camera_element_matches_its_text():
 def test_real_file_refusals_say_why(name, problem):
     with pytest.raises(LoadError, match=problem):
         read_cloud(_real(name))
+
+
+@needs_realdata
+def test_real_binary_mesh_with_one_vertex_too_many_is_refused(tmp_path):
+    content = _real("pcl_test_cube_binary_le.ply").read_bytes()
+    assert b"element vertex 24\n" in content
+    path = _write(tmp_path / "a.ply", content.replace(b"element vertex 24\n", b"element vertex 25\n"))
+    with pytest.raises(LoadError, match=r"face 1 has 0 vertex indices"):
+        read_cloud(path)
