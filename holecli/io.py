@@ -647,12 +647,21 @@ def _read_ply_ascii(name: str, data: bytes, header: _PlyHeader, vertex: _PlyElem
     return points
 
 
-_CONTENT_LINE = re.compile(rb"^[ \t\r\f\v]*\S", re.MULTILINE)
+# A blank line after a newline: spaces only (bytes.split's whitespace but LF), up to the next newline.
+_BLANK_LINE = re.compile(rb"\n[ \t\r\f\v]*(?=\n)")
 
 
 def _count_content_lines(data: bytes, offset: int) -> int:
-    """The number of non-blank lines from ``offset`` on (which is at a line start)."""
-    return sum(1 for _ in _CONTENT_LINE.finditer(data, offset))
+    """The number of non-blank lines from ``offset`` on, which is just past the header's newline.
+
+    Counted without splitting the body: all lines, less the blank ones (rare, so the regex is fast).
+    """
+    if offset >= len(data):
+        return 0
+    lines = data.count(b"\n", offset) + 1
+    blank = len(_BLANK_LINE.findall(data, offset - 1))
+    last = data[max(data.rfind(b"\n", offset), offset - 1) + 1 :]
+    return lines - blank - (not last.strip())
 
 
 def _numbered_lines(data: bytes, offset: int, first_number: int):
