@@ -139,6 +139,15 @@ def run_guarded(function, *args, **kwargs):
         fail(str(failure), failure.code)
     except KeyboardInterrupt:
         click.echo("Error: interrupted", err=True)
+        # The body has cleaned up (its finally blocks ran on the way here). Leave at once: a
+        # KeyboardInterrupt that hit a C extension's initialisation can make CPython end the process
+        # by SIGINT at exit (status -2) instead of with the code asked for.
+        if interrupts.installed():
+            try:
+                sys.stdout.flush()
+            except OSError:
+                pass
+            os._exit(EXIT_INTERRUPTED)
         sys.exit(EXIT_INTERRUPTED)
     except BrokenPipeError:
         # The reader of stdout went away (e.g. `| head`): nothing more to say to it.

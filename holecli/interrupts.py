@@ -15,12 +15,13 @@ import os
 import signal
 from contextlib import contextmanager
 
-__all__ = ["EXIT_INTERRUPTED", "install", "raising"]
+__all__ = ["EXIT_INTERRUPTED", "install", "installed", "raising"]
 
 EXIT_INTERRUPTED = 130
 SIGNALS = ("SIGINT", "SIGTERM")
 
 _raise = False
+_installed = False
 
 
 def _handle(number, frame):
@@ -34,8 +35,15 @@ def _handle(number, frame):
 
 def install():
     """Handle SIGINT and SIGTERM as described in the module's docstring (main thread only)."""
+    global _installed
     for name in SIGNALS:
         signal.signal(getattr(signal, name), _handle)
+    _installed = True
+
+
+def installed() -> bool:
+    """Whether :func:`install` ran: this is the ``holecli`` program, not a library user or a test."""
+    return _installed
 
 
 @contextmanager

@@ -69,3 +69,30 @@ def run():
         return runner.invoke(cli.main, [str(arg) for arg in args])
 
     return invoke
+
+
+@pytest.fixture
+def holecli_process(repo_root):
+    """Run the real ``holecli`` program (``python -m holecli``) in a process of its own.
+
+    ``holecli_process(*args, **popen_options)`` returns the finished :class:`subprocess.CompletedProcess`
+    (text output, a 120 s timeout); with ``start=True`` the running :class:`subprocess.Popen`.
+    """
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, PYTHONPATH=str(repo_root))
+    env.pop("PYTHONWARNINGS", None)
+
+    def start_or_run(*args, start=False, **options):
+        command = [sys.executable, "-m", "holecli", *map(str, args)]
+        options = {"env": env, "text": True, **options}
+        if start:
+            options.setdefault("stdout", subprocess.PIPE)
+            options.setdefault("stderr", subprocess.PIPE)
+            return subprocess.Popen(command, **options)
+        options.setdefault("capture_output", "stdout" not in options and "stderr" not in options)
+        return subprocess.run(command, timeout=options.pop("timeout", 120), **options)
+
+    return start_or_run

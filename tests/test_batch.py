@@ -390,3 +390,157 @@ def test_open3d_is_imported_by_the_pool_initializer_when_a_compressed_pcd_is_in_
     log.unlink()
     list(batch.measure_all(scans, OPTIONS, jobs=1))
     assert log.read_text().splitlines() == [""]  # no compressed PCD: not paid at all
+
+
+# --- faults (issue 8, items 6, 9, 10, 11, 13) ----------------------------------------------------------
+
+
+def test_a_fifo_is_an_error_record_and_never_opened(scans, tmp_path):
+    fifo = tmp_path / "stream.pcd"
+    os.mkfifo(fifo)  # opening it would block until a writer came
+    records = []
+    import threading
+
+    worker = threading.Thread(target=lambda: records.extend(batch.measure_all([str(fifo), scans[0]], OPTIONS,
+                                                                                  jobs=1)), daemon=True)
+    worker.start()
+    worker.join(60)
+    assert not worker.is_alive(), "the batch hangs on a FIFO"
+    by_file = {record["file"]: record for record in records}
+    assert "not a regular file" in by_file[str(fifo)]["error"]
+    assert by_file[scans[0]]["holes"]
+
+
+def test_a_folder_holding_a_fifo_skips_it(tmp_path):
+    _touch(tmp_path / "a.ply")
+    os.mkfifo(tmp_path / "b.ply")
+    assert _names(batch.find_scans([str(tmp_path)]), tmp_path) == ["a.ply"]
+
+
+def test_a_worker_killed_with_the_only_file_in_flight_is_retried_alone(scans, tmp_path, monkeypatch):
+    marker = tmp_path / "killed-once"
+    measure = batch.measure_record
+
+    def killed_the_first_time(path, options, spec=None):
+        if not marker.exists():
+            marker.write_text("")
+            os.kill(os.getpid(), signal.SIGKILL)  # as the out-of-memory killer would
+        return measure(path, options, spec)
+
+    monkeypatch.setattr(batch, "measure_record", killed_the_first_time)
+    (record,) = batch.measure_all([scans[0]], OPTIONS, jobs=1)
+    assert "error" not in record and record["holes"]
+
+
+def test_a_file_that_kills_its_worker_alone_too_gets_an_error_record(scans, monkeypatch):
+    measure = batch.measure_record
+
+    def always_killed(path, options, spec=None):
+        if path == scans[1]:
+            os.kill(os.getpid(), signal.SIGKILL)
+        return measure(path, options, spec)
+
+    monkeypatch.setattr(batch, "measure_record", always_killed)
+    records = {record["file"]: record for record in batch.measure_all(scans, OPTIONS, jobs=2)}
+    assert sorted(records) == sorted(scans)
+    assert "died twice" in records[scans[1]]["error"]
+    assert records[scans[0]]["holes"] and records[scans[2]]["holes"]
+
+
+def test_workers_end_when_the_batch_process_is_killed(repo_root, scans, tmp_path):
+    import subprocess
+    import sys
+    import time
+
+    # A parent that starts a pool of two workers on slow files, then is killed with SIGKILL.
+    code = (
+        "import sys, time\n"
+        "from holecli import batch\n"
+        "def slow(path, options, spec=None):\n"
+        "    time.sleep(300)\n"
+        "batch.measure_record = slow\n"
+        "for record in batch.measure_all(sys.argv[1:], {'method': 'robust'}, jobs=2):\n"
+        "    pass\n"
+    )
+    env = dict(os.environ, PYTHONPATH=str(repo_root))
+    parent = subprocess.Popen([sys.executable, "-c", code, *scans], env=env)
+    deadline = time.monotonic() + 30
+    workers = []
+    while time.monotonic() < deadline and len(workers) < 2:
+        time.sleep(0.1)
+        children = f"/proc/{parent.pid}/task/{parent.pid}/children"
+        workers = [int(pid) for pid in open(children).read().split()] if os.path.exists(children) else []
+    assert len(workers) == 2, "the pool did not start"
+    parent.kill()
+    parent.wait()
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and any(_alive(pid) for pid in workers):
+        time.sleep(0.05)
+    alive = [pid for pid in workers if _alive(pid)]
+    for pid in alive:
+        os.kill(pid, signal.SIGKILL)
+    assert not alive, "workers outlived their batch"
+
+
+def _alive(pid):
+    try:
+        with open(f"/proc/{pid}/stat") as stream:
+            return stream.read().split(")")[-1].split()[0] != "Z"  # a zombie has ended
+    except FileNotFoundError:
+        return False
+
+
+def test_a_second_writer_of_the_same_output_is_refused_and_changes_nothing(tmp_path):
+    path = tmp_path / "out.jsonl"
+    path.write_text('{"file": "a.ply"}\n')
+    with batch.BatchOutput(str(path), "jsonl", resume=True) as first:
+        for resume in (False, True):
+            with pytest.raises(batch.OutputBusyError, match="another holecli batch is writing this file"):
+                batch.BatchOutput(str(path), "jsonl", resume=resume)
+        assert path.read_text() == '{"file": "a.ply"}\n'
+        first.write('{"file": "b.ply"}\n')
+    with batch.BatchOutput(str(path), "jsonl", resume=True) as again:  # the lock went with the first
+        assert [summary.file for summary in again.earlier] == ["a.ply", "b.ply"]
+
+
+def test_the_output_lock_is_not_held_by_the_workers(scans, tmp_path):
+    path = tmp_path / "out.jsonl"
+    with batch.BatchOutput(str(path), "jsonl") as output:
+        records = batch.measure_all(scans, OPTIONS, jobs=2)
+        output.write(json.dumps(next(records)) + "\n")  # the workers are running now
+        output.close()
+        # the parent let go: the lock is free although the workers live on
+        with batch.BatchOutput(str(path), "jsonl", resume=True) as second:
+            assert len(second.earlier) == 1
+        records.close()
+
+
+@pytest.mark.parametrize("device", ["/dev/zero", "/dev/null"])
+def test_resume_refuses_a_device(device):
+    if not os.path.exists(device):
+        pytest.skip(f"no {device}")
+    with pytest.raises(ResumeError, match="not a regular file"):
+        batch.BatchOutput(device, "jsonl", resume=True)
+
+
+def test_output_to_a_device_is_written_directly(tmp_path):
+    if not os.path.exists("/dev/null"):
+        pytest.skip("no /dev/null")
+    import stat
+
+    with batch.BatchOutput("/dev/null", "jsonl") as output:
+        output.write('{"file": "a.ply"}\n')
+    assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
+
+
+def test_files_to_do_match_by_resolved_path(tmp_path, monkeypatch):
+    scan = _touch(tmp_path / "scans" / "a.ply")
+    _touch(tmp_path / "scans" / "b.ply")
+    monkeypatch.chdir(tmp_path)
+    record = {"file": "scans/a.ply", "path": batch.resolved_path("scans/a.ply"), "holes": []}
+    monkeypatch.chdir(tmp_path / "scans")
+    earlier = [FileSummary.of_record(record)]
+    assert batch.files_to_do(["a.ply", "b.ply"], earlier) == ["b.ply"]
+    assert batch.files_to_do([str(scan)], earlier) == []
+    # a record of holecli 0.1 (no path) is resolved from the current folder
+    assert batch.files_to_do(["a.ply"], [FileSummary.of_record({"file": "a.ply", "holes": []})]) == []

@@ -7,6 +7,7 @@ import json
 import os
 import shutil
 import signal
+import stat
 import subprocess
 import sys
 import time
@@ -546,3 +547,96 @@ def test_a_record_that_cannot_be_written_becomes_an_error_record(run, good_scans
     (record,) = _lines(result.stdout)
     assert record["file"] == str(first)
     assert "the record cannot be written" in record["error"]
+
+
+# --- faults (issue 8, items 4, 10, 12, 13) -------------------------------------------------------------
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full")
+@pytest.mark.parametrize("fmt", ["jsonl", "csv"])
+def test_batch_stdout_on_a_full_disk_is_one_line_error(holecli_process, good_scans, fmt):
+    with open("/dev/full", "w") as full:
+        result = holecli_process("batch", *good_scans, "--format", fmt, "--jobs", "1", stdout=full,
+                                 stderr=subprocess.PIPE)
+    assert result.returncode == cli.EXIT_INPUT
+    assert result.stderr.splitlines()[-1] == "Error: stdout: cannot write output: No space left on device"
+    assert "Traceback" not in result.stderr
+
+
+def test_batch_csv_with_a_file_name_that_is_not_utf8(good_scans, tmp_path, repo_root, holecli_process):
+    folder = tmp_path / "scans"
+    folder.mkdir()
+    source = next(iter(good_scans))
+    raw_name = os.fsencode(folder) + b"/panel_\xff" + os.fsencode(source.suffix)
+    with open(raw_name, "wb") as stream:
+        stream.write(source.read_bytes())
+    output = tmp_path / "out.csv"
+    result = holecli_process("batch", folder, "--format", "csv", "-o", output)
+    assert result.returncode == 0, result.stderr
+    data = output.read_bytes()
+    assert b"panel_\xff" in data  # the name as its own bytes, as ls shows it
+    rows = list(csv.reader(io.StringIO(data.decode("utf-8", "surrogateescape"))))
+    assert len(rows) == 2 and rows[1][rows[0].index("path")] == os.fsdecode(os.path.realpath(raw_name))
+    again = holecli_process("batch", folder, "--format", "csv", "-o", output, "--resume")
+    assert again.returncode == 0, again.stderr
+    assert output.read_bytes() == data  # matched on resume: not measured twice
+    jsonl = holecli_process("batch", folder)
+    assert jsonl.returncode == 0 and 'panel_\\udcff.ply"' in jsonl.stdout  # JSON escapes it
+
+
+def test_resume_from_another_folder_matches_the_files_by_resolved_path(run, good_scans, tmp_path, monkeypatch):
+    scans = tmp_path / "cell" / "scans"
+    scans.mkdir(parents=True)
+    for path in good_scans:
+        shutil.copy(path, scans / path.name)
+    output = tmp_path / "out.jsonl"
+    monkeypatch.chdir(tmp_path / "cell")
+    first = run("batch", "scans", "-o", output, "--jobs", "1")
+    assert first.exit_code == 0, first.stderr
+    text = output.read_text()
+    monkeypatch.chdir(tmp_path)
+    again = run("batch", "cell/scans", "-o", output, "--resume")
+    assert again.exit_code == 0, again.stderr
+    assert output.read_text() == text
+    assert "(3 files from the earlier run in" in again.stderr
+
+
+def test_a_second_batch_on_the_same_output_is_refused(run, good_scans, tmp_path):
+    import fcntl
+
+    output = tmp_path / "out.jsonl"
+    output.write_text('{"file": "a.ply"}\n')
+    with open(output, "a") as holder:
+        fcntl.flock(holder, fcntl.LOCK_EX)  # as a running batch holds it
+        for extra in ([], ["--resume"]):
+            result = run("batch", *good_scans, "-o", output, *extra)
+            assert result.exit_code == cli.EXIT_INPUT
+            assert result.stderr.splitlines() == [f"Error: {output}: another holecli batch is writing this file "
+                                                  f"(it is locked); wait for it to finish or give another --output"]
+    assert output.read_text() == '{"file": "a.ply"}\n'
+
+
+@pytest.mark.parametrize("device", ["/dev/zero", "/dev/null"])
+def test_resume_onto_a_device_is_refused_at_once(holecli_process, good_scans, device):
+    if not os.path.exists(device):
+        pytest.skip(f"no {device}")
+    result = holecli_process("batch", *good_scans, "-o", device, "--resume", timeout=30)
+    assert result.returncode == cli.EXIT_INPUT
+    assert result.stderr == f"Error: {device}: cannot resume: not a regular file\n"
+
+
+def test_batch_output_to_a_device_is_written_directly(run, good_scans):
+    if not os.path.exists("/dev/null"):
+        pytest.skip("no /dev/null")
+    result = run("batch", *good_scans, "-o", "/dev/null", "--jobs", "1")
+    assert result.exit_code == 0, result.stderr
+    assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
+
+
+def test_a_fifo_named_to_batch_is_an_error_record_not_a_hang(holecli_process, good_scans, tmp_path):
+    fifo = tmp_path / "live.pcd"
+    os.mkfifo(fifo)
+    result = holecli_process("batch", fifo, next(iter(good_scans)), "--jobs", "1", timeout=60)
+    assert result.returncode == cli.EXIT_FILE_FAILED, result.stderr
+    records = {record["file"]: record for record in _lines(result.stdout)}
+    assert "not a regular file" in records[str(fifo)]["error"]

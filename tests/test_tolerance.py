@@ -180,11 +180,31 @@ def _spec_with(**changes):
         (_spec_with(max_tilt="1"), "max_tilt needs normal"),
         (_spec_with(normal="[0, 0, 0]", max_tilt="1"), "normal must not be the zero vector"),
         (_spec_with() + _spec_with(), "hole 2 \\('A1'\\): the name 'A1' is used twice"),
+        # strict where a shop floor needs it (issue 8, item 16)
+        (_spec_with(tolerance='"1_0"'), "expected a number"),
+        (_spec_with(tolerance='"٣"'), "expected a number"),
+        (_spec_with(tolerance='"+0.0_36/-0"'), "expected a number"),
+        (_spec_with(tolerance='"0x1p-4"'), "expected a number"),
+        (_spec_with(tolerance='"infinity"'), "expected a number"),
+        (_spec_with(name='"A1 "'), "must not start or end with spaces"),
+        (_spec_with(name='" A1"'), "must not start or end with spaces"),
+        (_spec_with(name='"A1\\n"'), "must not start or end with spaces or hold control characters"),
+        (_spec_with(name='"A\\u00001"'), "control characters"),
+        ("a = " + "[" * 5000 + "]" * 5000, "nested too deeply"),
     ],
 )
 def test_parse_spec_refuses(text, match):
     with pytest.raises(SpecError, match=match):
         parse_spec(text)
+
+
+@pytest.mark.parametrize("text, expected", [
+    ('"0.05"', Band(-0.05, 0.05)), ('"±0.05"', Band(-0.05, 0.05)), ('"± 0.05"', Band(-0.05, 0.05)),
+    ('" +0.036 / -0 "', Band(0.0, 0.036)), ('"+3.6e-2/-0"', Band(0.0, 0.036)), ('".05"', Band(-0.05, 0.05)),
+])
+def test_parse_spec_takes_plain_decimals_with_spaces_around_them(text, expected):
+    (hole,) = parse_spec(_spec_with(tolerance=text)).holes
+    assert hole.band == expected
 
 
 # --- verdicts: the diameter ----------------------------------------------------------------------
