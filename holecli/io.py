@@ -23,8 +23,8 @@ after the last. The one exception is the NUL padding of old PCL releases (up to 
 binary and binary_compressed writers stretch the file to one memory page plus the data: a PCD
 exactly that long and ending in NUL bytes is read. Bytes after the data are otherwise the sign of
 a damaged file or a wrong header (a count halved, a type relabelled, DATA ascii marked binary),
-and reading on would measure reinterpreted bytes. A header is checked against the file's size
-before anything is allocated, so a count of 10^12 costs nothing.
+and reading on would measure reinterpreted bytes. Nothing is allocated by what a header asks for
+before it is checked against what the file holds, so a count of 10^12 is refused at once.
 
 open3d reads PLY and PCD, but not defensively: a missing, truncated or malformed file comes back as
 an empty cloud, or as the header's point count filled with zeros or garbage, with at most a warning
@@ -579,11 +579,13 @@ def _minimum_record_size(element: _PlyElement) -> int:
 def _uniform_layout(data: bytes, offset: int, element: _PlyElement, byteorder: str):
     """The layout of the records, if all are laid out like the first; else None.
 
-    Returns (scalar offsets by name, record size, {list name: (offset of its length, length)}).
-
     Without lists that is always so. With lists, the first record's lengths give a candidate size;
     if every record's length fields, read at that stride, hold the same lengths, then by induction
     every record has that size.
+
+    Returns
+    -------
+    (scalar offsets by name, record size, {list name: (offset of its length, its length)}), or None.
     """
     scalar_offsets, size = {}, 0
     if element.count == 0:
@@ -640,9 +642,9 @@ def _read_ply_ascii(name: str, data: bytes, header: _PlyHeader, vertex: _PlyElem
     lines = _numbered_lines(data, header.data_offset, header.lines + 1)
     points = None
     for element in header.elements:
-        records = _parse_ascii_records(lines, element, "PLY")
+        parsed = _parse_ascii_records(lines, element, "PLY")
         if element is vertex:
-            points = records
+            points = parsed
     _refuse_lines_after(lines, header.elements[-1], "PLY")
     return points
 
