@@ -985,7 +985,8 @@ _LZF_MAX_EXPANSION = 88
 
 # PCL up to about 1.8 writes binary and binary_compressed PCD through a memory map of a file it
 # first stretches to getpagesize() + the data size: such a file ends in NUL bytes filling the page
-# the header took (all eleven PCL binary files of the real-file corpus are like that).
+# the header took (12 of the 14 binary and binary_compressed PCD files of the real-file corpus;
+# the other two, from a later PCL, end with their data).
 _PCL_PAGE_SIZES = (4096, 16384, 65536)
 
 
