@@ -49,7 +49,7 @@ from typing import Optional
 import numpy as np
 
 from holecli.errors import LoadError
-from holecli.outfile import write_bytes_atomic
+from holecli.outfile import write_bytes
 
 __all__ = ["SUPPORTED_EXTENSIONS", "Cloud", "load_points", "read_cloud", "save_points"]
 
@@ -143,13 +143,14 @@ def load_points(path) -> np.ndarray:
 
 
 def save_points(path, points) -> None:
-    """Write points to a PLY, PCD, CSV, TXT or XYZ file, replacing the file atomically.
+    """Write points to a PLY, PCD, CSV, TXT or XYZ file, replacing a regular file atomically.
 
     PLY is written as binary_little_endian and PCD as ``DATA binary``, both with double x, y, z;
     CSV gets an ``x,y,z`` header, ``.txt`` and ``.xyz`` are space separated without one. Text holds
     the shortest decimal that reads back to the same double. The data go to a temporary file in the
     same folder, which then replaces ``path``: a reader never sees half a file, and on failure the
-    temporary file is removed and ``path`` is left as it was.
+    temporary file is removed and ``path`` is left as it was. A symbolic link gets its target
+    written, a device or FIFO is written directly (see :func:`holecli.outfile.write_bytes`).
 
     Parameters
     ----------
@@ -176,7 +177,7 @@ def save_points(path, points) -> None:
         payload = _encode_pcd(array)
     else:
         payload = _encode_text(array, header=extension == ".csv")
-    write_bytes_atomic(name, payload)
+    write_bytes(name, payload)
 
 
 # --- dispatch and common checks ---------------------------------------------------------------
