@@ -8,6 +8,12 @@ import numpy as np
 
 from holecli.errors import PointsError
 
+# Relative round-off floor of a plane's noise (a multiple of the magnitude of the surface's own
+# coordinates): far below any real noise, far above float error, so that exact data keeps a band.
+ROUND_OFF = 1e-9
+# Smallest sine of the angle between the two edges of a point triple that still defines a plane.
+COLLINEAR_SINE = 1e-12
+
 
 @dataclass(frozen=True, eq=False)
 class PlaneFit:
@@ -100,22 +106,39 @@ def fit_plane_scatter(points):
     return PlaneFit(point=centroid, normal=normal, rms=rms, major=vectors[:, 2])
 
 
+def _round_off_floor(points, origin):
+    """Noise floor for a plane through ``points`` (given relative to ``origin``): ROUND_OFF times the
+    magnitude of their world coordinates and of their spread.
+
+    From the points' median and the 90th percentile of their offsets from it, so that a few points
+    far away (a stray point at 1e8) do not raise it: a floor from the extent of the whole cloud
+    widens the band until bore-wall and countersink points count as surface.
+    """
+    center = np.median(points, axis=0)
+    reach = np.percentile(np.abs(points - center), 90, axis=0)
+    return ROUND_OFF * (float(np.max(np.abs(center + origin))) + 2.0 * float(np.max(reach)))
+
+
 def _hypothesis_normals(sample, rng, count):
     triples = rng.integers(0, len(sample), size=(count, 3))
     a, b, c = sample[triples[:, 0]], sample[triples[:, 1]], sample[triples[:, 2]]
     normals = np.cross(b - a, c - a)
     lengths = np.linalg.norm(normals, axis=1)
-    good = lengths > 1e-12 * max(float(np.max(lengths)), 1e-300)
+    # Each triple against its own edges (the sine of its angle), not against the largest triple: one
+    # triple through a far point would otherwise discard every well-shaped triple of the surface.
+    edges = np.linalg.norm(b - a, axis=1) * np.linalg.norm(c - a, axis=1)
+    good = (lengths > COLLINEAR_SINE * edges) & (lengths > 0.0)
     return a[good], normals[good] / lengths[good, None]
 
 
-def _faces(sample, rng, hypotheses, quantile, clip, floor, max_faces=3):
+def _faces(sample, rng, hypotheses, quantile, clip, origin, max_faces=3):
     """Planar faces in a sample, one after the other: (count, normal, offset, sigma) each.
 
     Each round takes the RANSAC hypothesis with the smallest ``quantile`` of absolute residuals
-    (least quantile of squares) over the points not yet assigned, sets its noise from that quantile,
-    and removes its points (within ``clip`` sigma). Taking faces one by one lets a noisy main surface
-    win over a flatter but smaller side face, which a single threshold would favour.
+    (least quantile of squares) over the points not yet assigned, sets its noise from that quantile
+    (never below the round-off floor of the points within it), and removes its points (within
+    ``clip`` sigma). Taking faces one by one lets a noisy main surface win over a flatter but smaller
+    side face, which a single threshold would favour.
     """
     from scipy.special import ndtri
 
@@ -134,6 +157,7 @@ def _faces(sample, rng, hypotheses, quantile, clip, floor, max_faces=3):
         k = max(2, int(quantile * len(remaining)))
         quantiles = np.partition(residuals, k, axis=1)[:, k]
         best = int(np.argmin(quantiles))
+        floor = _round_off_floor(remaining[residuals[best] <= quantiles[best]], origin)
         sigma = max(float(quantiles[best]) / z, floor)
         members = residuals[best] <= clip * sigma
         faces.append((int(members.sum()), normals[best], float(offsets[best]), sigma))
@@ -167,20 +191,16 @@ def fit_plane_robust(points, *, rng=0, sample=2000, hypotheses=96, quantile=0.3,
     if points.ndim != 2 or points.shape[1] != 3 or len(points) < 3:
         raise PointsError(f"a plane needs an (n >= 3, 3) array, got shape {points.shape}")
     rng = np.random.default_rng(rng)
-    # Work relative to a point of the cloud (the first one: any will do) without a centred copy of all
-    # the points; only samples are copied.
-    origin = points[0].copy()
-    low, high = points.min(axis=0), points.max(axis=0)
-    # Round-off floor for the band: far below any real noise, far above float error.
-    extent = float(np.max(high - low))
-    floor = 1e-9 * (extent + float(np.max(np.abs(np.concatenate([low, high])))))
+    # Work relative to a point among the cloud's (the median of a thousand of them, so a stray point
+    # far away is not it) without a centred copy of all the points; only samples are copied.
+    origin = np.median(points[::max(1, len(points) // 1000)], axis=0)
 
     def sample_of(size):
         chosen = rng.choice(len(points), size=size, replace=False) if len(points) > size else slice(None)
         return points[chosen] - origin
 
     subset = sample_of(sample)
-    faces = _faces(subset, rng, hypotheses, quantile, clip, floor)
+    faces = _faces(subset, rng, hypotheses, quantile, clip, origin)
     if not faces:
         raise PointsError("the points are collinear (or coincide): no plane is defined")
     # The dominant face is the one that holds the most points, whatever its noise.
@@ -190,6 +210,8 @@ def fit_plane_robust(points, *, rng=0, sample=2000, hypotheses=96, quantile=0.3,
     # the band's edge.
     refine = sample_of(refine_sample)
     inliers = np.abs(refine @ normal - offset) <= clip * sigma
+    # The noise floor from the surface's own points, never from the extent of the whole cloud.
+    floor = _round_off_floor(refine[inliers], origin) if inliers.sum() >= 3 else 0.0
     for _ in range(max_rounds):
         if inliers.sum() < 3:
             raise PointsError("no plane holds enough of the points")

@@ -10,9 +10,10 @@ Steps (each its own module):
 5. per candidate, a local Delaunay triangulation and its alpha-shape rim (:mod:`holecli.boundary`);
 6. a robust geometric circle fit (:mod:`holecli.edge`, :mod:`holecli.circle`), checks that the void is
    a round hole and not a boss, a dent of the border or a natural gap, and its scanned coverage;
-7. the edge: where a countersink cone meets the surface (:mod:`holecli.countersink`), else the rim fit
-   corrected for the sampling bias, by lattice brackets on regular scans (:mod:`holecli.lattice`) or
-   by synthetic holes (:mod:`holecli.bias`); a local plane gives the normal and the 3D center.
+7. the edge: where a countersink cone meets the surface (:mod:`holecli.countersink`; the flat floor of
+   a blind hole is no cone), else the rim fit corrected for the sampling bias, by lattice brackets on
+   regular scans (:mod:`holecli.lattice`) or by synthetic holes (:mod:`holecli.bias`); a local plane
+   gives the normal and the 3D center.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from scipy import ndimage
 
 from holecli.bias import sampling_bias
 from holecli.boundary import hole_rim, near_box_edge
-from holecli.countersink import fit_cone_edge
+from holecli.countersink import Cone, fit_cone_edge
 from holecli.edge import fit_edge
 from holecli.errors import PointsError
 from holecli.frame import canonical_rotation, from_plane_frame, slide_in_plane_frame
@@ -47,6 +48,7 @@ class _Scene:
     above_xy: np.ndarray     # (k, 2) points standing above the surface band (a boss, outliers)
     surface_density: float   # surface points per unit area of scanned material
     height_noise: float      # robust sd of the surface points' heights
+    band: float              # largest |height| of a surface point: above it stand a boss or outliers
     points: np.ndarray       # (n, 3) the cloud, world coordinates
     surface_index: np.ndarray  # (m,) rows of the plane inliers in points
     heights: np.ndarray      # (n,) signed distance from the plane
@@ -135,12 +137,17 @@ def _is_boss(scene, center, radius, settings):
     return above > settings.boss_fraction * scene.surface_density * np.pi * (0.9 * radius) ** 2
 
 
-def _countersink(scene, center, radius):
-    """The countersink cone around a fitted rim, or None (see :mod:`holecli.countersink`)."""
+def _countersink(scene, center, radius, settings):
+    """The countersink cone around a fitted rim, or the named check it failed (a
+    :class:`holecli.countersink.NotACone`; see :mod:`holecli.countersink`)."""
     width = 2.0 * scene.alpha
     index = _within(scene.xy, center, max(radius - 2.0 * width, 0.0), radius + width)
+    # Points above the surface band (outliers, a stray point 1e8 off along the normal) are on no
+    # cone, and one of them would outweigh every other point in the hinge's least squares.
+    index = index[scene.heights[index] <= scene.band]
     rho = np.hypot(scene.xy[index, 0] - center[0], scene.xy[index, 1] - center[1])
-    return fit_cone_edge(rho, -scene.heights[index], radius, width, scene.height_noise)
+    return fit_cone_edge(rho, -scene.heights[index], radius, width, scene.height_noise,
+                         depth_slope_ratio=settings.cone_depth_slope_ratio)
 
 
 def _near_void(grid, void, cells):
@@ -250,8 +257,8 @@ def _measure_void(scene, grid, void, settings):
         arc = 360.0
     if _is_boss(scene, center, radius, settings):
         return None
-    cone = _countersink(scene, center, radius)
-    if cone is not None:
+    cone = _countersink(scene, center, radius, settings)
+    if isinstance(cone, Cone):
         # A countersunk hole: its edge is where the cone meets the surface.
         return _Measured(center=center, radius=cone.radius, bias=radius - cone.radius, fit=fit,
                          rim_xy=rim_xy[used], partial=partial, arc_deg=arc)
@@ -388,7 +395,7 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     surface_density = len(surface_xy) / max(float(np.count_nonzero(grid.material)) * cell * cell, 1e-300)
     height_noise = 1.4826 * float(np.median(np.abs(heights[surface])))
     scene = _Scene(xy=xy, surface_xy=surface_xy, material_xy=material_xy, above_xy=above_xy,
-                   surface_density=surface_density, height_noise=height_noise, heights=heights,
+                   surface_density=surface_density, height_noise=height_noise, band=band, heights=heights,
                    points=points, surface_index=np.flatnonzero(surface), origin=origin, rotation=rotation,
                    direction=direction, sampling=sampling, alpha=settings.alpha_gaps * gap, cell=cell,
                    min_radius=min_radius, gap_scatter=0.5 * gap)

@@ -52,6 +52,10 @@ class RobustSettings:
     # Holes are measured in this many threads when the cloud has at least this many points.
     threads: int = 2
     threads_from_points: int = 200_000
+    # A countersink cone's points below the surface must deepen toward the center at least at this
+    # fraction of the cone's fitted slope (depth per radius): the flat floor of a blind hole, at one
+    # depth all across the inside, is not a cone (check "flat_floor" of holecli.countersink).
+    cone_depth_slope_ratio: float = 0.3
     # Fewest rim points for a full hole, and for a partial hole or any hole found in a bay of the
     # scan's border (where the dents of a ragged border must not pass for holes).
     min_rim_points: int = 6

@@ -19,8 +19,9 @@ Rotation
 Sampling
     The sampling pattern is laid over the whole patch; a sample becomes a *material* point on z = 0
     when it lies inside the (possibly ragged) patch and outside every hole's surface disk, a
-    *countersink* point (lifted onto the cone) when it falls in a countersink annulus, and a *boss*
-    point when it falls under a boss. The bore wall is sampled separately, on rings.
+    *countersink* point (lifted onto the cone) when it falls in a countersink annulus, a *boss*
+    point when it falls under a boss and a *bottom* point (on the floor of a blind hole) when it falls
+    in the bore disk of a hole with ``bottom_depth``. The bore wall is sampled separately, on rings.
 Truth
     Every length in ``truth`` is already multiplied by ``unit_scale``; normals are oriented by the
     package's sign convention (z > 0; if z == 0 then y > 0; then x > 0), see :mod:`holecli.results`.
@@ -39,6 +40,7 @@ from holecli.errors import SpecError
 __all__ = [
     "BORE",
     "BOSS",
+    "BOTTOM",
     "COUNTERSINK",
     "INSIDE",
     "MATERIAL",
@@ -63,6 +65,7 @@ BORE = 2          # on a bore wall (cylinder)
 INSIDE = 3        # reflections scattered inside a hole's disk, at z = 0
 BOSS = 4          # on the top of a pin/boss, z = +boss_height
 OUTLIER = 5       # gross outlier
+BOTTOM = 6        # on the flat floor of a blind hole, z = -bottom_depth
 MISSING = -1      # NaN row
 
 TABLE1_SPACING = 0.0908
@@ -104,6 +107,10 @@ class HoleSpec:
     boss_height : float
         > 0 fills the disk with a pin/boss: a flat disk of diameter ``0.9 * diameter`` sampled with
         the scene's pattern at z = +boss_height. Not a hole; a detector must reject it.
+    bottom_depth : float
+        > 0 makes a blind hole whose flat floor, the whole bore disk, is seen by the sensor: the
+        scene's pattern inside the bore disk is sampled at z = -bottom_depth. Must be deeper than
+        the countersink and at least ``bore_depth`` (the wall ends on the floor); no boss with it.
     """
 
     center: tuple[float, float]
@@ -113,6 +120,7 @@ class HoleSpec:
     bore_depth: float = 0.0
     inside_points: int = 0
     boss_height: float = 0.0
+    bottom_depth: float = 0.0
 
     @property
     def surface_radius(self) -> float:
@@ -197,7 +205,8 @@ class SyntheticScan:
     truth : dict
         JSON-ready ground truth (plain floats, lists); see :func:`make_scan`.
     labels : (n,) int8
-        What each row is: MATERIAL, COUNTERSINK, BORE, INSIDE, BOSS, OUTLIER or MISSING (NaN row).
+        What each row is: MATERIAL, COUNTERSINK, BORE, INSIDE, BOSS, OUTLIER, BOTTOM or MISSING (NaN
+        row).
     """
 
     points: np.ndarray
@@ -473,6 +482,16 @@ def _validate_hole(name, hole):
         _fail(f"{name}.inside_points", "an integer >= 0", hole.inside_points)
     if not (_finite(hole.boss_height) and hole.boss_height >= 0):
         _fail(f"{name}.boss_height", "a finite number >= 0", hole.boss_height)
+    bottom = hole.bottom_depth
+    if not (_finite(bottom) and bottom >= 0):
+        _fail(f"{name}.bottom_depth", "a finite number >= 0", bottom)
+    if bottom > 0:
+        if bottom <= _countersink_depth(hole):
+            _fail(f"{name}.bottom_depth", f"0 or deeper than the countersink ({_countersink_depth(hole):g})", bottom)
+        if hole.bore_depth > bottom:
+            _fail(f"{name}.bottom_depth", f"0 or at least bore_depth ({hole.bore_depth!r})", bottom)
+        if hole.boss_height > 0:
+            _fail(f"{name}.bottom_depth", "0 when the hole holds a boss", bottom)
 
 
 def _check_overlaps(holes):
@@ -658,6 +677,11 @@ def _carve_holes(holes, x: np.ndarray, y: np.ndarray):
             top = rho2 < boss_r * boss_r
             z[idx[top]] = hole.boss_height
             labels[idx[top]] = BOSS
+        if hole.bottom_depth > 0:
+            r = hole.diameter / 2.0
+            floor = rho2 < r * r
+            z[idx[floor]] = -hole.bottom_depth
+            labels[idx[floor]] = BOTTOM
     return z, labels
 
 

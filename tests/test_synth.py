@@ -13,6 +13,7 @@ from scipy.spatial import cKDTree
 from holecli.synth import (
     BORE,
     BOSS,
+    BOTTOM,
     COUNTERSINK,
     INSIDE,
     MATERIAL,
@@ -249,6 +250,22 @@ def test_boss_is_above_the_surface_and_not_a_hole():
     assert scan.truth["holes"][0]["is_hole"] is False
 
 
+def test_blind_hole_floor_fills_the_bore_disk():
+    hole = HoleSpec(center=(1.0, 1.0), diameter=3.0, bottom_depth=0.6, bore_depth=0.6)
+    scene = SceneSpec(holes=(hole,), rotation_deg=(10.0, -40.0, 75.0))
+    scan = make_scan(scene)
+    local = to_local(scan, scene)
+    rho = np.hypot(local[:, 0] - 1.0, local[:, 1] - 1.0)
+    floor = scan.labels == BOTTOM
+    assert floor.sum() == pytest.approx(math.pi * 1.5**2 / H**2, rel=0.05)
+    assert rho[floor].max() < 1.5
+    np.testing.assert_allclose(local[floor, 2], -0.6, atol=1e-12)
+    # The wall ends on the floor; the surface and the truth are those of the same hole without one.
+    assert local[scan.labels == BORE, 2].min() == pytest.approx(-0.6)
+    assert rho[scan.labels == MATERIAL].min() >= 1.5
+    assert scan.truth["holes"] == make_scan(replace(scene, holes=(replace(hole, bottom_depth=0.0),))).truth["holes"]
+
+
 def test_several_holes():
     holes = (HoleSpec(center=(-1.0, -1.0), diameter=1.5), HoleSpec(center=(2.5, 2.5), diameter=2.0))
     scene = SceneSpec(holes=holes)
@@ -402,6 +419,13 @@ def test_million_point_stripes_scene_is_fast():
         ({"holes": (HoleSpec(center=(1.0,), diameter=3.0),)}, "center"),
         ({"holes": (HoleSpec(center=(1.0, 1.0), diameter=3.0, inside_points=-5),)},
          "inside_points"),
+        ({"holes": (HoleSpec(center=(1.0, 1.0), diameter=3.0, bottom_depth=-1.0),)}, "bottom_depth"),
+        ({"holes": (HoleSpec(center=(1.0, 1.0), diameter=3.0, bottom_depth=0.5, bore_depth=1.0),)},
+         r"bottom_depth must be 0 or at least bore_depth \(1.0\), got 0.5"),
+        ({"holes": (HoleSpec(center=(1.0, 1.0), diameter=3.0, countersink_diameter=4.0, bottom_depth=0.2),)},
+         "deeper than the countersink"),
+        ({"holes": (HoleSpec(center=(1.0, 1.0), diameter=3.0, boss_height=0.5, bottom_depth=1.0),)},
+         "when the hole holds a boss"),
         ({"holes": (HoleSpec(center=(0.0, 0.0), diameter=3.0),
                     HoleSpec(center=(2.0, 0.0), diameter=3.0))},
          "must not overlap"),
