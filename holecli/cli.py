@@ -37,7 +37,7 @@ EXIT_CODES_HELP = (
     "  5  out of tolerance: a checked hole is out of tolerance or a nominal hole is missing\n"
     "     (the record is still printed; takes precedence over 4)\n"
     "  6  holecli batch only: some file could not be measured\n"
-    "  130  interrupted (Ctrl-C)"
+    "  130  interrupted (Ctrl-C or SIGTERM)"
 )
 
 BATCH_EXIT_CODES_HELP = (
