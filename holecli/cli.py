@@ -512,6 +512,9 @@ def detect(scan, fmt, output, method, view_dir, min_diameter, max_holes, full_on
               help="Countersink diameter at the surface (100-degree cone) for every hole.")
 @click.option("--bore-depth", type=Decimal(min=0), default=0.0, show_default=True,
               help="Depth of bore-wall points below the surface (0: none).")
+@click.option("--bottom-depth", type=Decimal(min=0), default=0.0, show_default=True,
+              help="Blind holes: the flat floor at this depth below the surface is scanned (0: a through "
+                   "hole); at least --bore-depth.")
 @click.option("--outliers", type=Decimal(min=0, max=1), default=0.0, show_default=True,
               help="Fraction of gross outliers.")
 @click.option("--ragged", type=Decimal(min=0), default=0.0, show_default=True,
@@ -522,7 +525,7 @@ def detect(scan, fmt, output, method, view_dir, min_diameter, max_holes, full_on
 @click.option("--truth", "truth_path", type=click.Path(dir_okay=False, path_type=str), default=None,
               help="Where to write the ground truth [default: OUTPUT with .truth.json].")
 def simulate(output, diameter, center, holes, no_hole, spacing, extent, pattern, line_pitch, scan_angle, rotation,
-             translation, noise_z, noise_normal, inside_points, countersink, bore_depth, outliers, ragged,
+             translation, noise_z, noise_normal, inside_points, countersink, bore_depth, bottom_depth, outliers, ragged,
              nan_points, seed, truth_path):
     """Write a synthetic scan to OUTPUT (.ply, .pcd, .csv, .txt or .xyz) and its ground truth.
 
@@ -552,7 +555,8 @@ def simulate(output, diameter, center, holes, no_hole, spacing, extent, pattern,
         try:
             scene = synth.SceneSpec(
                 holes=tuple(synth.HoleSpec(center=(x, y), diameter=d, countersink_diameter=countersink,
-                                           bore_depth=bore_depth, inside_points=inside_points)
+                                           bore_depth=bore_depth, bottom_depth=bottom_depth,
+                                           inside_points=inside_points)
                             for x, y, d in specs),
                 extent=extent, spacing=spacing, pattern=pattern, line_pitch=line_pitch,
                 scan_angle_deg=scan_angle, rotation_deg=rotation, translation=translation,

@@ -509,3 +509,22 @@ def test_library_warnings_do_not_reach_stderr(repo_root, tmp_path):
     loud = subprocess.run([sys.executable, "-W", "default", "-c", code], capture_output=True, text=True, env=env,
                           timeout=60)
     assert "RuntimeWarning" in loud.stderr
+
+
+def test_simulate_blind_hole_is_measured_at_its_edge_not_as_a_countersink(run, tmp_path):
+    scan = tmp_path / "blind.ply"
+    result = run("simulate", scan, "--bottom-depth", "0.5", "--bore-depth", "0.5")
+    assert result.exit_code == 0, result.stderr
+    points = load_points(scan)
+    plain = tmp_path / "plain.ply"
+    assert run("simulate", plain).exit_code == 0
+    assert len(points) > len(load_points(plain))  # the floor is scanned
+    detected = run("detect", scan)
+    assert detected.exit_code == 0, detected.stderr
+    (hole,) = json.loads(detected.stdout)["holes"]
+    assert hole["diameter"] == pytest.approx(3.0, abs=0.01)
+
+
+def test_simulate_floor_above_the_bore_wall_is_an_invalid_scene(run, tmp_path):
+    result = run("simulate", tmp_path / "blind.ply", "--bottom-depth", "0.2", "--bore-depth", "0.5")
+    _assert_one_line_error(result, "bottom_depth")
