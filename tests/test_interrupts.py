@@ -23,8 +23,11 @@ def test_a_signal_at_any_moment_of_detect_is_one_line_and_130(holecli_process, t
         time.sleep(delay)
         process.send_signal(signal_number)
         out, err = process.communicate(timeout=60)
-        if process.returncode == 0:  # finished before the signal came: the result is whole
-            assert output.read_text().endswith("}\n")
+        if process.returncode in (0, -signal_number) and not err:
+            # Finished before the signal came, or it came while the interpreter was shutting down
+            # (Python restores the default handlers then; the shell shows 128 + the signal): the
+            # work is done and the result is whole.
+            assert output.read_text().endswith("}\n"), (delay, process.returncode)
             continue
         assert process.returncode == interrupts.EXIT_INTERRUPTED, (delay, process.returncode, err)
         assert err == "Error: interrupted\n", (delay, err)
@@ -45,9 +48,9 @@ def test_a_signal_at_any_moment_of_batch_is_130_without_traceback(holecli_proces
         out, err = process.communicate(timeout=60)
         lines = [line for line in output.read_text().splitlines()] if output.exists() else []
         assert all(line.startswith("{") and line.endswith("}") for line in lines)  # no line cut
-        if process.returncode == 0:
-            assert len(lines) == 2
-            continue
+        if process.returncode in (0, -signal_number) and not err.strip().startswith(("Error", "holecli batch: int")) \
+                and len(lines) == 2:
+            continue  # done before the signal came (or during the interpreter's shutdown, see above)
         assert process.returncode == interrupts.EXIT_INTERRUPTED, (delay, process.returncode, err)
         assert "Traceback" not in err and err.strip(), (delay, err)
         assert err.splitlines()[-1] == "Error: interrupted" or "interrupted after" in err, (delay, err)
