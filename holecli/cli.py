@@ -409,7 +409,24 @@ def render_table(records):
         if not record["holes"]:
             table.add_row("-", "", "", "", "no hole found", *[""] * (len(columns) - 5))
         console.print(table)
+        if "rejected" in record:
+            console.print(_rejected_table(record["rejected"]))
     return buffer.getvalue()
+
+
+def _rejected_table(rejected):
+    from rich.table import Table
+
+    def number(value):
+        return "" if value is None else (str(value) if isinstance(value, int) else f"{value:.4g}")
+
+    table = Table(title=f"{len(rejected)} candidate{'' if len(rejected) == 1 else 's'} not reported as holes")
+    for column in ("check", "center x", "center y", "center z", "size", "value", "limit", "why"):
+        table.add_column(column, justify="left" if column in ("check", "why") else "right")
+    for rejection in rejected:
+        table.add_row(rejection["check"], *(f"{v:.4f}" for v in rejection["center"]), f"{rejection['diameter']:.4f}",
+                      number(rejection["value"]), number(rejection["limit"]), rejection["reason"])
+    return table
 
 
 def emit(text, output):
@@ -432,11 +449,14 @@ def emit(text, output):
 @click.option("--format", "fmt", type=click.Choice(["json", "csv", "table"]), default="json", show_default=True,
               help="Output format: JSON record, CSV (one row per hole) or a table for people.")
 @click.option("--output", "-o", type=click.Path(dir_okay=False, path_type=str),
-              help="Write the result to this file (atomically) instead of stdout.")
+              help="Write the result to this file (a regular file atomically; - is stdout) instead of stdout.")
+@click.option("--explain", is_flag=True,
+              help="Also list every candidate that is not a hole, with the check that refused it "
+                   "(\"rejected\" in JSON, a second table with --format table).")
 @detection_option_decorators
 @tolerance_option_decorators
-def detect(scan, fmt, output, method, view_dir, min_diameter, max_holes, full_only, nominal_diameter, tolerance,
-           nominal_center, position_tolerance, nominal_normal, max_tilt, spec_file):
+def detect(scan, fmt, output, explain, method, view_dir, min_diameter, max_holes, full_only, nominal_diameter,
+           tolerance, nominal_center, position_tolerance, nominal_normal, max_tilt, spec_file):
     """Measure the holes in SCAN (.ply, .pcd, .csv, .txt or .xyz).
 
     Prints center, diameter and normal of every hole as JSON (units those of the file). With
@@ -452,7 +472,10 @@ def detect(scan, fmt, output, method, view_dir, min_diameter, max_holes, full_on
       holecli detect scan.ply --nominal-center 3.65,5.14,5.53 --position-tolerance 0.1 \\
           --nominal-normal 0.18,-0.5,0.85 --max-tilt 1
       holecli detect scan.ply --spec part.toml --format table
+      holecli detect scan.ply --explain --format table
     """
+    if explain and fmt == "csv":
+        raise click.UsageError("--explain needs --format json or table (CSV has one row per hole)")
     options = detection_options(method, view_dir, min_diameter, max_holes, full_only)
     nominal = nominal_from_options(nominal_diameter, tolerance, nominal_center, position_tolerance,
                                    nominal_normal, max_tilt, spec_file)
@@ -461,7 +484,7 @@ def detect(scan, fmt, output, method, view_dir, min_diameter, max_holes, full_on
         from holecli.tolerance import check
 
         spec = read_spec(spec_file) if spec_file is not None else nominal
-        record = measure_file(scan, options).to_dict()
+        record = measure_file(scan, options).to_dict(explain=explain)
         if spec is not None:
             record = check(record, spec)
         emit(render([record], fmt), output)

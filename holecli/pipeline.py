@@ -136,11 +136,14 @@ def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_hol
         if view_dir is not None or min_diameter is not None or max_holes is not None or full_only:
             raise PointsError("the paper method takes no options (view_dir, min_diameter, max_holes, full_only)")
         plane, holes = _detect_paper(points)
+        rejected = ()
     else:
         from holecli.robust import detect_robust
         from holecli.settings import DEFAULT_SETTINGS
 
-        plane, holes = detect_robust(points, view_dir=view_dir, min_diameter=min_diameter, max_holes=max_holes,
-                                     full_only=full_only, settings=settings or DEFAULT_SETTINGS, rng=rng)
+        plane, holes, rejected = detect_robust(points, view_dir=view_dir, min_diameter=min_diameter,
+                                               max_holes=max_holes, full_only=full_only,
+                                               settings=settings or DEFAULT_SETTINGS, rng=rng)
     elapsed_ms = (time.perf_counter() - started) * 1000.0
-    return Detection(holes=holes, plane=plane, points=len(points), method=method, elapsed_ms=elapsed_ms)
+    return Detection(holes=holes, plane=plane, points=len(points), method=method, elapsed_ms=elapsed_ms,
+                     rejected=rejected)

@@ -99,6 +99,40 @@ class Hole:
 
 
 @dataclass(frozen=True)
+class Rejection:
+    """A candidate void that is not reported as a hole, and why (``holecli detect --explain``).
+
+    Attributes
+    ----------
+    check : str
+        The check that refused it: ``no_rim``, ``too_few_rim_points``, ``no_circle_fit``,
+        ``below_min_diameter``, ``circle_off_void``, ``not_round``, ``partial_rim_arc``, ``boss``,
+        ``duplicate``, ``partial_left_out`` or ``beyond_max_holes`` (see the README).
+    reason : str
+        That check in a sentence.
+    center : (3,) tuple of float
+        Where the candidate is: the center of its fitted circle when it got one, else of its void,
+        on the surface plane (file units).
+    diameter : float
+        Its size: the fitted circle's diameter, else the void's extent (file units).
+    value, limit : float or int or None
+        The value the check measured and the limit it failed (None for a check without a number).
+    """
+
+    check: str
+    reason: str
+    center: Vector
+    diameter: float
+    value: Optional[float] = None
+    limit: Optional[float] = None
+
+    def to_dict(self) -> dict:
+        out = asdict(self)
+        out["center"] = list(self.center)
+        return out
+
+
+@dataclass(frozen=True)
 class Detection:
     """Everything one run of the pipeline found in one cloud.
 
@@ -118,6 +152,9 @@ class Detection:
         Rows of the file dropped because a coordinate was NaN or infinite.
     elapsed_ms : float
         Wall time of the detection, in milliseconds.
+    rejected : tuple of Rejection
+        The candidate voids that are not holes, largest first (``robust`` only; empty for
+        ``paper``, which has one candidate).
     """
 
     holes: tuple[Hole, ...]
@@ -127,10 +164,12 @@ class Detection:
     file: Optional[str] = None
     dropped_points: int = 0
     elapsed_ms: float = 0.0
+    rejected: tuple[Rejection, ...] = ()
 
-    def to_dict(self) -> dict:
-        """The JSON record of the command line (see the README for the contract)."""
-        return {
+    def to_dict(self, explain=False) -> dict:
+        """The JSON record of the command line (see the README for the contract); with ``explain``
+        also ``rejected``, the list of :class:`Rejection`."""
+        record = {
             "file": self.file,
             "points": self.points,
             "dropped_points": self.dropped_points,
@@ -144,3 +183,6 @@ class Detection:
             "holes": [hole.to_dict() for hole in self.holes],
             "elapsed_ms": self.elapsed_ms,
         }
+        if explain:
+            record["rejected"] = [rejection.to_dict() for rejection in self.rejected]
+        return record

@@ -32,7 +32,7 @@ from holecli.errors import PointsError
 from holecli.frame import canonical_rotation, from_plane_frame, slide_in_plane_frame
 from holecli.lattice import lattice_steps, separating_circle
 from holecli.plane import fit_plane_robust, fit_plane_scatter
-from holecli.results import Hole, Plane
+from holecli.results import Hole, Plane, Rejection
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.spacing import estimate_sampling
 from holecli.voids import find_voids, occupancy_grid
@@ -60,6 +60,34 @@ class _Scene:
     cell: float
     min_radius: float
     gap_scatter: float       # rim scatter the sampling alone produces
+
+
+@dataclass(frozen=True)
+class _Rejected:
+    """A candidate void that is not reported as a hole: the check that refused it, with its value and
+    limit (None where the check has no number), and where the void is (plane frame)."""
+
+    check: str
+    value: object
+    limit: object
+    center: np.ndarray
+    radius: float
+
+
+# What each check means, for the record and for people (holecli detect --explain).
+REJECTION_REASONS = {
+    "no_rim": "no hole boundary around the void (a gap of the sampling)",
+    "too_few_rim_points": "too few rim points for a circle fit",
+    "no_circle_fit": "the rim points do not give a circle",
+    "below_min_diameter": "smaller than the minimum diameter",
+    "circle_off_void": "the fitted circle does not cover the void it came from",
+    "not_round": "the rim is not round (robust scatter of the radial residuals above the limit)",
+    "partial_rim_arc": "a partial hole whose rim covers too little of its circle",
+    "boss": "material stands above the surface inside it (a pin or boss, not a hole)",
+    "duplicate": "the same hole as another candidate with more rim points",
+    "partial_left_out": "a partial hole, left out by --full-only",
+    "beyond_max_holes": "smaller than the holes kept by --max-holes",
+}
 
 
 @dataclass(frozen=True, eq=False)
@@ -131,10 +159,12 @@ def _scan_lines(scene, rim_xy, center, radius):
     return int(len(np.unique(np.round((across - across.min()) / sampling.line_pitch))))
 
 
-def _is_boss(scene, center, radius, settings):
-    """True when material stands above the surface inside the void (a pin or boss, not a hole)."""
+def _boss_points(scene, center, radius, settings):
+    """Points standing above the surface inside the void, and how many a hole may have: more is
+    material (a pin or boss), not a hole."""
     above = len(_within(scene.above_xy, center, 0.0, 0.9 * radius))
-    return above > settings.boss_fraction * scene.surface_density * np.pi * (0.9 * radius) ** 2
+    allowed = settings.boss_fraction * scene.surface_density * np.pi * (0.9 * radius) ** 2
+    return above, float(allowed)
 
 
 def _countersink(scene, center, radius, settings):
@@ -196,8 +226,26 @@ def _void_neighbourhood(scene, grid, void, void_mask, margin):
 
 
 def _measure_void(scene, grid, void, settings):
-    """Measure one void; returns a :class:`_Measured` or None when it is not a hole."""
+    """Measure one void; returns a :class:`_Measured`, or a :class:`_Rejected` naming the check that
+    refused it."""
     cell, alpha = scene.cell, scene.alpha
+    void_xy = grid.center_of(void.cells)
+    void_center = void_xy.mean(axis=0)
+    void_radius = float(np.max(np.hypot(*(void_xy - void_center).T))) + 0.5 * cell
+
+    def reject(check, value=None, limit=None, center=None, radius=None):
+        return _Rejected(check=check, value=value, limit=limit,
+                         center=void_center if center is None else center,
+                         radius=void_radius if radius is None else float(radius))
+
+    def refusal_of_fit(fit, used, fewest):
+        if fit is None:
+            return reject("no_circle_fit")
+        if used.sum() < fewest:
+            return reject("too_few_rim_points", int(used.sum()), fewest, fit.center, fit.radius)
+        if fit.radius < scene.min_radius:
+            return reject("below_min_diameter", 2.0 * fit.radius, 2.0 * scene.min_radius, fit.center, fit.radius)
+        return None
     margin = settings.margin_alphas * alpha + cell
     void_mask = np.zeros_like(grid.material)
     void_mask[void.cells[:, 0], void.cells[:, 1]] = True
@@ -208,7 +256,7 @@ def _measure_void(scene, grid, void, settings):
     local, cut = _void_neighbourhood(scene, grid, void, void_mask, margin)
     rim = hole_rim(local, in_void, alpha, cut=cut)
     if rim is None:
-        return None
+        return reject("no_rim")
     rim_xy = local[rim.index]
     # Keep rim points next to the void: an open region also runs along the scan's outer edge.
     near = _near_void(grid, void, 2)
@@ -217,11 +265,12 @@ def _measure_void(scene, grid, void, settings):
     # when its rim closes: dents of a ragged border are bays too.
     fewest = settings.min_partial_rim_points if not void.enclosed else settings.min_rim_points
     if len(rim_xy) < fewest:
-        return None
+        return reject("too_few_rim_points", len(rim_xy), fewest)
     floor = settings.clip_floor_spacings * scene.sampling.spacing
     fit, used = fit_edge(rim_xy, alpha, floor, settings.clip_sigmas)
-    if fit is None or used.sum() < fewest or fit.radius < scene.min_radius:
-        return None
+    refused = refusal_of_fit(fit, used, fewest)
+    if refused is not None:
+        return refused
     # Points deep inside the fitted hole (reflections next to the edge) can shield the true rim from
     # the triangulation: drop them and extract the rim once more.
     deep = np.hypot(*(local - fit.center).T) < fit.radius - alpha
@@ -229,21 +278,24 @@ def _measure_void(scene, grid, void, settings):
         local = local[~deep]
         rim = hole_rim(local, in_void, alpha, cut=cut[~deep])
         if rim is None:
-            return None
+            return reject("no_rim", center=fit.center, radius=fit.radius)
         rim_xy = local[rim.index]
         rim_xy = rim_xy[near(rim_xy)]
         if len(rim_xy) < fewest:
-            return None
+            return reject("too_few_rim_points", len(rim_xy), fewest, fit.center, fit.radius)
         fit, used = fit_edge(rim_xy, alpha, floor, settings.clip_sigmas)
-        if fit is None or used.sum() < fewest or fit.radius < scene.min_radius:
-            return None
+        refused = refusal_of_fit(fit, used, fewest)
+        if refused is not None:
+            return refused
     center, radius = fit.center, fit.radius
     # The circle must sit on the void it came from, and the rim must be round.
-    if np.min(np.hypot(*(grid.center_of(void.cells) - center).T)) > radius:
-        return None
+    off_void = float(np.min(np.hypot(*(void_xy - center).T)))
+    if off_void > radius:
+        return reject("circle_off_void", off_void, float(radius), center, radius)
     scatter = 1.4826 * float(np.median(np.abs(fit.residuals)))
-    if scatter > settings.max_relative_scatter * radius + scene.gap_scatter:
-        return None
+    allowed = settings.max_relative_scatter * radius + scene.gap_scatter
+    if scatter > allowed:
+        return reject("not_round", scatter, float(allowed), center, radius)
     # A closed region whose rim still misses a third of the circle lost its rim to missing data.
     # Partial: the circle is not surrounded by scanned material (cut by the scan's border, or its
     # rim lost to missing data). Such a hole is accepted on the rim points' own (conservative)
@@ -251,12 +303,16 @@ def _measure_void(scene, grid, void, settings):
     arc = _material_arc(grid, center, radius)
     partial = arc < settings.full_arc_deg
     if partial:
-        if _rim_arc(rim_xy[used], center) < settings.min_partial_arc_deg or used.sum() < settings.min_partial_rim_points:
-            return None
+        rim_arc = _rim_arc(rim_xy[used], center)
+        if rim_arc < settings.min_partial_arc_deg:
+            return reject("partial_rim_arc", float(rim_arc), settings.min_partial_arc_deg, center, radius)
+        if used.sum() < settings.min_partial_rim_points:
+            return reject("too_few_rim_points", int(used.sum()), settings.min_partial_rim_points, center, radius)
     else:
         arc = 360.0
-    if _is_boss(scene, center, radius, settings):
-        return None
+    above, allowed_above = _boss_points(scene, center, radius, settings)
+    if above > allowed_above:
+        return reject("boss", above, allowed_above, center, radius)
     cone = _countersink(scene, center, radius, settings)
     if isinstance(cone, Cone):
         # A countersunk hole: its edge is where the cone meets the surface.
@@ -272,7 +328,7 @@ def _measure_void(scene, grid, void, settings):
     else:
         bias = _sampling_bias(scene, center, radius, settings, floor, partial)
     if radius - bias < scene.min_radius:
-        return None
+        return reject("below_min_diameter", 2.0 * (radius - bias), 2.0 * scene.min_radius, center, radius - bias)
     return _Measured(center=center, radius=radius - bias, bias=bias, fit=fit, rim_xy=rim_xy[used],
                      partial=partial, arc_deg=arc)
 
@@ -301,15 +357,16 @@ def _sampling_bias(scene, center, radius, settings, floor, partial):
 
 
 def _measure_voids(scene, grid, voids, settings):
-    """:func:`_measure_void` of every void, in order; on a large cloud two at a time in threads.
+    """:func:`_measure_void` of every void (a hole or a rejection), in order; on a large cloud two at
+    a time in threads.
 
     The per-hole work is mostly Qhull and numpy, which release the interpreter lock, so a second
     thread uses the second core of the machine; small clouds are not worth the threads.
     """
     def measure(void):
         measured = _measure_void(scene, grid, void, settings)
-        if measured is None:
-            return None
+        if isinstance(measured, _Rejected):
+            return measured
         return replace(measured, surface_plane=_local_normal(scene, measured.center, measured.radius))
 
     if len(voids) < 2 or len(scene.xy) < settings.threads_from_points:
@@ -361,6 +418,8 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     plane : Plane
     holes : tuple of Hole
         Full holes before partial ones, each group ordered by center x, then y, then z.
+    rejected : tuple of Rejection
+        Every candidate void that is not a hole, with the check that refused it, largest first.
     """
     plane = fit_plane_robust(points, rng=rng, sample=settings.ransac_sample,
                              hypotheses=settings.ransac_hypotheses, quantile=settings.ransac_quantile,
@@ -399,22 +458,47 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
                    points=points, surface_index=np.flatnonzero(surface), origin=origin, rotation=rotation,
                    direction=direction, sampling=sampling, alpha=settings.alpha_gaps * gap, cell=cell,
                    min_radius=min_radius, gap_scatter=0.5 * gap)
-    found = []
+    found, rejected = [], []
     for measured in _measure_voids(scene, grid, find_voids(grid), settings):
-        if measured is None:
+        if isinstance(measured, _Rejected):
+            rejected.append(measured)
             continue
         twin = next((i for i, other in enumerate(found) if _overlaps(measured, other)), None)
         if twin is None:
             found.append(measured)
-        elif measured.fit.kept.sum() > found[twin].fit.kept.sum():
-            found[twin] = measured
+            continue
+        kept, dropped = (measured, found[twin]) if measured.fit.kept.sum() > found[twin].fit.kept.sum() \
+            else (found[twin], measured)
+        found[twin] = kept
+        rejected.append(_as_rejected(dropped, "duplicate", int(dropped.fit.kept.sum()), int(kept.fit.kept.sum())))
     if full_only:
+        rejected.extend(_as_rejected(m, "partial_left_out", m.arc_deg, settings.full_arc_deg)
+                        for m in found if m.partial)
         found = [m for m in found if not m.partial]
     if max_holes is not None and len(found) > max_holes:
-        found = sorted(found, key=lambda m: -m.radius)[:max_holes]
+        ranked = sorted(found, key=lambda m: -m.radius)
+        found = ranked[:max_holes]
+        rejected.extend(_as_rejected(m, "beyond_max_holes", 2.0 * m.radius, 2.0 * found[-1].radius)
+                        for m in ranked[max_holes:])
     holes = [_to_hole(scene, measured, 0) for measured in found]
     holes.sort(key=lambda hole: (hole.partial, hole.center))
     holes = tuple(Hole(**{**hole.__dict__, "index": i}) for i, hole in enumerate(holes))
     plane_result = Plane(point=tuple(map(float, origin)), normal=tuple(map(float, normal)), rms=plane.rms,
                          inliers=int(surface.sum()))
-    return plane_result, holes
+    rejections = tuple(sorted((_to_rejection(scene, r) for r in rejected), key=lambda r: (-r.diameter, r.center)))
+    return plane_result, holes, rejections
+
+
+def _as_rejected(measured, check, value, limit):
+    return _Rejected(check=check, value=value, limit=limit, center=measured.center, radius=float(measured.radius))
+
+
+def _to_rejection(scene, rejected):
+    center = from_plane_frame(np.array([rejected.center[0], rejected.center[1], 0.0]), scene.origin, scene.rotation)
+
+    def number(value):
+        return None if value is None else (int(value) if isinstance(value, (int, np.integer)) else float(value))
+
+    return Rejection(check=rejected.check, reason=REJECTION_REASONS[rejected.check],
+                     center=tuple(map(float, center)), diameter=2.0 * rejected.radius,
+                     value=number(rejected.value), limit=number(rejected.limit))
