@@ -1,0 +1,985 @@
+"""Closed triangle meshes of aircraft-panel test parts with drilled features, and their exact truth.
+
+A panel is a sheet of ``width x height x thickness`` mm, flat or bent into a cylinder of radius
+``radius`` about an axis along the sheet's ``v`` direction, with through holes, countersunk and
+counterbored holes, blind holes and rounded slots. :func:`build_panel` returns the mesh (arrays in
+memory; writing files is another module's job) and, for every feature, its ground truth.
+
+Frames
+------
+Sheet frame
+    ``(u, v)`` are arc-length coordinates on the top surface, the origin at the panel's centre, ``u``
+    across the bend and ``v`` along the bend axis; ``w >= 0`` is the depth below the top surface.
+World
+    Flat: ``(u, v, w) -> (u, v, -w)``: the top face is z = 0 with normal +z, the material on
+    z <= 0. Convex: the axis of curvature is the line x = 0, z = -R; a point goes to
+    ``(0, v, -R) + (R - w) (sin(u/R), 0, cos(u/R))`` (top outward, material inside the cylinder).
+    Concave: the axis is x = 0, z = +R and a point goes to ``(0, v, R) + (R + w) (sin(u/R), 0,
+    -cos(u/R))`` (top facing the axis). In all three the top surface passes through the origin
+    with normal +z there.
+
+Construction (no CSG)
+---------------------
+Every feature is drilled along the top surface's normal ``n`` at its centre ``c`` (the image of
+its ``(u, v)`` centre): its walls are exact cylinders, cones and planes about that axis. The loops
+where the walls meet the top and bottom surfaces are computed exactly (a quadratic per vertex), so
+every mesh vertex lies on the true surface; only the flat facets between vertices deviate from it.
+The top and bottom faces are 2D Delaunay triangulations in ``(u, v)`` of: the panel border, each
+feature's contour (mapped back into ``(u, v)``), graded offset rings around each contour (spacing
+growing by ``_RING_GROWTH`` from the contour's own spacing, so that the contour's edges are Gabriel
+edges and therefore Delaunay edges; this is checked) and a background grid. Triangles whose three
+vertices lie on one (convex) contour are inside the feature and dropped. Walls are strips between
+loops of the same vertex count; floors are annuli or fans; the four sides are strips between the
+top and bottom borders.
+
+Accuracy
+--------
+Circles get ``N`` segments with sagitta ``r (1 - cos(pi / N)) <= chord_error`` (default 0.1 um),
+or ``segments`` if given. On a curved sheet the background grid's ``u`` spacing is limited to
+``sqrt(8 R chord_error)`` so the facets stay within ``chord_error`` of the cylinder away from the
+features (within a few times that where the rings meet the grid).
+
+Truth on curved sheets
+----------------------
+A drilled cylinder meets a cylindrical surface in a saddle-shaped loop, not a plane circle. The
+truth gives ``center`` = where the axis pierces the top surface, ``axis`` = ``normal`` = the top
+normal there, and ``diameter`` = the *chord-mean diameter* of the visible edge loop measured in the
+tangent plane at ``center`` (projected along the axis; mean length of the chords through the axis,
+computed from ``_TRUTH_SAMPLES`` exact points of the loop). For a plain or blind bore this is the
+drilled diameter exactly; for a countersink or counterbore it differs from the nominal diameter
+(which holds in the tangent plane through ``center``) by about ``tan(half angle) r^2 / (2R)`` for a
+cone and not at all for a counterbore. ``edge_axial_offset`` gives how far the loop leaves the
+tangent plane (min, mean, max along the axis; all zero on a flat sheet), so a scorer fitting a 3D
+circle knows where its centre should be. Because holes are polygons, ``polygon_circumradius`` and
+``polygon_inradius`` describe the mesh's own projected edge polygon.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+from scipy.spatial import Delaunay
+
+from holecli.errors import SpecError
+
+__all__ = [
+    "BOTTOM",
+    "CURVATURES",
+    "FLOOR",
+    "KINDS",
+    "SIDE",
+    "TOP",
+    "WALL",
+    "FeatureSpec",
+    "Panel",
+    "PanelSpec",
+    "build_panel",
+    "panel_truth",
+    "parse_panel_toml",
+]
+
+KINDS = ("through", "countersunk", "counterbored", "blind", "slot")
+CURVATURES = ("flat", "convex", "concave")
+
+# Per-triangle part labels of Panel.parts.
+TOP = 0       # the top face, the one a profiler sees
+BOTTOM = 1    # the bottom face
+SIDE = 2      # the four outer side walls
+WALL = 3      # a feature's bore, cone, counterbore or slot wall
+FLOOR = 4     # a counterbore's annulus or a blind hole's floor
+
+# Smallest gap (mm) between two features' outer contours, and between a contour and the border:
+# the graded rings need room to keep each contour's edges Delaunay.
+_MIN_GAP = 0.5
+# Ratio between the spacings (and widths) of successive offset rings around a contour.
+_RING_GROWTH = 1.3
+# Fewest segments of a circle, whatever the chord error.
+_MIN_SEGMENTS = 32
+# Exact points of an edge loop used for the truth's diameters and offsets.
+_TRUTH_SAMPLES = 4096
+# Largest half-angle of the panel's arc, u / R (radians): beyond it the sheet is more tube than panel.
+_MAX_HALF_ARC = math.pi / 4
+# Radius of curvature at least this many thicknesses.
+_MIN_RADIUS_THICKNESSES = 10.0
+# Countersink included angles accepted (degrees); 82, 90, 100 and 110 are the standard ones.
+_COUNTERSINK_ANGLE_RANGE = (30.0, 150.0)
+# Smallest wall height (mm) between two loops at different depths, and from a loop to a surface.
+_MIN_WALL = 0.01
+
+
+# --------------------------------------------------------------------------------------------------
+# Specifications
+
+
+@dataclass(frozen=True)
+class FeatureSpec:
+    """One feature of a panel, in the sheet frame.
+
+    Attributes
+    ----------
+    kind : {'through', 'countersunk', 'counterbored', 'blind', 'slot'}
+        ``'through'``: a cylindrical bore through the sheet. ``'countersunk'``: a cone of
+        ``countersink_angle_deg`` from ``countersink_diameter`` at the surface down to the bore, then
+        the bore through. ``'counterbored'``: a step of ``counterbore_diameter`` and
+        ``counterbore_depth``, then the bore through. ``'blind'``: a bore to a flat floor at
+        ``depth``. ``'slot'``: a rounded slot cut through, ``width`` by ``length`` (overall, end
+        to end) along ``direction_deg``; not a hole.
+    center : (2,) tuple of float
+        ``(u, v)`` of the feature's axis on the top surface, mm (arc length on a curved sheet).
+    diameter : float or None
+        Bore diameter, mm, > 0; None (omitted) for a slot.
+    countersink_diameter : float or None
+        Outer diameter of the cone in the tangent plane at the centre, > ``diameter``.
+    countersink_angle_deg : float
+        Included angle of the cone, degrees (82, 90, 100, 110 are standard).
+    counterbore_diameter, counterbore_depth : float or None
+        Diameter (> ``diameter``) and depth (0 < depth < thickness, along the axis) of the step.
+    depth : float or None
+        Depth of a blind hole's floor below the tangent plane at the centre, along the axis.
+    width, length, direction_deg : float or None
+        A slot's width, overall length (> width) and the direction of its length, degrees from +u
+        towards +v.
+    name : str or None
+        A label copied into the truth.
+    """
+
+    kind: str
+    center: tuple[float, float]
+    diameter: Optional[float] = None
+    countersink_diameter: Optional[float] = None
+    countersink_angle_deg: float = 100.0
+    counterbore_diameter: Optional[float] = None
+    counterbore_depth: Optional[float] = None
+    depth: Optional[float] = None
+    width: Optional[float] = None
+    length: Optional[float] = None
+    direction_deg: float = 0.0
+    name: Optional[str] = None
+
+    @property
+    def outer_radius(self) -> float:
+        """Radius of the outer contour at the surface (nominal, tangent plane), mm; slot: width / 2."""
+        if self.kind == "countersunk":
+            return self.countersink_diameter / 2.0
+        if self.kind == "counterbored":
+            return self.counterbore_diameter / 2.0
+        if self.kind == "slot":
+            return self.width / 2.0
+        return self.diameter / 2.0
+
+
+@dataclass(frozen=True)
+class PanelSpec:
+    """A panel and its features.
+
+    Attributes
+    ----------
+    width, height : float
+        Extent along ``u`` (across the bend; arc length when curved) and ``v``, mm.
+    thickness : float
+        Sheet thickness, mm (2-6 is typical).
+    curvature : {'flat', 'convex', 'concave'}
+        Flat, or bent about an axis along ``v`` with the top face outward (convex) or facing the
+        axis (concave).
+    radius : float or None
+        Radius of the top surface, mm (500-2000 is typical); required unless flat, None when flat.
+    features : tuple of FeatureSpec
+        Features; their outer contours must stay ``_MIN_GAP`` apart and inside the border.
+    chord_error : float
+        Largest sagitta of a polygon segment (and of a facet across the bend), mm.
+    segments : int or None
+        Segments per circle for every feature, overriding ``chord_error`` for the contours.
+    grid_spacing : float
+        Spacing of the background grid of the top and bottom faces, mm.
+    """
+
+    width: float
+    height: float
+    thickness: float
+    curvature: str = "flat"
+    radius: Optional[float] = None
+    features: tuple[FeatureSpec, ...] = ()
+    chord_error: float = 1e-4
+    segments: Optional[int] = None
+    grid_spacing: float = 2.0
+
+
+@dataclass(frozen=True, eq=False)
+class Panel:
+    """A panel's mesh and truth.
+
+    Attributes
+    ----------
+    vertices : (n, 3) float64
+        Vertex coordinates, mm, in the world frame of the module docstring.
+    triangles : (m, 3) int64
+        Vertex indices, counter-clockwise seen from outside (normals point out of the material).
+    parts : (m,) int8
+        Part of each triangle: :data:`TOP`, :data:`BOTTOM`, :data:`SIDE`, :data:`WALL`, :data:`FLOOR`.
+    triangle_feature : (m,) int64
+        Index of the feature a WALL or FLOOR triangle belongs to, -1 for the others.
+    edge_loops : tuple of (k,) int64
+        For each feature, the vertex indices of its visible edge on the top surface, in order
+        (counter-clockwise about the axis).
+    features : tuple of dict
+        Truth per feature, JSON-ready; see :func:`build_panel`.
+    spec : PanelSpec
+        The specification built.
+    """
+
+    vertices: np.ndarray
+    triangles: np.ndarray
+    parts: np.ndarray
+    triangle_feature: np.ndarray
+    edge_loops: tuple
+    features: tuple
+    spec: PanelSpec = field(repr=False)
+
+
+# --------------------------------------------------------------------------------------------------
+# Validation
+
+
+def _fail(name, expected, value):
+    raise SpecError(f"{name} must be {expected}, got {value!r}")
+
+
+def _number(value) -> bool:
+    return not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating)) \
+        and math.isfinite(float(value))
+
+
+def _positive(name, value):
+    if not (_number(value) and value > 0):
+        _fail(name, "a finite number > 0", value)
+
+
+def _validate(spec, label="features") -> None:
+    if not isinstance(spec, PanelSpec):
+        _fail("spec", "a PanelSpec", spec)
+    for name in ("width", "height", "thickness", "chord_error", "grid_spacing"):
+        _positive(name, getattr(spec, name))
+    if spec.curvature not in CURVATURES:
+        _fail("curvature", f"one of {', '.join(CURVATURES)}", spec.curvature)
+    if spec.curvature == "flat":
+        if spec.radius is not None:
+            _fail("radius", "None (omitted) for a flat panel", spec.radius)
+    else:
+        low = _MIN_RADIUS_THICKNESSES * spec.thickness
+        if not (_number(spec.radius) and spec.radius >= low):
+            _fail("radius", f"a finite number >= {low:g} ({_MIN_RADIUS_THICKNESSES:g} thicknesses) "
+                  f"for a {spec.curvature} panel", spec.radius)
+        if spec.width / 2.0 > _MAX_HALF_ARC * spec.radius:
+            _fail("width", f"at most {2 * _MAX_HALF_ARC * spec.radius:g} (a quarter turn of radius "
+                  f"{spec.radius:g})", spec.width)
+    if spec.segments is not None and not (isinstance(spec.segments, (int, np.integer))
+                                          and not isinstance(spec.segments, bool)
+                                          and spec.segments >= 8 and spec.segments % 4 == 0):
+        _fail("segments", "None or an integer >= 8 divisible by 4", spec.segments)
+    try:
+        features = tuple(spec.features)
+    except TypeError:
+        _fail("features", "a sequence of FeatureSpec", spec.features)
+    for k, feature in enumerate(features):
+        _validate_feature(f"{label}[{k}]", feature, spec)
+    _check_gaps(features, spec, label)
+    # The curved-sheet checks that need the exact loops are made in _feature_loops.
+
+
+def _validate_feature(name, f, spec) -> None:
+    if not isinstance(f, FeatureSpec):
+        _fail(name, "a FeatureSpec", f)
+    if f.kind not in KINDS:
+        _fail(f"{name}.kind", f"one of {', '.join(KINDS)}", f.kind)
+    try:
+        ok = len(f.center) == 2 and all(_number(v) for v in f.center)
+    except TypeError:
+        ok = False
+    if not ok:
+        _fail(f"{name}.center", "2 finite numbers (u, v)", f.center)
+    if f.name is not None and not (isinstance(f.name, str) and f.name.strip() and f.name.isprintable()):
+        _fail(f"{name}.name", "None or a non-empty printable string", f.name)
+    t = spec.thickness
+    allowed = {"through": set(), "countersunk": {"countersink_diameter", "countersink_angle_deg"},
+               "counterbored": {"counterbore_diameter", "counterbore_depth"}, "blind": {"depth"},
+               "slot": {"width", "length", "direction_deg"}}[f.kind]
+    defaults = FeatureSpec(kind=f.kind, center=f.center)
+    for key in ("diameter", "countersink_diameter", "countersink_angle_deg", "counterbore_diameter",
+                "counterbore_depth", "depth", "width", "length", "direction_deg"):
+        if key == "diameter" and f.kind != "slot":
+            continue
+        if key not in allowed and getattr(f, key) != getattr(defaults, key):
+            _fail(f"{name}.{key}", f"omitted for a {f.kind} feature", getattr(f, key))
+    if f.kind != "slot":
+        _positive(f"{name}.diameter", f.diameter)
+    if f.kind == "countersunk":
+        if not (_number(f.countersink_diameter) and f.countersink_diameter > f.diameter):
+            _fail(f"{name}.countersink_diameter", f"a finite number > diameter ({f.diameter:g})",
+                  f.countersink_diameter)
+        low, high = _COUNTERSINK_ANGLE_RANGE
+        if not (_number(f.countersink_angle_deg) and low <= f.countersink_angle_deg <= high):
+            _fail(f"{name}.countersink_angle_deg", f"an angle in degrees from {low:g} to {high:g} "
+                  "(82, 90, 100, 110 are standard)", f.countersink_angle_deg)
+        depth = _countersink_depth(f)
+        if depth >= t - _MIN_WALL:
+            _fail(f"{name}.countersink_diameter", f"small enough for the cone's depth ({depth:g}) to "
+                  f"stay above the bottom (thickness {t:g})", f.countersink_diameter)
+    if f.kind == "counterbored":
+        if not (_number(f.counterbore_diameter) and f.counterbore_diameter > f.diameter):
+            _fail(f"{name}.counterbore_diameter", f"a finite number > diameter ({f.diameter:g})",
+                  f.counterbore_diameter)
+        if not (_number(f.counterbore_depth) and 0 < f.counterbore_depth < t):
+            _fail(f"{name}.counterbore_depth", f"a number in (0, thickness = {t:g})", f.counterbore_depth)
+    if f.kind == "blind":
+        if not (_number(f.depth) and 0 < f.depth < t):
+            _fail(f"{name}.depth", f"a number in (0, thickness = {t:g})", f.depth)
+    if f.kind == "slot":
+        if f.diameter is not None:
+            _fail(f"{name}.diameter", "omitted for a slot (give width and length)", f.diameter)
+        _positive(f"{name}.width", f.width)
+        if not (_number(f.length) and f.length > f.width):
+            _fail(f"{name}.length", f"a finite number > width ({f.width:g}), the overall length", f.length)
+        if not _number(f.direction_deg):
+            _fail(f"{name}.direction_deg", "a finite angle in degrees", f.direction_deg)
+
+
+def _shape(f):
+    """The feature's outer contour in (u, v) as a capsule: centre, unit direction, half-length, radius."""
+    c = np.array([float(f.center[0]), float(f.center[1])])
+    if f.kind == "slot":
+        a = math.radians(f.direction_deg)
+        return c, np.array([math.cos(a), math.sin(a)]), (f.length - f.width) / 2.0, f.width / 2.0
+    return c, np.array([1.0, 0.0]), 0.0, f.outer_radius
+
+
+def _segment_distance(p0, p1, q0, q1) -> float:
+    def point_segment(p, a, b):
+        ab = b - a
+        den = float(ab @ ab)
+        s = 0.0 if den == 0 else min(1.0, max(0.0, float((p - a) @ ab) / den))
+        return float(np.hypot(*(p - a - s * ab)))
+
+    d1, d2 = p1 - p0, q1 - q0
+    cross = d1[0] * d2[1] - d1[1] * d2[0]
+    if cross != 0:
+        r = q0 - p0
+        s = (r[0] * d2[1] - r[1] * d2[0]) / cross
+        u = (r[0] * d1[1] - r[1] * d1[0]) / cross
+        if 0 <= s <= 1 and 0 <= u <= 1:
+            return 0.0
+    return min(point_segment(p0, q0, q1), point_segment(p1, q0, q1),
+               point_segment(q0, p0, p1), point_segment(q1, p0, p1))
+
+
+def _check_gaps(features, spec, label) -> None:
+    shapes = [_shape(f) for f in features]
+    for k, (c, d, half, r) in enumerate(shapes):
+        ends = (c - half * d, c + half * d)
+        room = min(min(spec.width / 2.0 - abs(e[0]), spec.height / 2.0 - abs(e[1])) for e in ends) - r
+        if room < _MIN_GAP:
+            _fail(f"{label}[{k}].center", f"at least {_MIN_GAP:g} mm from the border with its contour "
+                  f"(it comes within {room:.4g})", tuple(features[k].center))
+    for i in range(len(shapes)):
+        for j in range(i + 1, len(shapes)):
+            ci, di, hi, ri = shapes[i]
+            cj, dj, hj, rj = shapes[j]
+            gap = _segment_distance(ci - hi * di, ci + hi * di, cj - hj * dj, cj + hj * dj) - ri - rj
+            if gap < _MIN_GAP:
+                _fail(f"{label}[{j}].center", f"at least {_MIN_GAP:g} mm from {label}[{i}]'s contour "
+                      f"(the gap is {gap:.4g})", tuple(features[j].center))
+
+
+def _countersink_depth(f) -> float:
+    half = math.radians(f.countersink_angle_deg) / 2.0
+    return (f.countersink_diameter - f.diameter) / 2.0 / math.tan(half)
+
+
+# --------------------------------------------------------------------------------------------------
+# The bend
+
+
+class _Bend:
+    """Sheet frame (u, v, w) to world and back; flat when radius is None."""
+
+    def __init__(self, curvature, radius):
+        self.flat = curvature == "flat"
+        self.R = None if self.flat else float(radius)
+        self.sign = {"flat": 0.0, "convex": 1.0, "concave": -1.0}[curvature]
+
+    def to3d(self, u, v, w):
+        u, v, w = (np.asarray(a, dtype=np.float64) for a in (u, v, w))
+        if self.flat:
+            return np.stack(np.broadcast_arrays(u, v, -w), axis=-1)
+        s, R = self.sign, self.R
+        phi, rho = u / R, R - s * w
+        return np.stack(np.broadcast_arrays(rho * np.sin(phi), v, s * rho * np.cos(phi) - s * R), axis=-1)
+
+    def to2d(self, x):
+        x = np.asarray(x, dtype=np.float64)
+        if self.flat:
+            return x[..., 0], x[..., 1], -x[..., 2]
+        s, R = self.sign, self.R
+        dx, dz = x[..., 0], x[..., 2] + s * R
+        return R * np.arctan2(dx, s * dz), x[..., 1], s * (R - np.hypot(dx, dz))
+
+    def frame(self, u):
+        """Unit vectors e_u, e_v and the top normal n = e_u x e_v at arc coordinate u."""
+        if self.flat:
+            return np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, 1.0])
+        s, phi = self.sign, u / self.R
+        return (np.array([math.cos(phi), 0.0, -s * math.sin(phi)]), np.array([0, 1.0, 0]),
+                np.array([s * math.sin(phi), 0.0, math.cos(phi)]))
+
+    def hit(self, a, b, w, guess):
+        """Parameters s with a + s b on the surface at depth w, the root nearest ``guess``.
+
+        a, b : (k, 3) float; returns (k,) float.
+        """
+        if self.flat:
+            return (-w - a[:, 2]) / b[:, 2]
+        s, R = self.sign, self.R
+        p = np.stack([a[:, 0], a[:, 2] + s * R], axis=1)
+        q = np.stack([b[:, 0], b[:, 2]], axis=1)
+        qa, qb = np.sum(q * q, axis=1), np.sum(p * q, axis=1)
+        qc = np.sum(p * p, axis=1) - (R - s * w) ** 2
+        root = np.sqrt(np.maximum(qb * qb - qa * qc, 0.0))
+        s1, s2 = (-qb - root) / qa, (-qb + root) / qa
+        return np.where(np.abs(s1 - guess) < np.abs(s2 - guess), s1, s2)
+
+
+# --------------------------------------------------------------------------------------------------
+# Features: exact loops
+
+
+def _segments_for(radius, spec) -> int:
+    if spec.segments is not None:
+        return int(spec.segments)
+    ratio = min(1.0, spec.chord_error / radius)
+    n = math.ceil(math.pi / math.acos(1.0 - ratio)) if ratio < 1 else 8
+    return max(_MIN_SEGMENTS, 8 * math.ceil(n / 8))
+
+
+def _slot_outline(f, n_arc):
+    """Counter-clockwise stadium outline in its own frame (length along x): (k, 2) float."""
+    r, half = f.width / 2.0, (f.length - f.width) / 2.0
+    step = math.pi * r / n_arc
+    n_side = max(1, math.ceil(2 * half / step))
+    side = np.linspace(-half, half, n_side, endpoint=False)
+    arc = np.linspace(-math.pi / 2, math.pi / 2, n_arc, endpoint=False)
+    right = np.stack([half + r * np.cos(arc), r * np.sin(arc)], axis=1)
+    top = np.stack([-side, np.full(n_side, r)], axis=1)
+    left = np.stack([-half - r * np.cos(arc), -r * np.sin(arc)], axis=1)
+    bottom = np.stack([side, np.full(n_side, -r)], axis=1)
+    return np.concatenate([bottom, right, top, left])
+
+
+@dataclass(frozen=True, eq=False)
+class _Loops:
+    loops: list          # (k, 3) arrays from the top edge down
+    strips: list         # kind of the strip between loops[i] and loops[i + 1]: WALL or FLOOR
+    floor_center: Optional[np.ndarray]
+    through: bool
+    top_s: np.ndarray    # axial offsets of the top loop from the tangent plane at the centre
+    truth: dict
+
+
+def _feature_loops(k, f, spec, bend, label):
+    t = spec.thickness
+    uc, vc = float(f.center[0]), float(f.center[1])
+    eu, ev, n = bend.frame(uc)
+    c = bend.to3d(uc, vc, 0.0)
+    name = f"{label}[{k}]"
+
+    def ring(radius, count):
+        theta = np.arange(count) * (2 * np.pi / count)
+        return np.cos(theta)[:, None] * eu + np.sin(theta)[:, None] * ev
+
+    def on_surface(base, direction, w, guess):
+        s = bend.hit(base, direction, w, guess)
+        return base + s[:, None] * direction, s
+
+    def drilled(radius, count, w, guess):
+        e = ring(radius, count)
+        return on_surface(c + radius * e, np.broadcast_to(n, e.shape), w, guess)
+
+    def level(radius, count, depth):
+        return c - depth * n + radius * ring(radius, count)
+
+    truth = {"index": k, "name": f.name if f.name is not None else f"{f.kind}{k}", "kind": f.kind,
+             "is_hole": f.kind != "slot", "center": [float(v) for v in c],
+             "center_uv": [uc, vc], "axis": [float(v) for v in n], "normal": [float(v) for v in n],
+             "partial": False, "arc_deg": 360.0}
+    floor_center, strips = None, []
+    if f.kind == "slot":
+        n_arc = _segments_for(f.width / 2.0, spec) // 2
+        a = math.radians(f.direction_deg)
+        d3 = math.cos(a) * eu + math.sin(a) * ev
+        b3 = np.cross(n, d3)
+        outline = _slot_outline(f, n_arc)
+        base = c + outline[:, :1] * d3 + outline[:, 1:] * b3
+        dirs = np.broadcast_to(n, base.shape)
+        top, top_s = on_surface(base, dirs, 0.0, 0.0)
+        bottom, _ = on_surface(base, dirs, t, -t)
+        loops, strips, segments = [top, bottom], [WALL], 2 * n_arc
+        truth.update({"diameter": None, "bore_diameter": None, "width": float(f.width),
+                      "length": float(f.length), "direction": [float(v) for v in d3],
+                      "direction_deg": float(f.direction_deg), "through": True})
+    else:
+        r = f.diameter / 2.0
+        count = _segments_for(f.outer_radius, spec)
+        segments = count
+        truth.update({"bore_diameter": float(f.diameter), "nominal_diameter": 2.0 * f.outer_radius,
+                      "through": f.kind != "blind"})
+        if f.kind == "countersunk":
+            rc, half = f.countersink_diameter / 2.0, math.radians(f.countersink_angle_deg) / 2.0
+            h = _countersink_depth(f)
+            e = ring(rc, count)
+            top, top_s = on_surface(c + rc * e, n + math.tan(half) * e, 0.0, 0.0)
+            bottom, bottom_s = drilled(r, count, t, -t)
+            loops, strips = [top, level(r, count, h), bottom], [WALL, WALL]
+            _check_level(name, "countersink_diameter", f.countersink_diameter, h, top_s, bottom_s)
+            truth.update({"countersink_angle_deg": float(f.countersink_angle_deg),
+                          "countersink_diameter": float(f.countersink_diameter),
+                          "countersink_depth": float(h)})
+        elif f.kind == "counterbored":
+            rb, h = f.counterbore_diameter / 2.0, f.counterbore_depth
+            top, top_s = drilled(rb, count, 0.0, 0.0)
+            bottom, bottom_s = drilled(r, count, t, -t)
+            loops = [top, level(rb, count, h), level(r, count, h), bottom]
+            strips = [WALL, FLOOR, WALL]
+            _check_level(name, "counterbore_depth", h, h, top_s, bottom_s)
+            truth.update({"counterbore_diameter": float(f.counterbore_diameter),
+                          "counterbore_depth": float(h)})
+        elif f.kind == "blind":
+            top, top_s = drilled(r, count, 0.0, 0.0)
+            _, bottom_s = drilled(r, count, t, -t)
+            loops = [top, level(r, count, f.depth)]
+            strips, floor_center = [WALL], c - f.depth * n
+            _check_level(name, "depth", f.depth, f.depth, top_s, bottom_s)
+            truth["floor_depth"] = float(f.depth)
+        else:
+            top, top_s = drilled(r, count, 0.0, 0.0)
+            bottom, _ = drilled(r, count, t, -t)
+            loops, strips = [top, bottom], [WALL]
+        truth["bore_polygon_inradius"] = float(r * math.cos(math.pi / count))
+        truth.update(_edge_truth(f, spec, bend, c, eu, ev, n, top))
+    truth["segments"] = int(segments)
+    return _Loops(loops=loops, strips=strips, floor_center=floor_center,
+                  through=f.kind != "blind", top_s=top_s, truth=truth)
+
+
+def _check_level(name, key, value, depth, top_s, bottom_s):
+    # A step or floor at `depth` below the tangent plane must stay below the visible edge and above
+    # the bottom surface all round; on a curved sheet both surfaces leave the tangent plane.
+    if -depth > np.min(top_s) - _MIN_WALL or -depth < np.max(bottom_s) + _MIN_WALL:
+        raise SpecError(f"{name}.{key} must put the step or floor (at depth {depth:.4g} along the axis) "
+                        f"at least {_MIN_WALL:g} below the top edge (down to {-np.min(top_s):.4g}) and "
+                        f"above the bottom (from {-np.max(bottom_s):.4g}), got {value!r}")
+
+
+def _edge_truth(f, spec, bend, c, eu, ev, n, top_polygon) -> dict:
+    """Chord-mean diameter etc. of the exact edge loop, and radii of the mesh's edge polygon."""
+    theta = np.arange(_TRUTH_SAMPLES) * (2 * np.pi / _TRUTH_SAMPLES)
+    e = np.cos(theta)[:, None] * eu + np.sin(theta)[:, None] * ev
+    rc = f.outer_radius
+    if f.kind == "countersunk":
+        direction = n + math.tan(math.radians(f.countersink_angle_deg) / 2.0) * e
+    else:
+        direction = np.broadcast_to(n, e.shape)
+    base = c + rc * e
+    s = bend.hit(base, direction, 0.0, 0.0)
+    loop = base + s[:, None] * direction
+    rel = loop - c
+    axial = rel @ n
+    plane = rel - axial[:, None] * n
+    half = _TRUTH_SAMPLES // 2
+    chords = np.linalg.norm(plane[:half] - plane[half:], axis=1)
+    # The mesh's own polygon, projected along the axis.
+    prel = top_polygon - c
+    pplane = prel - (prel @ n)[:, None] * n
+    radii = np.linalg.norm(pplane, axis=1)
+    nxt = np.roll(pplane, -1, axis=0)
+    edge = nxt - pplane
+    # Distance from the axis to each polygon edge's line: |p x edge| / |edge| (in the plane).
+    inr = np.linalg.norm(np.cross(pplane, edge), axis=1) / np.linalg.norm(edge, axis=1)
+    return {"diameter": float(np.mean(chords)), "edge_diameter_min": float(np.min(chords)),
+            "edge_diameter_max": float(np.max(chords)),
+            "edge_axial_offset": [float(np.min(axial)), float(np.mean(axial)), float(np.max(axial))],
+            "polygon_circumradius": float(np.max(radii)), "polygon_inradius": float(np.min(inr))}
+
+
+# --------------------------------------------------------------------------------------------------
+# Faces: 2D triangulation of the top and bottom
+
+
+def _resample(closed, spacing):
+    pts = np.vstack([closed, closed[:1]])
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    count = max(8, math.ceil(cum[-1] / spacing))
+    at = np.linspace(0.0, cum[-1], count, endpoint=False)
+    return np.stack([np.interp(at, cum, pts[:, 0]), np.interp(at, cum, pts[:, 1])], axis=1)
+
+
+def _rings(contour, limit, max_spacing):
+    """Graded offset rings outside a convex counter-clockwise contour: points (k, 2), zone width."""
+    tangent = np.roll(contour, -1, axis=0) - np.roll(contour, 1, axis=0)
+    normal = np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    spacing = float(np.mean(np.linalg.norm(np.roll(contour, -1, axis=0) - contour, axis=1)))
+    offset, out = 0.0, []
+    while spacing < max_spacing:
+        spacing = min(spacing * _RING_GROWTH, max_spacing)
+        if offset + 1.5 * spacing > limit:
+            break
+        offset += spacing
+        out.append(_resample(contour + offset * normal, spacing))
+    zone = offset + 0.5 * spacing
+    return (np.concatenate(out) if out else np.empty((0, 2))), zone
+
+
+def _capsule_distance(uv, shape):
+    c, d, half, r = shape
+    rel = uv - c
+    along = np.clip(rel @ d, -half, half)
+    return np.linalg.norm(rel - along[:, None] * d, axis=1) - r
+
+
+def _face(spec, border, contours, shapes, limits, du, dv):
+    """Triangulate a face. contours: list of (k, 2) uv loops. Returns uv of the extra points and
+    triangles indexing [border, contours..., extra] (counter-clockwise in uv)."""
+    pieces, zones = [], []
+    max_spacing = min(du, dv)
+    for contour, limit in zip(contours, limits):
+        pts, zone = _rings(contour, limit, max_spacing)
+        pieces.append(pts)
+        zones.append(zone)
+    nu = max(1, math.ceil(spec.width / du))
+    nv = max(1, math.ceil(spec.height / dv))
+    gu = np.linspace(-spec.width / 2, spec.width / 2, nu + 1)[1:-1]
+    gv = np.linspace(-spec.height / 2, spec.height / 2, nv + 1)[1:-1]
+    grid = np.stack(np.meshgrid(gu, gv, indexing="ij"), axis=-1).reshape(-1, 2)
+    keep = np.ones(len(grid), dtype=bool)
+    for shape, zone in zip(shapes, zones):
+        keep &= _capsule_distance(grid, shape) > zone
+    extra = np.concatenate(pieces + [grid[keep]]) if pieces else grid[keep]
+    uv = np.concatenate([border] + list(contours) + [extra])
+    owner = np.full(len(uv), -1)
+    start = len(border)
+    bounds = []
+    for j, contour in enumerate(contours):
+        owner[start:start + len(contour)] = j
+        bounds.append(start)
+        start += len(contour)
+    tri = Delaunay(uv).simplices.astype(np.int64)
+    p = uv[tri]
+    area = (p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1]) \
+        - (p[:, 1, 1] - p[:, 0, 1]) * (p[:, 2, 0] - p[:, 0, 0])
+    tri[area < 0] = tri[area < 0][:, [0, 2, 1]]
+    o = owner[tri]
+    inside = (o[:, 0] >= 0) & (o[:, 0] == o[:, 1]) & (o[:, 1] == o[:, 2])
+    tri = tri[~inside]
+    if len(np.unique(tri)) != len(uv):
+        raise RuntimeError("panel: the face triangulation lost points (a bug)")
+    # Every contour edge must be an edge of the triangulation (else a triangle crosses the contour).
+    m = len(uv)
+    edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    have = set((edges[:, 0] * m + edges[:, 1]).tolist())
+    for j, contour in enumerate(contours):
+        a = bounds[j] + np.arange(len(contour))
+        b = np.roll(a, -1)
+        # The face lies outside the contour, so it runs the contour clockwise: edge b -> a.
+        if not all(x in have for x in (b * m + a).tolist()):
+            raise RuntimeError(f"panel: contour {j} is not followed by the face triangulation (a bug)")
+    return extra, tri
+
+
+def _border(spec, du, dv):
+    nu = max(1, math.ceil(spec.width / du))
+    nv = max(1, math.ceil(spec.height / dv))
+    u = np.linspace(-spec.width / 2, spec.width / 2, nu + 1)
+    v = np.linspace(-spec.height / 2, spec.height / 2, nv + 1)
+    w2, h2 = spec.width / 2, spec.height / 2
+    return np.concatenate([
+        np.stack([u[:-1], np.full(nu, -h2)], axis=1),
+        np.stack([np.full(nv, w2), v[:-1]], axis=1),
+        np.stack([u[::-1][:-1], np.full(nu, h2)], axis=1),
+        np.stack([np.full(nv, -w2), v[::-1][:-1]], axis=1),
+    ])
+
+
+# --------------------------------------------------------------------------------------------------
+# Assembly
+
+
+def _strip(a, b):
+    """Triangles joining two closed index loops of the same length."""
+    a1, b1 = np.roll(a, -1), np.roll(b, -1)
+    return np.concatenate([np.stack([a, b, b1], axis=1), np.stack([a, b1, a1], axis=1)])
+
+
+def _orient(tri, vertices, expected):
+    """Flip the triangles if their area-weighted normals point against ``expected`` (k, 3) on the whole."""
+    p = vertices[tri]
+    normals = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    if np.sum(normals * expected) < 0:
+        return tri[:, [0, 2, 1]]
+    return tri
+
+
+def build_panel(spec: PanelSpec) -> Panel:
+    """Mesh a panel and compute each feature's truth.
+
+    Parameters
+    ----------
+    spec : PanelSpec
+        The panel; validated here.
+
+    Returns
+    -------
+    Panel
+        Closed, consistently oriented mesh. ``features[k]`` is a dict with ``index``, ``name``,
+        ``kind``, ``is_hole`` (False for a slot), ``center`` (3D, mm: the axis on the top surface),
+        ``center_uv``, ``axis`` and ``normal`` (unit, the top normal at the centre, out of the
+        material), ``partial`` (False) and ``arc_deg`` (360), ``through``, ``segments``; for holes
+        ``diameter`` (chord-mean diameter of the visible edge in the tangent plane, mm; see the
+        module docstring), ``nominal_diameter``, ``edge_diameter_min`` / ``_max``,
+        ``edge_axial_offset`` ([min, mean, max] along the axis, mm), ``bore_diameter``,
+        ``polygon_circumradius``, ``polygon_inradius``, ``bore_polygon_inradius``; and
+        ``countersink_angle_deg``, ``countersink_diameter``, ``countersink_depth`` (axial, from the
+        tangent plane to the start of the bore) / ``counterbore_diameter``, ``counterbore_depth`` /
+        ``floor_depth`` where they apply; for slots ``width``, ``length``, ``direction`` (3D unit)
+        and ``direction_deg``.
+
+    Raises
+    ------
+    SpecError
+        An invalid spec; the message names the field, its value and what was expected.
+    """
+    _validate(spec)
+    return _build(spec, "features")
+
+
+def _build(spec, label):
+    bend = _Bend(spec.curvature, spec.radius)
+    t = spec.thickness
+    features = tuple(spec.features)
+    loops = [_feature_loops(k, f, spec, bend, label) for k, f in enumerate(features)]
+    shapes = [_shape(f) for f in features]
+
+    # Each feature's rings stay within half the gap to its neighbours and inside the border.
+    limits = []
+    for k, (c, d, half, r) in enumerate(shapes):
+        ends = (c - half * d, c + half * d)
+        room = min(min(spec.width / 2 - abs(e[0]), spec.height / 2 - abs(e[1])) for e in ends) - r
+        for j, (cj, dj, hj, rj) in enumerate(shapes):
+            if j != k:
+                gap = _segment_distance(c - half * d, c + half * d, cj - hj * dj, cj + hj * dj) - r - rj
+                room = min(room, gap / 2)
+        limits.append(0.9 * room)
+
+    du = dv = spec.grid_spacing
+    if not bend.flat:
+        smallest = min(bend.R, bend.R - bend.sign * t)
+        du = min(du, math.sqrt(8.0 * smallest * spec.chord_error))
+    border = _border(spec, du, dv)
+    nb = len(border)
+
+    verts, tris, parts, owners, edge_loops = [], [], [], [], []
+    count = 0
+
+    def add(points):
+        nonlocal count
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        verts.append(points)
+        idx = np.arange(count, count + len(points))
+        count += len(points)
+        return idx
+
+    def emit(tri, part, owner):
+        tris.append(tri)
+        parts.append(np.full(len(tri), part, dtype=np.int8))
+        owners.append(np.full(len(tri), owner, dtype=np.int64))
+
+    top_border = add(bend.to3d(border[:, 0], border[:, 1], 0.0))
+    bottom_border = add(bend.to3d(border[:, 0], border[:, 1], t))
+    top_ids, bottom_ids = [], []
+    for k, fl in enumerate(loops):
+        ids = [add(loop) for loop in fl.loops]
+        edge_loops.append(ids[0])
+        top_ids.append(ids[0])
+        for j, kind in enumerate(fl.strips):
+            tri = _strip(ids[j], ids[j + 1])
+            allv = np.concatenate(verts)
+            cen = allv[tri].mean(axis=1)
+            n = np.asarray(fl.truth["axis"])
+            c = np.asarray(fl.truth["center"])
+            if kind == FLOOR:
+                expected = np.broadcast_to(n, cen.shape)
+            else:
+                rel = c - cen
+                expected = rel - (rel @ n)[:, None] * n
+            emit(_orient(tri, allv, expected), kind, k)
+        if fl.floor_center is not None:
+            centre = add(fl.floor_center)[0]
+            last = ids[-1]
+            tri = np.stack([np.full(len(last), centre), last, np.roll(last, -1)], axis=1)
+            allv = np.concatenate(verts)
+            emit(_orient(tri, allv, np.asarray(fl.truth["axis"])[None, :]), FLOOR, k)
+        if fl.through:
+            bottom_ids.append(ids[-1])
+
+    allv = np.concatenate(verts)
+    for w, border_ids, feature_ids, part in ((0.0, top_border, top_ids, TOP),
+                                            (t, bottom_border, bottom_ids, BOTTOM)):
+        contours, contour_shapes, contour_limits = [], [], []
+        through = [k for k, fl in enumerate(loops) if fl.through] if part == BOTTOM else range(len(loops))
+        for k, ids in zip(through, feature_ids):
+            u, v, _ = bend.to2d(allv[ids])
+            contours.append(np.stack([u, v], axis=1))
+            contour_shapes.append(shapes[k])
+            contour_limits.append(limits[k])
+        extra, tri = _face(spec, border, contours, contour_shapes, contour_limits, du, dv)
+        extra_ids = add(bend.to3d(extra[:, 0], extra[:, 1], w))
+        mapping = np.concatenate([border_ids] + list(feature_ids) + [extra_ids]).astype(np.int64)
+        tri = mapping[tri]
+        if part == BOTTOM:
+            tri = tri[:, [0, 2, 1]]
+        emit(tri, part, -1)
+
+    allv = np.concatenate(verts)
+    side = _strip(top_border, bottom_border)
+    cen = allv[side].mean(axis=1)
+    mid = bend.to3d(0.0, 0.0, t / 2)
+    emit(_orient(side, allv, cen - mid), SIDE, -1)
+
+    return Panel(vertices=allv, triangles=np.concatenate(tris).astype(np.int64),
+                 parts=np.concatenate(parts), triangle_feature=np.concatenate(owners),
+                 edge_loops=tuple(edge_loops), features=tuple(fl.truth for fl in loops), spec=spec)
+
+
+def panel_truth(panel: Panel) -> dict:
+    """JSON-ready truth of a panel: the panel's description and its features.
+
+    Returns
+    -------
+    dict
+        ``{"panel": {width, height, thickness, curvature, radius, chord_error, segments,
+        grid_spacing}, "features": [...], "holes": [the features with is_hole], "vertices": n,
+        "triangles": m}``; the feature dicts are those of :func:`build_panel`.
+    """
+    s = panel.spec
+    features = [dict(f) for f in panel.features]
+    return {
+        "panel": {"width": float(s.width), "height": float(s.height), "thickness": float(s.thickness),
+                  "curvature": s.curvature, "radius": None if s.radius is None else float(s.radius),
+                  "chord_error": float(s.chord_error),
+                  "segments": None if s.segments is None else int(s.segments),
+                  "grid_spacing": float(s.grid_spacing)},
+        "features": features,
+        "holes": [f for f in features if f["is_hole"]],
+        "vertices": int(len(panel.vertices)),
+        "triangles": int(len(panel.triangles)),
+    }
+
+
+# --------------------------------------------------------------------------------------------------
+# TOML
+
+_PANEL_KEYS = ("width", "height", "thickness", "curvature", "radius", "chord_error", "segments",
+               "grid_spacing")
+_FEATURE_KEYS = {
+    "through": ("diameter",),
+    "countersunk": ("diameter", "countersink_diameter", "countersink_angle_deg"),
+    "counterbored": ("diameter", "counterbore_diameter", "counterbore_depth"),
+    "blind": ("diameter", "depth"),
+    "slot": ("width", "length", "direction_deg"),
+}
+_OPTIONAL_FEATURE_KEYS = {"countersink_angle_deg", "direction_deg"}
+
+
+def parse_panel_toml(text) -> PanelSpec:
+    """A panel spec from the text of a TOML file.
+
+    The file holds one ``[panel]`` table (``width``, ``height``, ``thickness``; optional
+    ``curvature`` = "flat" | "convex" | "concave", ``radius`` (required when curved),
+    ``chord_error``, ``segments``, ``grid_spacing``) and any number of ``[[feature]]`` tables
+    (``kind``, ``center = [u, v]``, optional ``name``, and the keys of that kind: ``diameter``;
+    ``countersink_diameter``, ``countersink_angle_deg`` (default 100); ``counterbore_diameter``,
+    ``counterbore_depth``; ``depth``; for a slot ``width``, ``length``, ``direction_deg``
+    (default 0)).
+
+    Raises
+    ------
+    SpecError
+        Invalid TOML, an unknown or missing key, a value of the wrong type or out of range. The
+        message names the table (``panel`` or ``feature[k]``, counting from 0) and the key.
+    """
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise SpecError(f"invalid TOML: {error}") from None
+    except RecursionError:
+        raise SpecError("invalid TOML: arrays or tables nested too deeply for a panel file") from None
+    unknown = sorted(set(data) - {"panel", "feature"})
+    if unknown:
+        raise SpecError(f"unknown top-level key {unknown[0]!r} (expected [panel] and [[feature]] tables)")
+    panel = data.get("panel")
+    if not isinstance(panel, dict):
+        raise SpecError("expected a [panel] table")
+    unknown = sorted(set(panel) - set(_PANEL_KEYS))
+    if unknown:
+        raise SpecError(f"panel: unknown key {unknown[0]!r} (expected {', '.join(_PANEL_KEYS)})")
+    for key in ("width", "height", "thickness"):
+        if key not in panel:
+            raise SpecError(f"panel: missing key {key!r}")
+    for key in ("width", "height", "thickness", "radius", "chord_error", "grid_spacing"):
+        if key in panel and not _number(panel[key]):
+            raise SpecError(f"panel.{key} must be a number, got {panel[key]!r}")
+    if "segments" in panel and (isinstance(panel["segments"], bool) or not isinstance(panel["segments"], int)):
+        raise SpecError(f"panel.segments must be an integer, got {panel['segments']!r}")
+    curvature = panel.get("curvature", "flat")
+    if curvature != "flat" and "radius" not in panel:
+        raise SpecError(f"panel: missing key 'radius' (needed by curvature = {curvature!r})")
+    tables = data.get("feature", [])
+    if not isinstance(tables, list) or not all(isinstance(tb, dict) for tb in tables):
+        raise SpecError("expected [[feature]] tables (an array of tables)")
+    features = []
+    for k, table in enumerate(tables):
+        where = f"feature[{k}]"
+        kind = table.get("kind")
+        if kind not in _FEATURE_KEYS:
+            raise SpecError(f"{where}.kind must be one of {', '.join(KINDS)}, got {kind!r}")
+        allowed = ("kind", "center", "name") + _FEATURE_KEYS[kind]
+        unknown = sorted(set(table) - set(allowed))
+        if unknown:
+            raise SpecError(f"{where}: unknown key {unknown[0]!r} for a {kind} feature "
+                            f"(expected {', '.join(allowed)})")
+        required = ("center",) + tuple(key for key in _FEATURE_KEYS[kind] if key not in _OPTIONAL_FEATURE_KEYS)
+        missing = [key for key in required if key not in table]
+        if missing:
+            raise SpecError(f"{where}: missing key {missing[0]!r}")
+        center = table["center"]
+        if not (isinstance(center, list) and len(center) == 2 and all(_number(v) for v in center)):
+            raise SpecError(f"{where}.center must be 2 finite numbers [u, v], got {center!r}")
+        values = {}
+        for key in _FEATURE_KEYS[kind]:
+            if key in table:
+                if not _number(table[key]):
+                    raise SpecError(f"{where}.{key} must be a number, got {table[key]!r}")
+                values[key] = float(table[key])
+        features.append(FeatureSpec(kind=kind, center=(float(center[0]), float(center[1])),
+                                    name=table.get("name"), **values))
+    values = {key: (float(panel[key]) if key != "segments" else panel[key])
+              for key in _PANEL_KEYS if key in panel and key != "curvature"}
+    spec = PanelSpec(curvature=curvature, features=tuple(features), **values)
+    _validate(spec, label="feature")
+    # The depth checks that need the exact loops run here too, so that a file is refused on reading.
+    bend = _Bend(spec.curvature, spec.radius)
+    for k, f in enumerate(spec.features):
+        _feature_loops(k, f, spec, bend, "feature")
+    return spec
