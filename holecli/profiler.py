@@ -78,8 +78,8 @@ _COUNT_SLACK = 1e-9
 # point; the tolerance is this fraction of (camera distance + mesh size): open3d casts in float32
 # (relative resolution 6e-8), so hits on the point's own face land well inside it.
 _OCCLUSION_REL = 1e-5
-# Rays cast per open3d call (memory: about 100 bytes per ray in flight).
-_CHUNK_RAYS = 1 << 20
+# Rays cast per open3d call (memory: a few hundred bytes per ray in flight).
+_CHUNK_RAYS = 1 << 18
 # Refuse scans that would cast more rays than this.
 _MAX_RAYS = 50_000_000
 
@@ -296,7 +296,10 @@ def load_mesh(path):
         raise LoadError(name, "not a regular file")
     import open3d as o3d
 
-    mesh = o3d.io.read_triangle_mesh(name)
+    # open3d reports a bad file on stdout, which carries data only in this package: silence it,
+    # the checks below say what is wrong.
+    with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
+        mesh = o3d.io.read_triangle_mesh(name)
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     triangles = np.asarray(mesh.triangles, dtype=np.int64)
     if len(triangles) == 0:
@@ -331,12 +334,10 @@ def _fail(name, expected, value):
 
 
 def _finite(value) -> bool:
-    if isinstance(value, bool):
+    """A real number (not a bool, not a string) that is finite."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         return False
-    try:
-        return math.isfinite(float(value))
-    except (TypeError, ValueError):
-        return False
+    return math.isfinite(float(value))
 
 
 def _number(name, value, low=None, high=None, low_open=False, high_open=False, text=None):

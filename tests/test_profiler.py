@@ -338,13 +338,14 @@ def test_load_mesh_reads_ply_and_stl(tmp_path):
     ("garbage.stl", b"not a mesh\n", "no triangles"),
     ("part.step", b"ISO-10303-21;", "unsupported mesh extension"),
 ])
-def test_load_mesh_refuses_bad_files(tmp_path, name, content, match):
+def test_load_mesh_refuses_bad_files(tmp_path, capfd, name, content, match):
     path = tmp_path / name
     if content is not None:
         path.write_bytes(content)
     with pytest.raises(LoadError, match=match) as err:
         load_mesh(path)
     assert name in str(err.value)
+    assert "Open3D" not in capfd.readouterr().out   # stdout carries data only
 
 
 # -------------------------------------------------------------------------------------------------
@@ -369,6 +370,7 @@ def test_load_mesh_refuses_bad_files(tmp_path, name, content, match):
     ("range_quantum", -1e-3, "range_quantum must be a finite number >= 0"),
     ("dropout", 1.0, r"dropout must be a probability in \[0, 1\), got 1.0"),
     ("jitter", "big", "jitter must be a finite number >= 0"),
+    ("jitter", "0.1", "jitter must be a finite number >= 0, got '0.1'"),
     ("frame", np.diag([2.0, 1.0, 1.0, 1.0]), "frame must be a rigid transform"),
     ("frame", np.diag([-1.0, 1.0, 1.0, 1.0]), "frame must be a rigid transform"),
     ("unit_scale", 0.0, "unit_scale must be a finite number > 0"),
