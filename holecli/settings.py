@@ -49,6 +49,10 @@ class RobustSettings:
     bias_passes: int = 2
     # As many of those synthetic holes as give about this many rim points in all.
     bias_rim_points: int = 400
+    # The surface at a hole follows a quadric instead of a plane when the quadric's sag at the hole's
+    # center exceeds this many of its standard errors (a curved panel; on a flat one the quadric is
+    # only noisier).
+    curvature_sigmas: float = 3.0
     # Holes are measured in this many threads when the cloud has at least this many points.
     threads: int = 2
     threads_from_points: int = 200_000

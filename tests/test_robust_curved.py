@@ -1,0 +1,81 @@
+"""Holes in curved panels (cylindrical, R 500-2000 mm, convex and concave): the surface at a hole
+follows a quadric when its curvature shows, so the center sits on the surface, not on the chord of
+the ring around it (issue 9, item 2.4). On a flat surface the check ``curvature_sigmas`` keeps the
+plane, which is less noisy there."""
+
+import numpy as np
+import pytest
+
+from holecli.pipeline import detect
+from holecli.plane import fit_plane_scatter
+from holecli.robust import _tangent_of_quadric
+
+
+def curved_panel(radius, hole_radius, center_x, convex, spacing=0.05, half=8.0, noise=0.0, seed=0, tilt_deg=25.0):
+    """Grid points on a cylinder (axis along y) with a hole drilled along the local normal at
+    (center_x, 0); then tilted about x. Returns points, the true center and normal."""
+    rng = np.random.default_rng(seed)
+    sign = -1.0 if convex else 1.0
+    u, v = np.meshgrid(np.arange(center_x - half, center_x + half, spacing), np.arange(-half, half, spacing))
+    x, y = u.ravel(), v.ravel()
+    points = np.column_stack([x, y, sign * (radius - np.sqrt(radius ** 2 - x ** 2))])
+    center = np.array([center_x, 0.0, sign * (radius - np.sqrt(radius ** 2 - center_x ** 2))])
+    normal = np.array([-sign * center_x / np.sqrt(radius ** 2 - center_x ** 2), 0.0, 1.0])
+    normal /= np.linalg.norm(normal)
+    offset = points - center
+    radial = offset - np.outer(offset @ normal, normal)
+    points = points[np.linalg.norm(radial, axis=1) > hole_radius]
+    points = points + noise * rng.normal(size=(len(points), 1)) * normal
+    t = np.radians(tilt_deg)
+    rotation = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(t), -np.sin(t)], [0.0, np.sin(t), np.cos(t)]])
+    return points @ rotation.T, rotation @ center, rotation @ normal
+
+
+def _errors(points, center, normal, diameter):
+    (hole,) = detect(points).holes
+    error = np.array(hole.center) - center
+    along = float(error @ normal)
+    in_plane = float(np.linalg.norm(error - along * normal))
+    return in_plane, along, hole.diameter - diameter
+
+
+@pytest.mark.parametrize("radius", [500.0, 800.0, 2000.0])
+@pytest.mark.parametrize("convex", [True, False], ids=["convex", "concave"])
+@pytest.mark.parametrize("center_x", [0.0, 30.0])
+def test_center_on_the_curved_surface(radius, convex, center_x):
+    points, center, normal = curved_panel(radius, 2.5, center_x, convex)
+    in_plane, along, diameter = _errors(points, center, normal, 5.0)
+    # a plane through the ring [r, 3r] lies 10 um (R 800) to 16 um (R 500) off the surface at the center
+    assert abs(along) < 0.5e-3
+    assert in_plane < 2e-3 and abs(diameter) < 3e-3
+
+
+def test_random_curved_panels_bound_the_failure_rate():
+    rng = np.random.default_rng(2026)
+    failures = []
+    for seed in range(12):
+        radius, hole_radius = rng.uniform(500.0, 2000.0), rng.uniform(1.5, 3.0)
+        convex, center_x = bool(rng.integers(2)), rng.uniform(-40.0, 40.0)
+        points, center, normal = curved_panel(radius, hole_radius, center_x, convex, spacing=rng.uniform(0.03, 0.08),
+                                              half=4.0 * hole_radius, noise=0.002, seed=seed,
+                                              tilt_deg=rng.uniform(0.0, 40.0))
+        in_plane, along, diameter = _errors(points, center, normal, 2.0 * hole_radius)
+        if abs(along) > 2e-3 or in_plane > 3e-3 or abs(diameter) > 5e-3:
+            failures.append((seed, along, in_plane, diameter))
+    assert len(failures) <= 1, failures
+
+
+def test_the_curvature_check_keeps_the_plane_on_a_flat_noisy_ring():
+    rng = np.random.default_rng(7)
+    kept, heights_quadric, heights_plane = 0, [], []
+    for _ in range(40):
+        angle, distance = rng.uniform(0, 2 * np.pi, 1500), np.sqrt(rng.uniform(1.0, 9.0, 1500))
+        ring = np.column_stack([distance * np.cos(angle), distance * np.sin(angle), 0.01 * rng.normal(size=1500)])
+        plane = fit_plane_scatter(ring)
+        near = np.zeros(3)
+        kept += _tangent_of_quadric(ring, plane, near, 3.0) is plane
+        heights_quadric.append(_tangent_of_quadric(ring, plane, near, 0.0).point[2])
+        heights_plane.append(plane.point[2])
+    assert kept >= 38  # a 3-sigma check passes noise about once in 370
+    # and the check is worth having: the quadric's height at the center is noisier than the plane's
+    assert np.std(heights_quadric) > 1.3 * np.std(heights_plane)
