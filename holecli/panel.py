@@ -36,8 +36,10 @@ Accuracy
 --------
 Circles get ``N`` segments with sagitta ``r (1 - cos(pi / N)) <= chord_error`` (default 0.1 um),
 or ``segments`` if given. On a curved sheet the background grid's ``u`` spacing is limited to
-``sqrt(8 R chord_error)`` so the facets stay within ``chord_error`` of the cylinder away from the
-features (within a few times that where the rings meet the grid).
+``sqrt(8 R chord_error)`` so the grid's facets stay within ``chord_error`` of the cylinder; the
+facets where the rings around a feature meet the grid span up to twice that in ``u`` and reach about
+4 x ``chord_error`` (0.4 um at R = 500 mm with the default). Every vertex lies on the exact surface
+(to ~1e-12 mm).
 
 Truth on curved sheets
 ----------------------
@@ -785,6 +787,7 @@ def _build(spec, label):
     du = dv = spec.grid_spacing
     if not bend.flat:
         smallest = min(bend.R, bend.R - bend.sign * t)
+        # Across the bend a facet's sagitta is du^2 / (8 R); along v the sheet is straight.
         du = min(du, math.sqrt(8.0 * smallest * spec.chord_error))
     border = _border(spec, du, dv)
     nb = len(border)

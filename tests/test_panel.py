@@ -173,6 +173,19 @@ def test_faces_lie_on_the_design_surfaces(panel):
     assert set(np.unique(panel.parts)) == {TOP, BOTTOM, SIDE, WALL, FLOOR}
 
 
+def test_curved_facets_stay_near_the_cylinder(panel):
+    spec = panel.spec
+    if spec.curvature == "flat":
+        pytest.skip("flat")
+    p = panel.vertices[panel.triangles[panel.parts == TOP]]
+    worst = 0.0
+    for weights in ([1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5]):
+        q = np.einsum("k,ikj->ij", np.array(weights), p)
+        worst = max(worst, np.abs(_distance_from_bend_axis(panel, q) - spec.radius).max())
+    # Grid facets are within chord_error; those where the rings meet the grid within about 4 times.
+    assert worst < 5 * spec.chord_error
+
+
 def test_edge_loops_at_the_stated_diameters(panel):
     for k, (f, truth) in enumerate(zip(panel.spec.features, panel.features)):
         if not truth["is_hole"]:
