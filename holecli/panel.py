@@ -946,6 +946,8 @@ def parse_panel_toml(text) -> PanelSpec:
     if "segments" in panel and (isinstance(panel["segments"], bool) or not isinstance(panel["segments"], int)):
         raise SpecError(f"panel.segments must be an integer, got {panel['segments']!r}")
     curvature = panel.get("curvature", "flat")
+    if curvature not in CURVATURES:
+        raise SpecError(f"panel.curvature must be one of {', '.join(CURVATURES)}, got {curvature!r}")
     if curvature != "flat" and "radius" not in panel:
         raise SpecError(f"panel: missing key 'radius' (needed by curvature = {curvature!r})")
     tables = data.get("feature", [])

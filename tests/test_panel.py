@@ -286,6 +286,32 @@ def test_segments_follow_the_chord_error():
     assert truth["bore_polygon_inradius"] == pytest.approx(2.5 * math.cos(math.pi / 64), abs=1e-12)
 
 
+def _is_closed(panel):
+    tri, n = panel.triangles, len(panel.vertices)
+    directed = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    key, reverse = directed[:, 0] * n + directed[:, 1], directed[:, 1] * n + directed[:, 0]
+    return len(np.unique(key)) == len(key) and bool(np.isin(key, reverse).all())
+
+
+@pytest.mark.parametrize("spec", [
+    PanelSpec(40.0, 40.0, 3.0, segments=8, features=(
+        FeatureSpec("countersunk", (0.0, 0.0), 5.0, countersink_diameter=9.0),
+        FeatureSpec("slot", (0.0, 12.0), width=4.0, length=10.0))),
+    PanelSpec(40.0, 40.0, 3.0, chord_error=0.05, features=(FeatureSpec("through", (0.0, 0.0), 0.5),)),
+    PanelSpec(40.0, 40.0, 3.0, features=(FeatureSpec("through", (0.0, 0.0), 5.0),
+                                         FeatureSpec("through", (5.5, 0.0), 5.0))),
+    PanelSpec(40.0, 40.0, 6.0, "convex", 60.0, features=(
+        FeatureSpec("counterbored", (10.0, 0.0), 4.0, counterbore_diameter=12.0, counterbore_depth=2.0),
+        FeatureSpec("slot", (-10.0, 0.0), width=4.0, length=15.0, direction_deg=45.0))),
+    PanelSpec(40.0, 40.0, 6.0, "concave", 60.0, features=(
+        FeatureSpec("countersunk", (10.0, 0.0), 4.0, countersink_diameter=12.0, countersink_angle_deg=82.0),
+        FeatureSpec("blind", (-10.0, 5.0), 8.0, depth=5.0))),
+    PanelSpec(10.0, 10.0, 1.0),
+], ids=["8-segments", "coarse-tiny-hole", "minimum-gap", "tight-convex", "tight-concave", "no-features"])
+def test_extreme_specs_still_give_closed_meshes(spec):
+    assert _is_closed(build_panel(spec))
+
+
 def test_panel_truth_is_json_ready(panel):
     truth = json.loads(json.dumps(panel_truth(panel)))
     assert len(truth["features"]) == 10
@@ -419,6 +445,8 @@ def test_toml_flat_defaults():
     ("[panel]\nwidth = true\nheight = 40\nthickness = 2\n", r"^panel\.width must be a number, got True"),
     ("[panel]\nwidth = 50\nheight = 40\nthickness = 2\ncurvature = 'convex'\n",
      r"^panel: missing key 'radius' \(needed by curvature = 'convex'\)"),
+    ("[panel]\nwidth = 50\nheight = 40\nthickness = 2\ncurvature = 5\n",
+     r"^panel\.curvature must be one of flat, convex, concave, got 5"),
     ("[panel]\nwidth = 50\nheight = 40\nthickness = 2\nsegments = 64.0\n", r"^panel\.segments must be an integer"),
     ("[panel]\nwidth = 50\nheight = 40\nthickness = 2\n[[feature]]\nkind = 'hex'\ncenter = [0, 0]\n",
      r"^feature\[0\]\.kind must be one of"),
