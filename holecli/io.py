@@ -142,7 +142,7 @@ def load_points(path) -> np.ndarray:
     return read_cloud(path).points
 
 
-def save_points(path, points) -> None:
+def save_points(path, points, float32=False) -> None:
     """Write points to a PLY, PCD, CSV, TXT or XYZ file, replacing a regular file atomically.
 
     PLY is written as binary_little_endian and PCD as ``DATA binary``, both with double x, y, z;
@@ -158,6 +158,9 @@ def save_points(path, points) -> None:
         The file to write; its extension (any case) selects the format.
     points : (n, 3) array_like of float
         The points; NaN and infinite values are written as they are.
+    float32 : bool
+        Write single-precision values, as laser profilers do (binary PLY ``property float``, PCD
+        ``SIZE 4``; text with each value rounded to float32, written so that it reads back exactly).
 
     Raises
     ------
@@ -172,11 +175,11 @@ def save_points(path, points) -> None:
         raise ValueError(f"cannot save {name!r}: unsupported extension {extension!r} (expected {_EXPECTED})")
     array = _as_points(points)
     if extension == ".ply":
-        payload = _encode_ply(array)
+        payload = _encode_ply(array, float32)
     elif extension == ".pcd":
-        payload = _encode_pcd(array)
+        payload = _encode_pcd(array, float32)
     else:
-        payload = _encode_text(array, header=extension == ".csv")
+        payload = _encode_text(array.astype(np.float32) if float32 else array, header=extension == ".csv")
     write_bytes(name, payload)
 
 
@@ -1202,26 +1205,28 @@ def _as_points(points) -> np.ndarray:
     return np.ascontiguousarray(array, dtype=np.float64)
 
 
-def _encode_ply(points: np.ndarray) -> bytes:
+def _encode_ply(points: np.ndarray, float32: bool = False) -> bytes:
+    kind, dtype = ("float", "<f4") if float32 else ("double", "<f8")
     header = (
         "ply\n"
         "format binary_little_endian 1.0\n"
         "comment written by holecli\n"
         f"element vertex {len(points)}\n"
-        "property double x\n"
-        "property double y\n"
-        "property double z\n"
+        f"property {kind} x\n"
+        f"property {kind} y\n"
+        f"property {kind} z\n"
         "end_header\n"
     )
-    return header.encode("ascii") + points.astype("<f8").tobytes()
+    return header.encode("ascii") + points.astype(dtype).tobytes()
 
 
-def _encode_pcd(points: np.ndarray) -> bytes:
+def _encode_pcd(points: np.ndarray, float32: bool = False) -> bytes:
+    size, dtype = (4, "<f4") if float32 else (8, "<f8")
     header = (
         "# .PCD v0.7 - Point Cloud Data file format\n"
         "VERSION 0.7\n"
         "FIELDS x y z\n"
-        "SIZE 8 8 8\n"
+        f"SIZE {size} {size} {size}\n"
         "TYPE F F F\n"
         "COUNT 1 1 1\n"
         f"WIDTH {len(points)}\n"
@@ -1230,7 +1235,7 @@ def _encode_pcd(points: np.ndarray) -> bytes:
         f"POINTS {len(points)}\n"
         "DATA binary\n"
     )
-    return header.encode("ascii") + points.astype("<f8").tobytes()
+    return header.encode("ascii") + points.astype(dtype).tobytes()
 
 
 def _encode_text(points: np.ndarray, header: bool) -> bytes:

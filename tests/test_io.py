@@ -1081,3 +1081,16 @@ def test_real_binary_mesh_with_one_vertex_too_many_is_refused(tmp_path):
     path = _write(tmp_path / "a.ply", content.replace(b"element vertex 24\n", b"element vertex 25\n"))
     with pytest.raises(LoadError, match=r"face 1 has 0 vertex indices"):
         read_cloud(path)
+
+
+@pytest.mark.parametrize("extension", [".ply", ".pcd", ".csv", ".xyz"])
+def test_save_points_float32_writes_single_precision_that_reads_back_exactly(tmp_path, extension):
+    from holecli.io import load_points, save_points
+
+    points = np.random.default_rng(5).normal(size=(50, 3)) * 1000.0
+    path = tmp_path / f"f32{extension}"
+    save_points(path, points, float32=True)
+    assert np.array_equal(load_points(path), points.astype(np.float32).astype(np.float64))
+    if extension == ".ply":
+        assert b"property float x" in path.read_bytes()[:200]
+        assert path.stat().st_size < 50 * 24
