@@ -2,7 +2,7 @@
 
 A panel is a sheet of ``width x height x thickness`` mm, flat or bent into a cylinder of radius
 ``radius`` about an axis along the sheet's ``v`` direction, with through holes, countersunk and
-counterbored holes, blind holes and rounded slots. :func:`build_panel` returns the mesh (arrays in
+counterbored holes, blind holes, rounded slots and bosses (pins). :func:`build_panel` returns the mesh (arrays in
 memory; writing files is another module's job) and, for every feature, its ground truth.
 
 Frames
@@ -84,7 +84,7 @@ __all__ = [
     "parse_panel_toml",
 ]
 
-KINDS = ("through", "countersunk", "counterbored", "blind", "slot")
+KINDS = ("through", "countersunk", "counterbored", "blind", "slot", "boss")
 CURVATURES = ("flat", "convex", "concave")
 
 # Per-triangle part labels of Panel.parts.
@@ -92,7 +92,7 @@ TOP = 0       # the top face, the one a profiler sees
 BOTTOM = 1    # the bottom face
 SIDE = 2      # the four outer side walls
 WALL = 3      # a feature's bore, cone, counterbore or slot wall
-FLOOR = 4     # a counterbore's annulus or a blind hole's floor
+FLOOR = 4     # a counterbore's annulus, a blind hole's floor or a boss's top
 
 # Smallest gap (mm) between two features' outer contours, and between a contour and the border:
 # the graded rings need room to keep each contour's edges Delaunay.
@@ -129,7 +129,8 @@ class FeatureSpec:
         the bore through. ``'counterbored'``: a step of ``counterbore_diameter`` and
         ``counterbore_depth``, then the bore through. ``'blind'``: a bore to a flat floor at
         ``depth``. ``'slot'``: a rounded slot cut through, ``width`` by ``length`` (overall, end
-        to end) along ``direction_deg``; not a hole.
+        to end) along ``direction_deg``; not a hole. ``'boss'``: a cylindrical pin of ``diameter``
+        standing ``height`` above the tangent plane at the centre, flat-topped; not a hole.
     center : (2,) tuple of float
         ``(u, v)`` of the feature's axis on the top surface, mm (arc length on a curved sheet).
     diameter : float or None
@@ -142,6 +143,8 @@ class FeatureSpec:
         Diameter (> ``diameter``) and depth (0 < depth < thickness, along the axis) of the step.
     depth : float or None
         Depth of a blind hole's floor below the tangent plane at the centre, along the axis.
+    height : float or None
+        A boss's height above the tangent plane at the centre, along the axis, > 0.
     width, length, direction_deg : float or None
         A slot's width, overall length (> width) and the direction of its length, degrees from +u
         towards +v.
@@ -157,6 +160,7 @@ class FeatureSpec:
     counterbore_diameter: Optional[float] = None
     counterbore_depth: Optional[float] = None
     depth: Optional[float] = None
+    height: Optional[float] = None
     width: Optional[float] = None
     length: Optional[float] = None
     direction_deg: float = 0.0
@@ -308,10 +312,10 @@ def _validate_feature(name, f, spec) -> None:
     t = spec.thickness
     allowed = {"through": set(), "countersunk": {"countersink_diameter", "countersink_angle_deg"},
                "counterbored": {"counterbore_diameter", "counterbore_depth"}, "blind": {"depth"},
-               "slot": {"width", "length", "direction_deg"}}[f.kind]
+               "slot": {"width", "length", "direction_deg"}, "boss": {"height"}}[f.kind]
     defaults = FeatureSpec(kind=f.kind, center=f.center)
     for key in ("diameter", "countersink_diameter", "countersink_angle_deg", "counterbore_diameter",
-                "counterbore_depth", "depth", "width", "length", "direction_deg"):
+                "counterbore_depth", "depth", "height", "width", "length", "direction_deg"):
         if key == "diameter" and f.kind != "slot":
             continue
         if key not in allowed and getattr(f, key) != getattr(defaults, key):
@@ -339,6 +343,8 @@ def _validate_feature(name, f, spec) -> None:
     if f.kind == "blind":
         if not (_number(f.depth) and 0 < f.depth < t):
             _fail(f"{name}.depth", f"a number in (0, thickness = {t:g})", f.depth)
+    if f.kind == "boss":
+        _positive(f"{name}.height", f.height)
     if f.kind == "slot":
         if f.diameter is not None:
             _fail(f"{name}.diameter", "omitted for a slot (give width and length)", f.diameter)
@@ -512,7 +518,7 @@ def _feature_loops(k, f, spec, bend, label):
         return c - depth * n + radius * ring(radius, count)
 
     truth = {"index": k, "name": f.name if f.name is not None else f"{f.kind}{k}", "kind": f.kind,
-             "is_hole": f.kind != "slot", "center": [float(v) for v in c],
+             "is_hole": f.kind not in ("slot", "boss"), "center": [float(v) for v in c],
              "center_uv": [uc, vc], "axis": [float(v) for v in n], "normal": [float(v) for v in n],
              "partial": False, "arc_deg": 360.0}
     floor_center, strips = None, []
@@ -535,7 +541,7 @@ def _feature_loops(k, f, spec, bend, label):
         count = _segments_for(f.outer_radius, spec)
         segments = count
         truth.update({"bore_diameter": float(f.diameter), "nominal_diameter": 2.0 * f.outer_radius,
-                      "through": f.kind != "blind"})
+                      "through": f.kind not in ("blind", "boss")})
         if f.kind == "countersunk":
             rc, half = f.countersink_diameter / 2.0, math.radians(f.countersink_angle_deg) / 2.0
             h = _countersink_depth(f)
@@ -556,6 +562,13 @@ def _feature_loops(k, f, spec, bend, label):
             _check_level(name, "counterbore_depth", h, h, top_s, bottom_s)
             truth.update({"counterbore_diameter": float(f.counterbore_diameter),
                           "counterbore_depth": float(h)})
+        elif f.kind == "boss":
+            top, top_s = drilled(r, count, 0.0, 0.0)
+            loops, strips, floor_center = [top, level(r, count, -f.height)], [WALL], c + f.height * n
+            if f.height < np.max(top_s) + _MIN_WALL:
+                raise SpecError(f"{name}.height must stand at least {_MIN_WALL:g} above the edge on the "
+                                f"surface (up to {np.max(top_s):.4g} above the tangent plane), got {f.height!r}")
+            truth["height"] = float(f.height)
         elif f.kind == "blind":
             top, top_s = drilled(r, count, 0.0, 0.0)
             _, bottom_s = drilled(r, count, t, -t)
@@ -571,7 +584,7 @@ def _feature_loops(k, f, spec, bend, label):
         truth.update(_edge_truth(f, spec, bend, c, eu, ev, n, top))
     truth["segments"] = int(segments)
     return _Loops(loops=loops, strips=strips, floor_center=floor_center,
-                  through=f.kind != "blind", top_s=top_s, truth=truth)
+                  through=f.kind not in ("blind", "boss"), top_s=top_s, truth=truth)
 
 
 def _check_level(name, key, value, depth, top_s, bottom_s):
@@ -745,7 +758,7 @@ def build_panel(spec: PanelSpec) -> Panel:
     -------
     Panel
         Closed, consistently oriented mesh. ``features[k]`` is a dict with ``index``, ``name``,
-        ``kind``, ``is_hole`` (False for a slot), ``center`` (3D, mm: the axis on the top surface),
+        ``kind``, ``is_hole`` (False for a slot or a boss), ``center`` (3D, mm: the axis on the top surface),
         ``center_uv``, ``axis`` and ``normal`` (unit, the top normal at the centre, out of the
         material), ``partial`` (False) and ``arc_deg`` (360), ``through``, ``segments``; for holes
         ``diameter`` (chord-mean diameter of the visible edge in the tangent plane, mm; see the
@@ -754,7 +767,7 @@ def build_panel(spec: PanelSpec) -> Panel:
         ``polygon_circumradius``, ``polygon_inradius``, ``bore_polygon_inradius``; and
         ``countersink_angle_deg``, ``countersink_diameter``, ``countersink_depth`` (axial, from the
         tangent plane to the start of the bore) / ``counterbore_diameter``, ``counterbore_depth`` /
-        ``floor_depth`` where they apply; for slots ``width``, ``length``, ``direction`` (3D unit)
+        ``floor_depth`` / ``height`` (boss) where they apply; for slots ``width``, ``length``, ``direction`` (3D unit)
         and ``direction_deg``.
 
     Raises
@@ -825,7 +838,8 @@ def _build(spec, label):
                 expected = np.broadcast_to(n, cen.shape)
             else:
                 rel = c - cen
-                expected = rel - (rel @ n)[:, None] * n
+                # Hole walls face their axis, a boss's wall faces away from it.
+                expected = (rel - (rel @ n)[:, None] * n) * (-1.0 if features[k].kind == "boss" else 1.0)
             emit(_orient(tri, allv, expected), kind, k)
         if fl.floor_center is not None:
             centre = add(fl.floor_center)[0]
@@ -901,6 +915,7 @@ _FEATURE_KEYS = {
     "counterbored": ("diameter", "counterbore_diameter", "counterbore_depth"),
     "blind": ("diameter", "depth"),
     "slot": ("width", "length", "direction_deg"),
+    "boss": ("diameter", "height"),
 }
 _OPTIONAL_FEATURE_KEYS = {"countersink_angle_deg", "direction_deg"}
 
@@ -913,7 +928,7 @@ def parse_panel_toml(text) -> PanelSpec:
     ``chord_error``, ``segments``, ``grid_spacing``) and any number of ``[[feature]]`` tables
     (``kind``, ``center = [u, v]``, optional ``name``, and the keys of that kind: ``diameter``;
     ``countersink_diameter``, ``countersink_angle_deg`` (default 100); ``counterbore_diameter``,
-    ``counterbore_depth``; ``depth``; for a slot ``width``, ``length``, ``direction_deg``
+    ``counterbore_depth``; ``depth``; ``height`` (boss); for a slot ``width``, ``length``, ``direction_deg``
     (default 0)).
 
     Raises

@@ -25,6 +25,7 @@ def _features():
         FeatureSpec("through", (0.0, 20.0), 6.35),
         FeatureSpec("blind", (25.0, 20.0), 5.0, depth=1.0),
         FeatureSpec("countersunk", (50.0, 20.0), 4.0, countersink_diameter=7.0, countersink_angle_deg=90.0),
+        FeatureSpec("boss", (0.0, 0.0), 6.0, height=2.0),
     )
 
 
@@ -114,6 +115,8 @@ def _round_volume(f, t):
         return math.pi * r * r * t
     if f.kind == "blind":
         return math.pi * r * r * f.depth
+    if f.kind == "boss":
+        return -math.pi * r * r * f.height
     if f.kind == "counterbored":
         rb, h = f.counterbore_diameter / 2, f.counterbore_depth
         return math.pi * (rb * rb * h + r * r * (t - h))
@@ -188,7 +191,7 @@ def test_curved_facets_stay_near_the_cylinder(panel):
 
 def test_edge_loops_at_the_stated_diameters(panel):
     for k, (f, truth) in enumerate(zip(panel.spec.features, panel.features)):
-        if not truth["is_hole"]:
+        if f.kind == "slot":
             continue
         center, axis = _axis_frame(panel, k)
         radial, _ = _radial_axial(panel.vertices[panel.edge_loops[k]], center, axis)
@@ -237,10 +240,14 @@ def test_countersink_angle_from_the_cone_vertices(panel):
 
 def test_floors_at_the_stated_depths(panel):
     for k, f in enumerate(panel.spec.features):
-        if f.kind not in ("blind", "counterbored"):
+        if f.kind not in ("blind", "counterbored", "boss"):
             continue
         center, axis = _axis_frame(panel, k)
         radial, axial = _radial_axial(_part_vertices(panel, FLOOR, k), center, axis)
+        if f.kind == "boss":
+            np.testing.assert_allclose(axial, f.height, atol=1e-12)
+            assert panel.features[k]["height"] == f.height
+            continue
         depth = f.depth if f.kind == "blind" else f.counterbore_depth
         np.testing.assert_allclose(axial, -depth, atol=1e-12)
         key = "floor_depth" if f.kind == "blind" else "counterbore_depth"
@@ -259,9 +266,10 @@ def test_raycast_through_blind_slot_and_countersink(flat):
     mid = (cs.diameter / 2 + cs.countersink_diameter / 2) / 2
     cone_z = -(cs.countersink_diameter / 2 - mid) / math.tan(math.radians(cs.countersink_angle_deg) / 2)
     targets = [(f[0].center, math.inf), (f[4].center, math.inf), (f[3].center, -f[3].depth),
-               (f[8].center, -f[8].depth), ((0.0, 0.0), 0.0), ((cs.center[0] + mid, cs.center[1]), cone_z),
+               (f[8].center, -f[8].depth), ((0.0, 10.0), 0.0), ((cs.center[0] + mid, cs.center[1]), cone_z),
                (f[2].center, math.inf),
-               ((f[2].center[0], f[2].center[1] + 3.0), -f[2].counterbore_depth)]
+               ((f[2].center[0], f[2].center[1] + 3.0), -f[2].counterbore_depth),
+               (f[10].center, f[10].height), ((f[10].center[0] + 3.5, 0.0), 0.0)]
     rays = np.array([[u, v, 10.0, 0.0, 0.0, -1.0] for (u, v), _ in targets], dtype=np.float32)
     hits = scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy()
     for (where, z), t_hit in zip(targets, hits):
@@ -314,8 +322,9 @@ def test_extreme_specs_still_give_closed_meshes(spec):
 
 def test_panel_truth_is_json_ready(panel):
     truth = json.loads(json.dumps(panel_truth(panel)))
-    assert len(truth["features"]) == 10
+    assert len(truth["features"]) == 11
     assert [h["index"] for h in truth["holes"]] == [0, 1, 2, 3, 5, 6, 7, 8, 9]
+    assert truth["features"][10]["is_hole"] is False and truth["features"][10]["height"] == 2.0
     slot = truth["features"][4]
     assert slot["is_hole"] is False and slot["width"] == 6.0 and slot["length"] == 20.0
     assert np.linalg.norm(slot["direction"]) == pytest.approx(1.0)
@@ -360,6 +369,9 @@ def _one(**changes):
     (PanelSpec(50.0, 50.0, 3.0, features=(_one(kind="counterbored", counterbore_diameter=8.0),)),
      r"^features\[0\]\.counterbore_depth must be a number in \(0, thickness"),
     (PanelSpec(50.0, 50.0, 3.0, features=(_one(kind="slot"),)), r"^features\[0\]\.diameter must be omitted"),
+    (PanelSpec(50.0, 50.0, 3.0, features=(_one(kind="boss", height=0.0),)),
+     r"^features\[0\]\.height must be a finite number > 0, got 0\.0"),
+    (PanelSpec(50.0, 50.0, 3.0, features=(_one(height=1.0),)), r"^features\[0\]\.height must be omitted"),
     (PanelSpec(50.0, 50.0, 3.0, features=(_one(kind="slot", diameter=None, width=5.0, length=4.0),)),
      r"^features\[0\]\.length must be a finite number > width \(5\)"),
     (PanelSpec(50.0, 50.0, 3.0, features=(_one(center=(23.0, 0.0)),)),
@@ -416,6 +428,12 @@ kind = "blind"
 center = [25.0, -20.0]
 diameter = 3.0
 depth = 2.0
+
+[[feature]]
+kind = "boss"
+center = [0.0, 0.0]
+diameter = 6.0
+height = 2.0
 """
 
 
@@ -424,9 +442,10 @@ def test_toml_round_trip():
     assert spec == PanelSpec(140.0, 90.0, 3.0, "convex", 500.0, segments=256, features=(
         FeatureSpec("countersunk", (-25.0, -20.0), 4.8, countersink_diameter=9.0, name="A1"),
         FeatureSpec("slot", (50.0, -20.0), width=6.0, length=20.0, direction_deg=30.0),
-        FeatureSpec("blind", (25.0, -20.0), 3.0, depth=2.0)))
+        FeatureSpec("blind", (25.0, -20.0), 3.0, depth=2.0),
+        FeatureSpec("boss", (0.0, 0.0), 6.0, height=2.0)))
     truth = panel_truth(build_panel(spec))
-    assert [f["name"] for f in truth["features"]] == ["A1", "slot1", "blind2"]
+    assert [f["name"] for f in truth["features"]] == ["A1", "slot1", "blind2", "boss3"]
 
 
 def test_toml_flat_defaults():
