@@ -372,17 +372,20 @@ def _group(loops):
         return i
 
     cos_par = math.cos(math.radians(AXIS_PARALLEL_DEG))
-    for x, i in enumerate(circ):
-        a = loops[i]
-        for j in circ[x + 1:]:
-            b = loops[j]
-            if abs(a.normal @ b.normal) < cos_par:
-                continue
-            d = b.center - a.center
-            off_a = np.linalg.norm(d - (d @ a.normal) * a.normal)
-            off_b = np.linalg.norm(d - (d @ b.normal) * b.normal)
-            if max(off_a, off_b) <= COAXIAL * min(a.radius, b.radius):
-                parent[root(j)] = root(i)
+    if not circ:
+        return []
+    centers = np.array([loops[i].center for i in circ])
+    normals = np.array([loops[i].normal for i in circ])
+    radii = np.array([loops[i].radius for i in circ])
+    for x, i in enumerate(circ[:-1]):
+        d = centers[x + 1:] - centers[x]
+        off_a = np.linalg.norm(d - np.outer(d @ normals[x], normals[x]), axis=1)
+        off_b = np.linalg.norm(d - (np.einsum("ij,ij->i", d, normals[x + 1:]))[:, None]
+                               * normals[x + 1:], axis=1)
+        ok = ((np.abs(normals[x + 1:] @ normals[x]) >= cos_par)
+              & (np.maximum(off_a, off_b) <= COAXIAL * np.minimum(radii[x], radii[x + 1:])))
+        for y in np.flatnonzero(ok):
+            parent[root(circ[x + 1 + y])] = root(i)
     groups = {}
     for i in circ:
         groups.setdefault(root(i), []).append(i)
@@ -395,24 +398,27 @@ def _group(loops):
 
 @dataclass(frozen=True)
 class _Sides:
-    """What lies next to a loop: counts of adjacent faces by the direction to their third vertex."""
+    """What lies next to a loop: counts of the faces along its edges, by kind and side."""
 
-    out_flat: int        # radially outward, in the loop's plane
-    in_flat: int         # radially inward, in the plane
-    up: int              # above the plane (toward the sensor)
-    down: int            # below the plane
+    out_flat: int        # flat (normal within angle_deg of the axis), radially outward
+    in_flat: int         # flat, radially inward
+    up: int              # not flat, rising from the loop toward the sensor
+    down: int            # not flat, falling away from the sensor
+    in_down: int         # of ``down``, those leaning inward (a cone closing the hole)
     boundary: bool       # some loop edge has a single face
-    out_normal: np.ndarray  # area-weighted normal of the outward flat faces (unsigned sum)
+    out_normal: np.ndarray  # area-weighted normal of the outward flat faces, toward the axis's side
 
 
 def _sides(loop, axis, center, v, t, normals, areas, edges, angle_deg):
-    tan_flat = math.tan(math.radians(angle_deg))
+    # Flatness is judged by the face's normal, robust to slivers whose third vertex lies nearly on
+    # the edge's line; the side (in or out, up or down) by the third vertex, robust to winding.
+    cos_flat = math.cos(math.radians(angle_deg))
     cyc = loop.vertices
     p = loop.points - center
     # Signed area about the axis: positive when the loop runs counter-clockwise seen from the
     # sensor, its interior then on the left of each edge.
     winding = np.sign(np.cross(p, np.roll(p, -1, axis=0)).sum(axis=0) @ axis) or 1.0
-    out_flat = in_flat = up = down = 0
+    out_flat = in_flat = up = down = in_down = 0
     boundary = False
     acc = np.zeros(3)
     for a, b in zip(cyc, np.roll(cyc, -1)):
@@ -431,10 +437,10 @@ def _sides(loop, axis, center, v, t, normals, areas, edges, angle_deg):
             w = tri[(tri != a) & (tri != b)][0]
             d = v[w] - mid
             s, h = d @ radial, d @ axis
-            if abs(h) <= tan_flat * abs(s):
+            n = normals[f]
+            if abs(n @ axis) >= cos_flat:
                 if s > 0:
                     out_flat += 1
-                    n = normals[f]
                     acc += areas[f] * (n if n @ axis >= 0 else -n)
                 else:
                     in_flat += 1
@@ -442,7 +448,8 @@ def _sides(loop, axis, center, v, t, normals, areas, edges, angle_deg):
                 up += 1
             else:
                 down += 1
-    return _Sides(out_flat, in_flat, up, down, boundary, acc)
+                in_down += s < 0
+    return _Sides(out_flat, in_flat, up, down, int(in_down), boundary, acc)
 
 
 def _is_surface_edge(sides):
@@ -499,7 +506,8 @@ def _hole(group, loops, v, t, normals, areas, edges, view, angle_deg):
         else:
             walls.append("cone")
     last = sides[-1]
-    floor = len(members) > 1 and last.in_flat > 0 and not last.boundary
+    # A floor: faces inside the last loop, flat or a cone closing toward the axis (a drill point).
+    floor = len(members) > 1 and (last.in_flat > 0 or last.in_down > 0) and not last.boundary
     through = not floor
     result = dict(countersink_angle_deg=None, countersink_depth=None, counterbore_diameter=None,
                   counterbore_depth=None, floor_depth=None)

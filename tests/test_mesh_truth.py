@@ -80,7 +80,9 @@ def plate(features, slot=None):
         top_ids.append(ids[0])
         discs.append((np.array([x, y]), rings[0][0], "top"))
         if floor:
-            c = add([x, y, rings[-1][1]])[0]
+            # A drill point: the floor is a cone of included angle tip_angle down to its tip.
+            tip = rings[-1][0] / math.tan(math.radians(params["tip_angle"] / 2)) if "tip_angle" in params else 0.0
+            c = add([x, y, rings[-1][1] - tip])[0]
             last = ids[-1]
             tris.append(np.stack([np.full(N, c), last, np.roll(last, -1)], 1))
         else:
@@ -309,3 +311,12 @@ def test_agrees_with_panel_truth():
                     "counterbore_depth", "floor_depth"):
             if key in f and f[key] is not None:
                 assert getattr(h, key) == pytest.approx(f[key], rel=1e-9), key
+
+
+def test_blind_hole_with_a_drill_point_floor():
+    drilled = ("blind", (0.0, 0.0), dict(r=2.5, d=3.0, tip_angle=118.0))
+    v, t = plate([drilled])
+    (hole,) = mesh_holes(v.astype(np.float32), t)
+    got = check(hole, ("blind", (0.0, 0.0), dict(r=2.5, d=3.0)), 1e-5, 1e-5)
+    assert got["floor_depth"] == pytest.approx(3.0, rel=1e-5)  # where the cylinder ends
+
