@@ -64,6 +64,8 @@ COAXIAL = 0.01
 # A wall between two loops is a cylinder (or a flat step) when it is within this angle (degrees) of
 # the axis (of the plane).
 STEP_ANGLE_DEG = 0.5
+# Vertices of the faces around an edge loop within this many radii of the axis shape the surface fit.
+SURFACE_REACH = 2.0
 # A slot's length exceeds its width by at least this factor; a rounder cut-out is a 'cutout'.
 SLOT_ELONGATION = 1.05
 
@@ -121,7 +123,8 @@ class MeshHole:
     is_hole : bool
         False for a slot or cut-out.
     center : (3,) float64
-        Centre of the surface edge, on the surface, mm.
+        Where the axis meets the surface, mm: the edge circle's centre, moved along the axis onto a
+        quadratic fit of the surface around the edge when that surface is curved.
     axis : (3,) float64
         Unit axis toward the sensor (``axis . view <= 0``).
     normal : (3,) float64
@@ -133,13 +136,15 @@ class MeshHole:
     bore_diameter : float or None
         Diameter of the hole's smallest loop.
     depth : float or None
-        Axial distance from the edge to the last loop, mm (the thickness for a plain through hole).
+        Axial distance from ``center`` to the last loop, mm (the thickness for a plain through hole).
     through : bool
         Whether the far end is open.
     segments : int
         Vertices of the edge polygon.
     loop_heights, loop_diameters : tuple of float
-        Each loop of the hole from the edge down: axial offset below the edge (>= 0) and diameter.
+        Each loop of the hole from the edge down: axial depth of its plane below ``center`` and
+        its diameter (depths and the countersink, counterbore and floor depths all count from
+        ``center``).
     countersink_angle_deg, countersink_depth : float or None
         Included cone angle (degrees) and axial depth from the edge to the cone's small end.
     counterbore_diameter, counterbore_depth : float or None
@@ -154,6 +159,9 @@ class MeshHole:
         ``-axis . view``: 1 when the sensor looks straight down the hole.
     edge_loop : MeshLoop
         The surface edge.
+    edge_axial_offset : (3,) tuple of float
+        Min, mean and max of the edge vertices' offsets along ``axis`` from ``center`` (zero on a
+        flat surface; on a curved one the edge is a saddle around ``center``); empty for a cut-out.
     """
 
     kind: str
@@ -180,6 +188,7 @@ class MeshHole:
     direction: Optional[np.ndarray]
     view_cosine: float
     edge_loop: MeshLoop
+    edge_axial_offset: tuple = ()
 
     def to_dict(self) -> dict:
         """JSON-ready dict: vectors as lists, floats as Python floats, no loop object."""
@@ -188,7 +197,7 @@ class MeshHole:
                      "edge_circumdiameter", "edge_indiameter", "bore_diameter", "depth", "through",
                      "segments", "loop_heights", "loop_diameters", "countersink_angle_deg",
                      "countersink_depth", "counterbore_diameter", "counterbore_depth", "floor_depth",
-                     "length", "width", "direction", "view_cosine"):
+                     "length", "width", "direction", "view_cosine", "edge_axial_offset"):
             value = getattr(self, name)
             if isinstance(value, np.ndarray) or isinstance(value, tuple):
                 value = [float(x) for x in value]
@@ -407,6 +416,7 @@ class _Sides:
     in_down: int         # of ``down``, those leaning inward (a cone closing the hole)
     boundary: bool       # some loop edge has a single face
     out_normal: np.ndarray  # area-weighted normal of the outward flat faces, toward the axis's side
+    out_vertices: tuple  # third vertices of the outward flat faces
 
 
 def _sides(loop, axis, center, v, t, normals, areas, edges, angle_deg):
@@ -421,6 +431,7 @@ def _sides(loop, axis, center, v, t, normals, areas, edges, angle_deg):
     out_flat = in_flat = up = down = in_down = 0
     boundary = False
     acc = np.zeros(3)
+    outside = set()
     for a, b in zip(cyc, np.roll(cyc, -1)):
         e = edges.index.get((min(a, b), max(a, b)))
         if e is None:
@@ -441,6 +452,7 @@ def _sides(loop, axis, center, v, t, normals, areas, edges, angle_deg):
             if abs(n @ axis) >= cos_flat:
                 if s > 0:
                     out_flat += 1
+                    outside.add(int(w))
                     acc += areas[f] * (n if n @ axis >= 0 else -n)
                 else:
                     in_flat += 1
@@ -449,7 +461,35 @@ def _sides(loop, axis, center, v, t, normals, areas, edges, angle_deg):
             else:
                 down += 1
                 in_down += s < 0
-    return _Sides(out_flat, in_flat, up, down, int(in_down), boundary, acc)
+    return _Sides(out_flat, in_flat, up, down, int(in_down), boundary, acc, tuple(sorted(outside)))
+
+
+def _surface_offset(edge, axis, v, outside):
+    """Height along ``axis`` of the surface at the edge's centre, above the edge loop's plane.
+
+    A quadratic height field ``z(x, y)`` in the loop's frame, fitted to the loop's vertices and the
+    outward faces' vertices within ``SURFACE_REACH`` radii of the axis. On a plane the loop's
+    vertices alone make the fit rank-deficient (``x^2 + y^2 = r^2``) and the offset is zero; on a
+    curved sheet the loop is a saddle and its plane lies off the surface by about ``r^2 / (4 R)``.
+    """
+    r = edge.radius
+    ids = np.asarray(outside, dtype=np.int64)
+    extra = v[ids] - edge.center if len(ids) else np.zeros((0, 3))
+    z_extra = extra @ axis
+    radial = np.linalg.norm(extra - np.outer(z_extra, axis), axis=1)
+    extra = extra[radial <= SURFACE_REACH * r]
+    if len(extra) < 3:
+        return 0.0
+    pts = np.vstack([edge.points - edge.center, extra])
+    e1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    x, y, z = pts @ e1 / r, pts @ e2 / r, pts @ axis
+    design = np.column_stack([np.ones_like(x), x, y, x * x, x * y, y * y])
+    coef, _, rank, sv = np.linalg.lstsq(design, z, rcond=None)
+    if rank < 6 or sv[-1] < 1e-6 * sv[0]:
+        return 0.0
+    return float(coef[0])
 
 
 def _is_surface_edge(sides):
@@ -493,7 +533,10 @@ def _hole(group, loops, v, t, normals, areas, edges, view, angle_deg):
         return None
     members, heights, sides = members[top:], heights[top:], sides[top:]
     edge = members[0]
-    depths = heights[0] - heights
+    offset = _surface_offset(edge, axis, v, sides[0].out_vertices)
+    center = edge.center + offset * axis
+    depths = heights[0] + offset - heights
+    axial = (edge.points - center) @ axis
     radii = np.array([lp.radius for lp in members])
     tan_step = math.tan(math.radians(STEP_ANGLE_DEG))
     walls = []
@@ -532,13 +575,15 @@ def _hole(group, loops, v, t, normals, areas, edges, view, angle_deg):
     normal = sides[0].out_normal
     normal = normal / np.linalg.norm(normal) if np.linalg.norm(normal) > 0 else axis.copy()
     normal = _orient(normal, view)
-    return MeshHole(kind=kind, is_hole=True, center=edge.center.copy(), axis=axis, normal=normal,
+    return MeshHole(kind=kind, is_hole=True, center=center, axis=axis, normal=normal,
                     edge_diameter=2.0 * edge.radius, edge_circumdiameter=2.0 * edge.circumradius,
                     edge_indiameter=2.0 * edge.inradius, bore_diameter=float(2.0 * radii.min()),
                     depth=float(depths[-1]) if len(members) > 1 else None, through=through,
                     segments=len(edge.vertices), loop_heights=tuple(float(x) for x in depths),
                     loop_diameters=tuple(float(2 * r) for r in radii), length=None, width=None,
-                    direction=None, view_cosine=float(-axis @ view), edge_loop=edge, **result)
+                    direction=None, view_cosine=float(-axis @ view), edge_loop=edge,
+                    edge_axial_offset=(float(axial.min()), float(axial.mean()), float(axial.max())),
+                    **result)
 
 
 def _cutout(loop, v, t, normals, areas, edges, view, angle_deg):
@@ -569,7 +614,7 @@ def _cutout(loop, v, t, normals, areas, edges, view, angle_deg):
                     loop_heights=(), loop_diameters=(), countersink_angle_deg=None,
                     countersink_depth=None, counterbore_diameter=None, counterbore_depth=None,
                     floor_depth=None, length=length, width=width, direction=direction,
-                    view_cosine=float(-axis @ view), edge_loop=loop)
+                    view_cosine=float(-axis @ view), edge_loop=loop, edge_axial_offset=())
 
 
 def mesh_holes(vertices, triangles, view=(0.0, 0.0, -1.0), *, angle_deg=20.0) -> tuple:

@@ -320,3 +320,29 @@ def test_blind_hole_with_a_drill_point_floor():
     got = check(hole, ("blind", (0.0, 0.0), dict(r=2.5, d=3.0)), 1e-5, 1e-5)
     assert got["floor_depth"] == pytest.approx(3.0, rel=1e-5)  # where the cylinder ends
 
+
+
+@pytest.mark.parametrize("curvature", ["convex", "concave"])
+def test_curved_panel_center_on_the_surface(curvature):
+    # The edge of a hole in a cylindrical sheet is a saddle; its centre and the depths count from
+    # where the axis meets the surface (a quadratic fit around the edge), as in the panel's truth.
+    panel = pytest.importorskip("holecli.panel")
+    try:
+        spec = panel.PanelSpec(width=60.0, height=30.0, thickness=4.0, curvature=curvature,
+                               radius=300.0, segments=64, features=(
+            panel.FeatureSpec(kind="through", center=(-15.0, 0.0), diameter=5.0),
+            panel.FeatureSpec(kind="countersunk", center=(0.0, 0.0), diameter=4.0,
+                              countersink_diameter=8.0, countersink_angle_deg=100.0),
+            panel.FeatureSpec(kind="blind", center=(15.0, 0.0), diameter=5.0, depth=2.5)))
+        built = panel.build_panel(spec)
+    except Exception as exc:  # the panel module is another agent's work in progress
+        pytest.skip(f"holecli.panel unusable here: {exc}")
+    holes = mesh_holes(built.vertices, built.triangles)
+    truth = sorted(built.features, key=lambda f: f["center"][0])
+    assert [h.kind for h in holes] == [f["kind"] for f in truth]
+    for h, f in zip(holes, truth):
+        assert h.center == pytest.approx(f["center"], abs=2e-6)
+        assert h.edge_axial_offset == pytest.approx(f["edge_axial_offset"], abs=2e-6)
+        for key in ("countersink_depth", "floor_depth"):
+            if f.get(key) is not None:
+                assert getattr(h, key) == pytest.approx(f[key], abs=2e-6), key
