@@ -218,8 +218,34 @@ def _countersink(scene, center, radius, settings):
     # cone, and one of them would outweigh every other point in the hinge's least squares.
     index = index[scene.heights[index] <= scene.band]
     rho = np.hypot(scene.xy[index, 0] - center[0], scene.xy[index, 1] - center[1])
-    return fit_cone_edge(rho, -scene.heights[index], radius, width, scene.height_noise,
+    depth = _surface_height(scene, center, radius, settings, scene.xy[index]) - scene.heights[index]
+    return fit_cone_edge(rho, depth, radius, width, scene.height_noise,
                          depth_slope_ratio=settings.cone_depth_slope_ratio)
+
+
+def _surface_height(scene, center, radius, settings, xy):
+    """Height of the surface itself at ``xy`` (plane frame) near a hole: 0, the global plane, unless
+    the surface in the ring [r, 3r] curves away from it significantly (a curved panel, where the plane
+    of a large scan lies tens of um off the surface at a hole and a countersink's depth would be
+    measured from the wrong level); then a quadric fitted to that ring (check ``curvature_sigmas``)."""
+    ring = _within(scene.surface_xy, center, radius, 3.0 * radius)
+    if len(ring) < 30:
+        return np.zeros(len(xy))
+    local = scene.surface_xy[ring] - center
+    scale = max(float(radius), 1e-300)
+    s, t = local[:, 0] / scale, local[:, 1] / scale
+    h = scene.heights[scene.surface_index[ring]]
+    design = np.column_stack([np.ones_like(s), s, t, s * s, s * t, t * t])
+    coefficients, _, rank, _ = np.linalg.lstsq(design, h, rcond=None)
+    if rank < 6:
+        return np.zeros(len(xy))
+    residuals = design @ coefficients - h
+    variance = float(residuals @ residuals) / max(len(h) - 6, 1)
+    standard_error = np.sqrt(variance * np.linalg.inv(design.T @ design)[0, 0])
+    if abs(coefficients[0]) <= settings.curvature_sigmas * standard_error:
+        return np.zeros(len(xy))
+    u, v = (xy[:, 0] - center[0]) / scale, (xy[:, 1] - center[1]) / scale
+    return np.column_stack([np.ones_like(u), u, v, u * u, u * v, v * v]) @ coefficients
 
 
 def _near_void(grid, void, cells):

@@ -79,3 +79,37 @@ def test_the_curvature_check_keeps_the_plane_on_a_flat_noisy_ring():
     assert kept >= 38  # a 3-sigma check passes noise about once in 370
     # and the check is worth having: the quadric's height at the center is noisier than the plane's
     assert np.std(heights_quadric) > 1.3 * np.std(heights_plane)
+
+
+def _curved_countersink_scan(seed):
+    """A countersunk hole in a random curved panel, scanned by the profiler over 5 x 5 diameters."""
+    import math
+
+    from holecli.panel import FeatureSpec, PanelSpec, build_panel, panel_truth
+    from holecli.profiler import ProfilerSpec
+    from holecli.scan_part import scan_part
+
+    rng = np.random.default_rng([90, seed])
+    diameter, angle = rng.uniform(3.0, 5.0), rng.choice([90.0, 100.0])
+    feature = FeatureSpec(kind="countersunk", center=(0.0, 0.0), diameter=diameter, countersink_angle_deg=angle,
+                          countersink_diameter=diameter + 1.4 * math.tan(math.radians(angle) / 2.0))
+    panel = build_panel(PanelSpec(width=8 * diameter, height=8 * diameter, thickness=3.0,
+                                  curvature=str(rng.choice(["convex", "concave"])), radius=rng.uniform(500, 1200),
+                                  features=(feature,)))
+    pitch = rng.uniform(0.04, 0.08)
+    spec = ProfilerSpec(line_length=5 * diameter, scan_length=5 * diameter, point_pitch=pitch, line_pitch=pitch,
+                        range_noise=0.005, range_quantum=0.001)
+    scanned = scan_part(panel.vertices, panel.triangles, panel_truth(panel)["features"], spec, rng=seed)
+    return scanned.scan.points, scanned.truth["holes"][0]
+
+
+def test_countersinks_on_curved_panels_are_measured_from_the_surface_not_the_plane():
+    # The plane of a scan 5 diameters wide lies tens of um off a curved surface at the hole: a
+    # countersink's depth measured from it put the edge 50 um off (a convex R 873 panel).
+    errors = []
+    for seed in range(4):
+        points, truth = _curved_countersink_scan(seed)
+        (hole,) = detect(points).holes
+        errors.append(hole.diameter - truth["diameter"])
+    assert sum(abs(error) > 15e-3 for error in errors) <= 1, errors
+    assert np.median(np.abs(errors)) < 8e-3, errors
