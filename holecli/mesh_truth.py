@@ -7,7 +7,8 @@ them from the mesh alone and describes each as a sensor looking along ``view`` w
 Method
 ------
 1. Weld vertices with identical coordinates (STL stores each triangle's corners separately) and
-   drop triangles with a repeated corner or zero area.
+   drop triangles with a repeated corner or zero area. Wind the faces consistently (a walk over
+   manifold edges) and, for a closed component, outward (positive signed volume).
 2. Feature edges: boundary edges, non-manifold edges and edges whose two faces' normals differ by
    more than ``angle_deg`` (the comparison does not depend on the faces' winding).
 3. Loops: connected components of the feature-edge graph in which every vertex has degree 2, each
@@ -23,8 +24,11 @@ Method
    (``axis . view < 0``) and the loops are sorted by height along it.
 6. The surface edge is the highest loop where the face outside the loop is flat (its third vertex
    lies radially outward, within ``angle_deg`` of the loop's plane) and the faces inside go down
-   into the material (or the loop is a boundary). Each face next to a loop is described by the
-   direction from the loop edge to its third vertex: radially outward or inward, up or down.
+   into the material (or the loop is a boundary), and, where the winding is known, the outside
+   face looks toward the sensor (seen from behind, a pin's foot would otherwise pass). A face next
+   to a loop is flat when its normal is within ``angle_deg`` of the axis; its side (radially out or
+   in, up or down) is that of its third vertex. The centre is moved along the axis onto a quadratic
+   fit of the surface around the edge (a no-op on a plane; on a curved sheet the edge is a saddle).
 7. Between consecutive loops the wall is a cylinder (radius change within ``STEP_ANGLE_DEG`` of
    the axis), a flat step (height change within ``STEP_ANGLE_DEG`` of the plane) or a cone. The
    last loop closes the hole when faces inside it are on the inward side (a floor): blind.
@@ -266,14 +270,75 @@ class _Edges:
     index: dict              # (a, b) sorted -> edge id
 
 
+def _unique_edges(directed, n):
+    """Undirected edges of (k, 2) directed ones: sorted pairs (e, 2), inverse (k,), counts (e,)."""
+    lo = np.minimum(directed[:, 0], directed[:, 1]).astype(np.int64)
+    hi = np.maximum(directed[:, 0], directed[:, 1]).astype(np.int64)
+    keys, inverse, counts = np.unique(lo * n + hi, return_inverse=True, return_counts=True)
+    return np.column_stack([keys // n, keys % n]), inverse.reshape(-1), counts
+
+
+def _wind(v, t, normals):
+    """Wind every triangle consistently with its neighbours and outward where that is known.
+
+    Faces are flipped along a breadth-first walk over manifold edges so that neighbours traverse
+    their shared edge in opposite directions. A closed component is then turned so that its signed
+    volume is positive (normals out of the material); an open one keeps the winding of most of its
+    original faces. ``trusted`` marks the faces whose outward side is known: those of closed
+    components, and of open ones that were consistently wound already (a CAD export's own winding).
+    Returns ``(triangles, normals, trusted)``.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import breadth_first_order, connected_components
+
+    m = len(t)
+    directed = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+    face = np.tile(np.arange(m), 3)
+    forward = directed[:, 0] < directed[:, 1]
+    _, inverse, counts = _unique_edges(directed, len(v))
+    order = np.argsort(inverse, kind="stable")
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    two = np.flatnonzero(counts == 2)
+    f1, f2 = face[order[starts[two]]], face[order[starts[two] + 1]]
+    disagree = forward[order[starts[two]]] == forward[order[starts[two] + 1]]
+    # Edge weights 1 (agree) or 2 (disagree), symmetric, so a lookup of (parent, child) is direct.
+    graph = coo_matrix((np.concatenate([1 + disagree, 1 + disagree]).astype(np.int8),
+                        (np.concatenate([f1, f2]), np.concatenate([f2, f1]))), shape=(m, m)).tocsr()
+    n_comp, labels = connected_components(graph, directed=False)
+    open_edge = np.zeros(m, bool)
+    open_edge[face[order[starts[np.flatnonzero(counts == 1)]]]] = True
+    flip = np.zeros(m, bool)
+    bad = np.zeros(n_comp, bool)
+    np.logical_or.at(bad, labels[np.concatenate([f1[disagree], f2[disagree]])], True)
+    for c in range(n_comp):
+        if not bad[c]:
+            continue
+        root = int(np.flatnonzero(labels == c)[0])
+        walk, pred = breadth_first_order(graph, root, directed=False, return_predecessors=True)
+        child = walk[1:]
+        against = np.zeros(m, bool)
+        against[child] = np.asarray(graph[pred[child], child]).ravel() == 2
+        for f in child.tolist():  # parents come first in breadth-first order
+            flip[f] = flip[pred[f]] ^ against[f]
+    closed = ~np.bincount(labels, weights=open_edge, minlength=n_comp).astype(bool)
+    tri = np.where(flip[:, None], t[:, ::-1], t)
+    centre = v.mean(axis=0)
+    a, b, c3 = v[tri[:, 0]] - centre, v[tri[:, 1]] - centre, v[tri[:, 2]] - centre
+    volume = np.bincount(labels, weights=np.einsum("ij,ij->i", a, np.cross(b, c3)), minlength=n_comp)
+    flipped_share = np.bincount(labels, weights=flip, minlength=n_comp) / np.bincount(labels, minlength=n_comp)
+    turn = np.where(closed, volume < 0, flipped_share > 0.5)
+    flip ^= turn[labels]
+    tri = np.where(flip[:, None], t[:, ::-1], t)
+    trusted = (closed | ~bad)[labels]
+    return tri, np.where(flip[:, None], -normals, normals), trusted
+
+
 def _edges(t, normals, angle_deg):
     m = len(t)
     directed = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
     face = np.tile(np.arange(m), 3)
     forward = directed[:, 0] < directed[:, 1]
-    pairs = np.sort(directed, axis=1)
-    unique, inverse, counts = np.unique(pairs, axis=0, return_inverse=True, return_counts=True)
-    inverse = inverse.reshape(-1)
+    unique, inverse, counts = _unique_edges(directed, int(t.max()) + 1)
     order = np.argsort(inverse, kind="stable")
     starts = np.concatenate([[0], np.cumsum(counts)])
     feature = counts != 2
@@ -417,9 +482,11 @@ class _Sides:
     boundary: bool       # some loop edge has a single face
     out_normal: np.ndarray  # area-weighted normal of the outward flat faces, toward the axis's side
     out_vertices: tuple  # third vertices of the outward flat faces
+    out_facing: float    # sum of area x (outward normal . axis) over the trusted outward flat faces
+    out_trusted: int     # how many outward flat faces have a known outward side
 
 
-def _sides(loop, axis, center, v, t, normals, areas, edges, angle_deg):
+def _sides(loop, axis, center, v, t, normals, areas, trusted, edges, angle_deg):
     # Flatness is judged by the face's normal, robust to slivers whose third vertex lies nearly on
     # the edge's line; the side (in or out, up or down) by the third vertex, robust to winding.
     cos_flat = math.cos(math.radians(angle_deg))
@@ -428,40 +495,44 @@ def _sides(loop, axis, center, v, t, normals, areas, edges, angle_deg):
     # Signed area about the axis: positive when the loop runs counter-clockwise seen from the
     # sensor, its interior then on the left of each edge.
     winding = np.sign(np.cross(p, np.roll(p, -1, axis=0)).sum(axis=0) @ axis) or 1.0
-    out_flat = in_flat = up = down = in_down = 0
+    a_ids, b_ids, f_ids = [], [], []
     boundary = False
-    acc = np.zeros(3)
-    outside = set()
-    for a, b in zip(cyc, np.roll(cyc, -1)):
+    for a, b in zip(cyc.tolist(), np.roll(cyc, -1).tolist()):
         e = edges.index.get((min(a, b), max(a, b)))
         if e is None:
             continue
-        faces = edges.faces[e]
-        if len(faces) == 1:
-            boundary = True
-        mid = (v[a] + v[b]) / 2.0
-        # Outward: in the plane, perpendicular to the edge, away from the loop's interior.
-        radial = -winding * np.cross(axis, v[b] - v[a])
-        radial /= np.linalg.norm(radial) or 1.0
-        for f in faces:
-            tri = t[f]
-            w = tri[(tri != a) & (tri != b)][0]
-            d = v[w] - mid
-            s, h = d @ radial, d @ axis
-            n = normals[f]
-            if abs(n @ axis) >= cos_flat:
-                if s > 0:
-                    out_flat += 1
-                    outside.add(int(w))
-                    acc += areas[f] * (n if n @ axis >= 0 else -n)
-                else:
-                    in_flat += 1
-            elif h > 0:
-                up += 1
-            else:
-                down += 1
-                in_down += s < 0
-    return _Sides(out_flat, in_flat, up, down, int(in_down), boundary, acc, tuple(sorted(outside)))
+        faces = edges.faces[e].tolist()
+        boundary |= len(faces) == 1
+        a_ids += [a] * len(faces)
+        b_ids += [b] * len(faces)
+        f_ids += faces
+    a_ids, b_ids, f_ids = (np.asarray(x, dtype=np.int64) for x in (a_ids, b_ids, f_ids))
+    w_ids = t[f_ids].sum(axis=1) - a_ids - b_ids   # each face's third vertex
+    mid = (v[a_ids] + v[b_ids]) / 2.0
+    # Outward: in the plane, perpendicular to the edge, away from the loop's interior.
+    radial = -winding * np.cross(axis, v[b_ids] - v[a_ids]).reshape(-1, 3)
+    radial /= np.maximum(np.linalg.norm(radial, axis=1), 1e-300)[:, None]
+    d = v[w_ids] - mid
+    s = np.einsum("ij,ij->i", d, radial)
+    h = d @ axis
+    n = normals[f_ids]
+    n_axis = n @ axis
+    flat = np.abs(n_axis) >= cos_flat
+    out = flat & (s > 0)
+    out_flat = int(out.sum())
+    in_flat = int((flat & (s <= 0)).sum())
+    up = int((~flat & (h > 0)).sum())
+    down_mask = ~flat & (h <= 0)
+    down = int(down_mask.sum())
+    in_down = int((down_mask & (s < 0)).sum())
+    oriented = np.where(n_axis[out, None] >= 0, n[out], -n[out])
+    acc = (areas[f_ids[out], None] * oriented).sum(axis=0) if out_flat else np.zeros(3)
+    outside = set(w_ids[out].tolist())
+    known = out & trusted[f_ids]
+    out_trusted = int(known.sum())
+    facing = float((areas[f_ids[known]] * n_axis[known]).sum())
+    return _Sides(out_flat, in_flat, up, down, int(in_down), boundary, acc, tuple(sorted(outside)),
+                  float(facing), out_trusted)
 
 
 def _surface_offset(edge, axis, v, outside):
@@ -493,7 +564,10 @@ def _surface_offset(edge, axis, v, outside):
 
 
 def _is_surface_edge(sides):
-    return sides.out_flat > 0 and sides.up == 0 and (sides.down > 0 or sides.boundary)
+    # Where the winding is known, the surface outside must face the sensor (material below it):
+    # seen from behind, a pin's foot looks like a hole's edge otherwise.
+    faces_sensor = sides.out_trusted == 0 or sides.out_facing > 0
+    return sides.out_flat > 0 and sides.up == 0 and (sides.down > 0 or sides.boundary) and faces_sensor
 
 
 # --------------------------------------------------------------------------------------------------
@@ -519,7 +593,7 @@ def _descend(heights, radii):
     return np.asarray(order)
 
 
-def _hole(group, loops, v, t, normals, areas, edges, view, angle_deg):
+def _hole(group, loops, v, t, normals, areas, trusted, edges, view, angle_deg):
     ref = loops[group[0]]
     axis = _orient(ref.normal, view)
     members = [loops[i] for i in group]
@@ -527,7 +601,7 @@ def _hole(group, loops, v, t, normals, areas, edges, view, angle_deg):
     order = _descend(heights, np.array([lp.radius for lp in members]))
     members = [members[i] for i in order]
     heights = heights[order]
-    sides = [_sides(lp, axis, lp.center, v, t, normals, areas, edges, angle_deg) for lp in members]
+    sides = [_sides(lp, axis, lp.center, v, t, normals, areas, trusted, edges, angle_deg) for lp in members]
     top = next((k for k, s in enumerate(sides) if _is_surface_edge(s)), None)
     if top is None:
         return None
@@ -586,12 +660,12 @@ def _hole(group, loops, v, t, normals, areas, edges, view, angle_deg):
                     **result)
 
 
-def _cutout(loop, v, t, normals, areas, edges, view, angle_deg):
+def _cutout(loop, v, t, normals, areas, trusted, edges, view, angle_deg):
     if loop.planarity > MAX_DEVIATION * max(np.ptp(loop.points, axis=0).max(), 1e-300):
         return None
     axis = _orient(loop.normal, view)
     mean = loop.points.mean(axis=0)
-    sides = _sides(loop, axis, mean, v, t, normals, areas, edges, angle_deg)
+    sides = _sides(loop, axis, mean, v, t, normals, areas, trusted, edges, angle_deg)
     if not _is_surface_edge(sides):
         return None
     rel = loop.points - mean
@@ -646,14 +720,15 @@ def mesh_holes(vertices, triangles, view=(0.0, 0.0, -1.0), *, angle_deg=20.0) ->
     v, t, normals, areas = _weld(v, t)
     if len(t) == 0:
         raise MeshError("triangles must include at least one with non-zero area, got none")
+    t, normals, trusted = _wind(v, t, normals)
     edges = _edges(t, normals, angle_deg)
     loops = [_fit_loop(v, c) for c in _cycles(edges)]
     holes = []
     for group in _group(loops):
-        hole = _hole(group, loops, v, t, normals, areas, edges, view, angle_deg)
+        hole = _hole(group, loops, v, t, normals, areas, trusted, edges, view, angle_deg)
         if hole is not None:
             holes.append(hole)
-    cutouts = [c for c in (_cutout(lp, v, t, normals, areas, edges, view, angle_deg)
+    cutouts = [c for c in (_cutout(lp, v, t, normals, areas, trusted, edges, view, angle_deg)
                            for lp in loops if not lp.circular) if c is not None]
     key = lambda h: tuple(h.center)  # noqa: E731
     return tuple(sorted(holes, key=key)) + tuple(sorted(cutouts, key=key))
@@ -701,7 +776,8 @@ def mesh_truth(vertices, triangles, view=(0.0, 0.0, -1.0), region=None, *, angle
     Returns
     -------
     dict
-        ``{"view": [...], "angle_deg": float, "holes": [...], "cutouts": [...]}``; each entry is
+        ``{"view": [...], "angle_deg": float, "features": [...], "holes": [...], "cutouts": [...]}``
+        (features = holes then cut-outs, as in :func:`holecli.panel.panel_truth`); each entry is
         :meth:`MeshHole.to_dict`, plus ``"inside_region"`` (whether the whole edge, its polygon
         vertices and 64 points of its circle, lies in the region) when a region is given.
     """
@@ -715,4 +791,4 @@ def mesh_truth(vertices, triangles, view=(0.0, 0.0, -1.0), region=None, *, angle
         (holes if h.is_hole else cutouts).append(d)
     view = np.asarray(view, dtype=np.float64).reshape(-1)
     return {"view": [float(x) for x in view / np.linalg.norm(view)], "angle_deg": float(angle_deg),
-            "holes": holes, "cutouts": cutouts}
+            "features": holes + cutouts, "holes": holes, "cutouts": cutouts}

@@ -346,3 +346,11 @@ def test_curved_panel_center_on_the_surface(curvature):
         for key in ("countersink_depth", "floor_depth"):
             if f.get(key) is not None:
                 assert getattr(h, key) == pytest.approx(f[key], abs=2e-6), key
+
+
+def test_a_boss_is_not_a_hole():
+    # A pin standing on the plate: its foot has the flat surface outside but a wall rising inside,
+    # its top a disk inside and a wall falling outside; neither is a hole's edge.
+    v, t = plate([("blind", (0.0, 0.0), dict(r=2.5, d=-3.0))])
+    assert mesh_holes(v, t) == ()
+    assert mesh_holes(v, t, view=(0.0, 0.0, 1.0)) == ()
