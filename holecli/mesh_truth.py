@@ -133,10 +133,11 @@ class MeshHole:
         Unit axis toward the sensor (``axis . view <= 0``).
     normal : (3,) float64
         Unit normal of the surface outside the edge (area-weighted), toward the sensor.
-    edge_diameter : float
-        Diameter of the least-squares circle through the edge polygon's vertices, mm.
-    edge_circumdiameter, edge_indiameter : float
-        Twice the edge polygon's circumradius and inradius, mm.
+    edge_diameter : float or None
+        Diameter of the least-squares circle through the edge polygon's vertices, mm; None for a
+        cut-out.
+    edge_circumdiameter, edge_indiameter : float or None
+        Twice the edge polygon's circumradius and inradius, mm (in the edge's plane).
     bore_diameter : float or None
         Diameter of the hole's smallest loop.
     depth : float or None
@@ -325,7 +326,8 @@ def _wind(v, t, normals):
     centre = v.mean(axis=0)
     a, b, c3 = v[tri[:, 0]] - centre, v[tri[:, 1]] - centre, v[tri[:, 2]] - centre
     volume = np.bincount(labels, weights=np.einsum("ij,ij->i", a, np.cross(b, c3)), minlength=n_comp)
-    flipped_share = np.bincount(labels, weights=flip, minlength=n_comp) / np.bincount(labels, minlength=n_comp)
+    sizes = np.bincount(labels, minlength=n_comp)
+    flipped_share = np.bincount(labels, weights=flip, minlength=n_comp) / sizes
     turn = np.where(closed, volume < 0, flipped_share > 0.5)
     flip ^= turn[labels]
     tri = np.where(flip[:, None], t[:, ::-1], t)
@@ -681,7 +683,6 @@ def _cutout(loop, v, t, normals, areas, trusted, edges, view, angle_deg):
     normal = sides.out_normal
     normal = _orient(normal / np.linalg.norm(normal), view) if np.linalg.norm(normal) > 0 else axis
     kind = "slot" if length > SLOT_ELONGATION * width else "cutout"
-    nan = math.nan
     return MeshHole(kind=kind, is_hole=False, center=center, axis=axis, normal=normal,
                     edge_diameter=None, edge_circumdiameter=None, edge_indiameter=None,
                     bore_diameter=None, depth=None, through=sides.down > 0, segments=len(loop.vertices),

@@ -81,7 +81,9 @@ def plate(features, slot=None):
         discs.append((np.array([x, y]), rings[0][0], "top"))
         if floor:
             # A drill point: the floor is a cone of included angle tip_angle down to its tip.
-            tip = rings[-1][0] / math.tan(math.radians(params["tip_angle"] / 2)) if "tip_angle" in params else 0.0
+            tip = 0.0
+            if "tip_angle" in params:
+                tip = rings[-1][0] / math.tan(math.radians(params["tip_angle"] / 2))
             c = add([x, y, rings[-1][1] - tip])[0]
             last = ids[-1]
             tris.append(np.stack([np.full(N, c), last, np.roll(last, -1)], 1))
