@@ -741,8 +741,9 @@ def _load_part(panel_file, mesh_file, view):
     except LoadError as error:
         raise Failure(str(error), EXIT_INPUT) from None
     truth = mesh_truth(vertices, triangles, view=view)
-    return vertices, triangles, truth["holes"], {"mesh": mesh_file, "vertices": len(vertices),
-                                                 "triangles": len(triangles)}
+    # The diameter of a hole is the edge at the surface: the circle through the edge polygon's vertices.
+    features = [dict(feature, diameter=feature.get("edge_diameter")) for feature in truth["features"]]
+    return vertices, triangles, features, {"mesh": mesh_file, "vertices": len(vertices), "triangles": len(triangles)}
 
 
 def _profiler_spec(p, vertices):

@@ -101,3 +101,36 @@ def test_simulate_panel_with_an_invalid_spec_is_one_line_error(run, tmp_path):
     assert result.exit_code == cli.EXIT_INPUT
     assert result.stderr.startswith(f"Error: {spec}: ") and result.stderr.count("\n") == 1
     assert "thickness" in result.stderr
+
+
+def test_simulate_mesh_derives_the_truth_from_the_mesh_itself(run, small_panel, tmp_path):
+    import open3d as o3d
+
+    part = tmp_path / "plate.stl"
+    mesh = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(small_panel.vertices),
+                                     o3d.utility.Vector3iVector(small_panel.triangles.astype(np.int32)))
+    mesh.compute_triangle_normals()
+    assert o3d.io.write_triangle_mesh(str(part), mesh)  # STL: float32 vertices, a triangle soup
+    scan = tmp_path / "plate.ply"
+    result = run("simulate", scan, "--mesh", part, "--spacing", "0.08", "--translation", "1200,-300,800")
+    assert result.exit_code == 0, result.stderr
+    truth = json.loads((tmp_path / "plate.truth.json").read_text())
+    built = {hole["kind"]: hole for hole in panel_truth(small_panel)["holes"]}
+    assert sorted(hole["kind"] for hole in truth["holes"]) == ["countersunk", "through"]
+    for hole in truth["holes"]:
+        expected = built[hole["kind"]]
+        assert hole["center"] == pytest.approx(np.add(expected["center"], [1200.0, -300.0, 800.0]).tolist(), abs=1e-4)
+        assert hole["diameter"] == pytest.approx(expected["diameter"], abs=1e-4)
+    detected = json.loads(run("detect", scan).stdout)["holes"]
+    assert len(detected) == 2
+    for hole in truth["holes"]:
+        (match,) = [h for h in detected if np.linalg.norm(np.subtract(h["center"], hole["center"])) < 0.05]
+        assert abs(match["diameter"] - hole["diameter"]) < 0.016  # 0.2 of the pitch
+
+
+def test_simulate_mesh_that_is_not_a_mesh_is_one_line_error(run, tmp_path):
+    part = tmp_path / "part.stl"
+    part.write_bytes(b"solid nothing\nendsolid nothing\n")
+    result = run("simulate", tmp_path / "scan.ply", "--mesh", part)
+    assert result.exit_code == cli.EXIT_INPUT
+    assert result.stderr.startswith("Error: ") and str(part) in result.stderr and result.stderr.count("\n") == 1
