@@ -211,16 +211,37 @@ def _boss_points(scene, center, radius, settings):
 
 def _countersink(scene, center, radius, settings):
     """The countersink cone around a fitted rim, or the named check it failed (a
-    :class:`holecli.countersink.NotACone`; see :mod:`holecli.countersink`)."""
+    :class:`holecli.countersink.NotACone`; see :mod:`holecli.countersink`).
+
+    The edge is searched within a window of the rim's radius. Where the surface band is wide (a
+    scan of a curved panel, whose plane lies tens of um off the surface), the top of the cone counts
+    as surface and the rim lies inside the edge by more than the window: an edge found at the
+    window's outer limit moves the window out to it, up to ``_CONE_WINDOW_MOVES`` times.
+    """
     width = 2.0 * scene.alpha
-    index = _within(scene.xy, center, max(radius - 2.0 * width, 0.0), radius + width)
-    # Points above the surface band (outliers, a stray point 1e8 off along the normal) are on no
-    # cone, and one of them would outweigh every other point in the hinge's least squares.
-    index = index[scene.heights[index] <= scene.band]
-    rho = np.hypot(scene.xy[index, 0] - center[0], scene.xy[index, 1] - center[1])
-    depth = _surface_height(scene, center, radius, settings, scene.xy[index]) - scene.heights[index]
-    return fit_cone_edge(rho, depth, radius, width, scene.height_noise,
-                         depth_slope_ratio=settings.cone_depth_slope_ratio)
+    cone = None
+    for _ in range(_CONE_WINDOW_MOVES + 1):
+        index = _within(scene.xy, center, max(radius - 2.0 * width, 0.0), radius + width)
+        # Points above the surface band (outliers, a stray point 1e8 off along the normal) are on no
+        # cone, and one of them would outweigh every other point in the hinge's least squares.
+        index = index[scene.heights[index] <= scene.band]
+        rho = np.hypot(scene.xy[index, 0] - center[0], scene.xy[index, 1] - center[1])
+        depth = _surface_height(scene, center, radius, settings, scene.xy[index]) - scene.heights[index]
+        found = fit_cone_edge(rho, depth, radius, width, scene.height_noise,
+                              depth_slope_ratio=settings.cone_depth_slope_ratio)
+        if not isinstance(found, Cone):
+            return found if cone is None else cone
+        cone = found
+        if found.radius < radius + (1.0 - _AT_LIMIT) * width:
+            break
+        radius = found.radius
+    return cone
+
+
+# An edge this close (as a fraction of the window) to the window's outer limit is at the limit; the
+# window moves out at most this many times (the band of a curved scan rarely hides more than one).
+_AT_LIMIT = 0.02
+_CONE_WINDOW_MOVES = 3
 
 
 def _surface_height(scene, center, radius, settings, xy):

@@ -81,8 +81,9 @@ def test_the_curvature_check_keeps_the_plane_on_a_flat_noisy_ring():
     assert np.std(heights_quadric) > 1.3 * np.std(heights_plane)
 
 
-def _curved_countersink_scan(seed):
-    """A countersunk hole in a random curved panel, scanned by the profiler over 5 x 5 diameters."""
+def _curved_countersink_scan(seed, reach=5.0):
+    """A countersunk hole in a random curved panel, scanned by the profiler over ``reach`` x ``reach``
+    diameters."""
     import math
 
     from holecli.panel import FeatureSpec, PanelSpec, build_panel, panel_truth
@@ -93,11 +94,11 @@ def _curved_countersink_scan(seed):
     diameter, angle = rng.uniform(3.0, 5.0), rng.choice([90.0, 100.0])
     feature = FeatureSpec(kind="countersunk", center=(0.0, 0.0), diameter=diameter, countersink_angle_deg=angle,
                           countersink_diameter=diameter + 1.4 * math.tan(math.radians(angle) / 2.0))
-    panel = build_panel(PanelSpec(width=8 * diameter, height=8 * diameter, thickness=3.0,
+    panel = build_panel(PanelSpec(width=(reach + 3) * diameter, height=(reach + 3) * diameter, thickness=3.0,
                                   curvature=str(rng.choice(["convex", "concave"])), radius=rng.uniform(500, 1200),
                                   features=(feature,)))
     pitch = rng.uniform(0.04, 0.08)
-    spec = ProfilerSpec(line_length=5 * diameter, scan_length=5 * diameter, point_pitch=pitch, line_pitch=pitch,
+    spec = ProfilerSpec(line_length=reach * diameter, scan_length=reach * diameter, point_pitch=pitch, line_pitch=pitch,
                         range_noise=0.005, range_quantum=0.001)
     scanned = scan_part(panel.vertices, panel.triangles, panel_truth(panel)["features"], spec, rng=seed)
     return scanned.scan.points, scanned.truth["holes"][0]
@@ -109,6 +110,19 @@ def test_countersinks_on_curved_panels_are_measured_from_the_surface_not_the_pla
     errors = []
     for seed in range(4):
         points, truth = _curved_countersink_scan(seed)
+        (hole,) = detect(points).holes
+        errors.append(hole.diameter - truth["diameter"])
+    assert sum(abs(error) > 15e-3 for error in errors) <= 1, errors
+    assert np.median(np.abs(errors)) < 8e-3, errors
+
+
+def test_countersinks_in_wide_scans_of_curved_panels():
+    # A scan 7 diameters wide of a curved panel has a surface band of tens of um about its plane: the
+    # top of the cone counts as surface and the rim lies inside the edge by more than the window in
+    # which the cone's edge is searched (a 7 mm countersink at R 800 convex was 32 um small).
+    errors = []
+    for seed in range(10, 14):
+        points, truth = _curved_countersink_scan(seed, reach=7.0)
         (hole,) = detect(points).holes
         errors.append(hole.diameter - truth["diameter"])
     assert sum(abs(error) > 15e-3 for error in errors) <= 1, errors
