@@ -521,12 +521,17 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     # the in-plane axes and the normal, so the third coordinate is the height above the plane.
     local = (points - origin) @ np.ascontiguousarray(rotation.T)
     heights = np.ascontiguousarray(local[:, 2])
+    surface = plane.inliers
     if view_dir is None:
         direction = normal
     else:
         direction = np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir)
-        slide_in_plane_frame(local, rotation @ direction)
-    surface = plane.inliers
+        # Only the surface's points slide: their height above the plane is range noise along the
+        # ray. A point of a cone, a bore wall or a floor is really below the surface; sliding it would
+        # move it sideways by its depth times the tilt and bend the cone the countersink fit reads.
+        surface_local = local[surface]
+        slide_in_plane_frame(surface_local, rotation @ direction)
+        local[surface] = surface_local
     # Column-major: the box tests below read x and y as contiguous columns.
     xy = np.asfortranarray(local[:, :2])
     del local
