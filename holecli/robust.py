@@ -158,34 +158,26 @@ def _tangent_of_quadric(points, plane, near, sigmas):
 
     A plane through the ring around a hole of a curved panel (cylindrical, R 500-2000 mm) lies below
     or above the surface at the hole by the sag of the ring (10 um for a 5 mm hole at R 800): the
-    quadric follows the curvature and puts the center on the surface. On a flat surface the quadric's
-    height at the center is only noisier than the plane's (its curvature terms are fitted to noise,
-    about 1.7 times the spread on the Table I ring), so it is taken only when its sag ``a`` exceeds
-    ``sigmas`` standard errors (check ``curvature_sigmas``). On a symmetric ring the linear terms
-    (the normal) are those of the plane.
+    quadric follows the curvature and puts the center on the surface. The quadric is taken
+    only where the surface really curves (:func:`_curved_quadric`, check ``curvature_sigmas``). On a
+    symmetric ring the linear terms (the normal) are those of the plane.
     """
     normal = plane.normal
     first = plane.major - (plane.major @ normal) * normal
     first /= np.linalg.norm(first)
     second = np.cross(normal, first)
     foot = near - ((near - plane.point) @ normal) * normal
-    offset = points - foot
-    s, t, h = offset @ first, offset @ second, offset @ normal
-    scale = max(float(np.sqrt(np.mean(s * s + t * t))), 1e-300)  # conditioning: unit-size coordinates
-    s, t = s / scale, t / scale
-    design = np.column_stack([np.ones_like(s), s, t, s * s, s * t, t * t])
-    coefficients, _, rank, _ = np.linalg.lstsq(design, h, rcond=None)
-    if rank < 6 or len(h) <= 6:
+    local = (points - foot) @ np.vstack([first, second, normal]).T
+    scale = float(np.sqrt(np.mean(local[:, 0] ** 2 + local[:, 1] ** 2)))  # conditioning: unit-size coordinates
+    quadric = _curved_quadric(local, scale, sigmas)
+    if quadric is None:
         return plane
-    residuals = design @ coefficients - h
-    variance = float(residuals @ residuals) / (len(h) - 6)
-    standard_error = np.sqrt(variance * np.linalg.inv(design.T @ design)[0, 0])
-    if abs(coefficients[0]) <= sigmas * standard_error:
-        return plane
-    a, b, c = coefficients[0], coefficients[1] / scale, coefficients[2] / scale
+    origin = np.zeros((1, 2))
+    (b, c), = quadric.gradient(origin)
     tangent_normal = orient_normal(normal - b * first - c * second)
-    rms = float(np.sqrt(np.mean(residuals ** 2)))
-    return PlaneFit(point=foot + a * normal, normal=tangent_normal, rms=rms, major=first)
+    rms = float(np.sqrt(np.mean((quadric.height(local[:, :2]) - local[:, 2]) ** 2)))
+    return PlaneFit(point=foot + float(quadric.height(origin)[0]) * normal, normal=tangent_normal, rms=rms,
+                    major=first)
 
 
 def _scan_lines(scene, rim_xy, center, radius):
@@ -252,21 +244,11 @@ def _surface_height(scene, center, radius, settings, xy):
     ring = _within(scene.surface_xy, center, radius, 3.0 * radius)
     if len(ring) < 30:
         return np.zeros(len(xy))
-    local = scene.surface_xy[ring] - center
-    scale = max(float(radius), 1e-300)
-    s, t = local[:, 0] / scale, local[:, 1] / scale
-    h = scene.heights[scene.surface_index[ring]]
-    design = np.column_stack([np.ones_like(s), s, t, s * s, s * t, t * t])
-    coefficients, _, rank, _ = np.linalg.lstsq(design, h, rcond=None)
-    if rank < 6:
+    local = np.column_stack([scene.surface_xy[ring] - center, scene.heights[scene.surface_index[ring]]])
+    quadric = _curved_quadric(local, radius, settings.curvature_sigmas)
+    if quadric is None:
         return np.zeros(len(xy))
-    residuals = design @ coefficients - h
-    variance = float(residuals @ residuals) / max(len(h) - 6, 1)
-    standard_error = np.sqrt(variance * np.linalg.inv(design.T @ design)[0, 0])
-    if abs(coefficients[0]) <= settings.curvature_sigmas * standard_error:
-        return np.zeros(len(xy))
-    u, v = (xy[:, 0] - center[0]) / scale, (xy[:, 1] - center[1]) / scale
-    return np.column_stack([np.ones_like(u), u, v, u * u, u * v, v * v]) @ coefficients
+    return quadric.height(xy - center)
 
 
 def _near_void(grid, void, cells):
@@ -499,7 +481,7 @@ def _to_hole(scene, measured, index):
 
 
 def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, full_only=False,
-                  settings=DEFAULT_SETTINGS, rng=0):
+                  settings=DEFAULT_SETTINGS, rng=0, flat_crop=False):
     """The robust method; see the module docstring.
 
     Returns
@@ -509,6 +491,9 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         Full holes before partial ones, each group ordered by center x, then y, then z.
     rejected : tuple of Rejection
         Every candidate void that is not a hole, with the check that refused it, largest first.
+
+    ``flat_crop`` marks the call that measures one hole of a curved surface again on its flattened
+    neighbourhood (see :func:`_on_curved_surface`): it does not recurse.
     """
     plane = fit_plane_robust(points, rng=rng, sample=settings.ransac_sample,
                              hypotheses=settings.ransac_hypotheses, quantile=settings.ransac_quantile,
@@ -574,13 +559,122 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         found = ranked[:max_holes]
         rejected.extend(_as_rejected(m, "beyond_max_holes", 2.0 * m.radius, 2.0 * found[-1].radius)
                         for m in ranked[max_holes:])
-    holes = [_to_hole(scene, measured, 0) for measured in found]
+    holes = [(None if flat_crop else _on_curved_surface(scene, measured, settings, view_dir, rng))
+             or _to_hole(scene, measured, 0) for measured in found]
     holes.sort(key=lambda hole: (hole.partial, hole.center))
     holes = tuple(Hole(**{**hole.__dict__, "index": i}) for i, hole in enumerate(holes))
     plane_result = Plane(point=tuple(map(float, origin)), normal=tuple(map(float, normal)), rms=plane.rms,
                          inliers=int(surface.sum()))
     rejections = tuple(sorted((_to_rejection(scene, r) for r in rejected), key=lambda r: (-r.diameter, r.center)))
     return plane_result, holes, rejections
+
+
+def _on_curved_surface(scene, measured, settings, view_dir, rng):
+    """The hole measured again on the surface around it flattened, when that surface is curved; else
+    None.
+
+    The scan's plane serves to find the holes. On a curved panel it lies far off the surface at a hole
+    away from the middle (0.4 mm across a 50 mm scan at R 800), so the band of surface points is wide,
+    the top of a countersink's cone counts as surface on one side of the hole more than on the other,
+    and the rim, the edge and the center move (50 um). Here the points within ``_CROP_RADII`` radii of
+    the hole are taken into the frame of the ring's own plane, the quadric of the ring
+    (:func:`_curved_quadric`) is subtracted from their heights, and the hole is measured on that flat
+    crop by the same method; its center and normal go back onto the quadric.
+    """
+    center, radius = measured.center, measured.radius
+    ring = _within(scene.surface_xy, center, radius, _CROP_RING_RADII * radius)
+    if len(ring) < 30:
+        return None
+    ring_points = scene.points[scene.surface_index[ring]]
+    try:
+        plane = fit_plane_scatter(ring_points)
+    except PointsError:
+        return None
+    normal = plane.normal
+    first = plane.major - (plane.major @ normal) * normal
+    first /= np.linalg.norm(first)
+    second = np.cross(normal, first)
+    near = from_plane_frame(np.array([center[0], center[1], 0.0]), scene.origin, scene.rotation)
+    foot = near - ((near - plane.point) @ normal) * normal
+    basis = np.vstack([first, second, normal])
+    quadric = _curved_quadric((ring_points - foot) @ basis.T, radius, settings.curvature_sigmas)
+    if quadric is None:
+        return None
+    crop = scene.points[_within(scene.xy, center, 0.0, _CROP_RADII * radius)]
+    local = (crop - foot) @ basis.T
+    local[:, 2] -= quadric.height(local[:, :2])
+    slide = None if view_dir is None else basis @ (np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir))
+    try:
+        _, holes, _ = detect_robust(local, view_dir=slide, min_diameter=radius, settings=settings, rng=rng,
+                                    flat_crop=True)
+    except PointsError:
+        return None
+    if not holes:
+        return None
+    hole = min(holes, key=lambda h: np.hypot(h.center[0], h.center[1]))
+    if np.hypot(hole.center[0], hole.center[1]) > 0.5 * radius:
+        return None
+    at = np.array([[hole.center[0], hole.center[1]]])
+    height = float(quadric.height(at)[0])
+    ds, dt = quadric.gradient(at)[0]
+    world_center = foot + at[0, 0] * first + at[0, 1] * second + height * normal
+    world_normal = orient_normal(normal - ds * first - dt * second)
+    return Hole(**{**hole.__dict__, "center": tuple(map(float, world_center)),
+                   "normal": tuple(map(float, world_normal))})
+
+
+@dataclass(frozen=True, eq=False)
+class _Quadric:
+    """``h(s, t) = a + b u + c v + d u^2 + e u v + f v^2`` with ``u, v = s / scale, t / scale``."""
+
+    coefficients: np.ndarray
+    scale: float
+
+    def height(self, st):
+        u, v = st[:, 0] / self.scale, st[:, 1] / self.scale
+        return np.column_stack([np.ones_like(u), u, v, u * u, u * v, v * v]) @ self.coefficients
+
+    def gradient(self, st):
+        """(dh/ds, dh/dt) at each of ``st`` (k, 2)."""
+        a, b, c, d, e, f = self.coefficients
+        u, v = st[:, 0] / self.scale, st[:, 1] / self.scale
+        return np.column_stack([b + 2 * d * u + e * v, c + e * u + 2 * f * v]) / self.scale
+
+
+def _curved_quadric(local, scale, sigmas):
+    """The quadric of ``local`` ((k, 3): s, t and the height, in a frame centred on a hole), or None
+    when the surface is not significantly curved there: its sag at the origin within ``sigmas``
+    standard errors (check ``curvature_sigmas``), or within the round-off of the coordinates.
+
+    On a flat surface a quadric's height at the center is only noisier than a plane's (its curvature
+    terms are fitted to noise: about 1.7 times the spread on the Table I ring), so it is used only where
+    the surface really curves.
+    """
+    scale = max(float(scale), 1e-300)
+    s, t, h = local[:, 0] / scale, local[:, 1] / scale, local[:, 2]
+    design = np.column_stack([np.ones_like(s), s, t, s * s, s * t, t * t])
+    if len(h) <= 6:
+        return None
+    coefficients, _, rank, _ = np.linalg.lstsq(design, h, rcond=None)
+    if rank < 6:
+        return None
+    residuals = design @ coefficients - h
+    variance = float(residuals @ residuals) / (len(h) - 6)
+    standard_error = np.sqrt(variance * np.linalg.inv(design.T @ design)[0, 0])
+    if abs(coefficients[0]) <= max(sigmas * standard_error, _SAG_ROUND_OFF * scale):
+        return None
+    return _Quadric(coefficients=coefficients, scale=scale)
+
+
+# A sag below this fraction of the hole's radius is round-off of exact data, not curvature (a curved
+# panel's sag at a hole is 1e-3 of its radius or more).
+_SAG_ROUND_OFF = 1e-7
+
+
+# The flat crop around a hole on a curved surface: points within this many radii, the quadric from the
+# surface points in the ring from 1 to _CROP_RING_RADII radii.
+_CROP_RADII = 4.0
+_CROP_RING_RADII = 3.5
 
 
 def _as_rejected(measured, check, value, limit):
