@@ -117,6 +117,10 @@ class Rejection:
         Its size: the fitted circle's diameter, else the void's extent (file units).
     value, limit : float or int or None
         The value the check measured and the limit it failed (None for a check without a number).
+    shape : dict or None
+        For a cut-out that is not round (``not_round``: a slot, an oblong): ``length`` and ``width``
+        of its rim along its principal axes (file units, to the sampling) and ``direction``, the unit
+        vector of its length; None otherwise.
     """
 
     check: str
@@ -125,6 +129,7 @@ class Rejection:
     diameter: float
     value: Optional[float] = None
     limit: Optional[float] = None
+    shape: Optional[dict] = None
 
     def to_dict(self) -> dict:
         out = asdict(self)

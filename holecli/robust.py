@@ -72,6 +72,7 @@ class _Rejected:
     limit: object
     center: np.ndarray
     radius: float
+    shape: object = None  # (length, width, direction (2,)) of a cut-out that is not round
 
 
 # What each check means, for the record and for people (holecli detect --explain).
@@ -366,7 +367,7 @@ def _measure_void(scene, grid, void, settings):
     scatter = 1.4826 * float(np.median(np.abs(fit.residuals)))
     allowed = settings.max_relative_scatter * radius + scene.gap_scatter
     if scatter > allowed:
-        return reject("not_round", scatter, float(allowed), center, radius)
+        return replace(reject("not_round", scatter, float(allowed), center, radius), shape=_outline_shape(rim_xy))
     # A closed region whose rim still misses a third of the circle lost its rim to missing data.
     # Partial: the circle is not surrounded by scanned material (cut by the scan's border, or its
     # rim lost to missing data). Such a hole is accepted on the rim points' own (conservative)
@@ -402,6 +403,35 @@ def _measure_void(scene, grid, void, settings):
         return reject("below_min_diameter", 2.0 * (radius - bias), 2.0 * scene.min_radius, center, radius - bias)
     return _Measured(center=center, radius=radius - bias, bias=bias, fit=fit, rim_xy=rim_xy[used],
                      partial=partial, arc_deg=arc)
+
+
+def _outline_shape(rim_xy):
+    """Length, width and direction (plane frame) of a cut-out from its rim: its extent along its
+    principal axes (a slot's overall length and width).
+
+    The rim holds the material points within an alpha of the edge, a few rows deep: the width is
+    taken between the innermost rows of the two long sides (the 10th percentile of each side's
+    distance from the axis, over the middle half of the length), the length between the innermost
+    points of the two rounded ends, each corrected for where it sits on its end's semicircle.
+    """
+    centred = rim_xy - rim_xy.mean(axis=0)
+    _, vectors = np.linalg.eigh(centred.T @ centred)
+    major = vectors[:, 1]
+    along, across = centred @ major, centred @ vectors[:, 0]
+    middle = np.abs(along) < 0.25 * np.ptp(along)  # the long sides, away from the ends
+    left, right = -across[middle & (across < 0)], across[middle & (across > 0)]
+    if len(left) < 3 or len(right) < 3:
+        return float(np.ptp(along)), float(np.ptp(across)), major
+    width = float(np.percentile(left, 10) + np.percentile(right, 10))
+    # On a rounded end a rim point at distance a from the axis lies sqrt(w^2/4 - a^2) short of the
+    # end's tip: each end point gives the half length it implies; the innermost one counts.
+    near_axis = np.abs(across) < 0.4 * width
+    half = np.abs(along[near_axis]) + 0.5 * width - np.sqrt(np.maximum(0.25 * width ** 2 - across[near_axis] ** 2, 0.0))
+    ends = np.sign(along[near_axis])
+    if not (np.any(ends < 0) and np.any(ends > 0)):
+        return float(np.ptp(along)), width, major
+    length = float(half[ends < 0].min() + half[ends > 0].min())
+    return length, width, major
 
 
 def _sampling_bias(scene, center, radius, settings, floor, partial):
@@ -687,6 +717,11 @@ def _to_rejection(scene, rejected):
     def number(value):
         return None if value is None else (int(value) if isinstance(value, (int, np.integer)) else float(value))
 
+    shape = None
+    if rejected.shape is not None:
+        length, width, major = rejected.shape
+        direction = scene.rotation[:2].T @ major  # in-plane axes back to the world
+        shape = {"length": length, "width": width, "direction": [float(v) for v in direction]}
     return Rejection(check=rejected.check, reason=REJECTION_REASONS[rejected.check],
                      center=tuple(map(float, center)), diameter=2.0 * rejected.radius,
-                     value=number(rejected.value), limit=number(rejected.limit))
+                     value=number(rejected.value), limit=number(rejected.limit), shape=shape)

@@ -59,10 +59,16 @@ def _slot_points(width=2.0, length=6.0, spacing=0.08, tilt_deg=20.0):
     return points @ rotation.T + [10.0, 20.0, 30.0]
 
 
-def test_a_slot_is_not_round():
+def test_a_slot_is_not_round_and_has_its_shape():
     detection = detect(_slot_points())
     assert detection.holes == ()
-    assert "not_round" in _checks(detection)
+    (slot,) = [r for r in detection.rejected if r.check == "not_round"]
+    # 6 x 2 mm along x, on a 0.08 mm grid: to about a point spacing
+    assert slot.shape["length"] == pytest.approx(6.0, abs=0.1)
+    assert slot.shape["width"] == pytest.approx(2.0, abs=0.1)
+    assert abs(slot.shape["direction"][0]) == pytest.approx(1.0, abs=1e-3)
+    assert slot.center == pytest.approx((10.0, 20.0, 30.0), abs=0.05)
+    assert all(r.shape is None for r in detection.rejected if r.check != "not_round")
 
 
 def test_max_holes_and_full_only_name_what_they_leave_out():
@@ -104,7 +110,7 @@ def test_explain_adds_the_rejected_list_to_the_record(run, slot_scan):
     assert explained.exit_code == 4
     rejected = json.loads(explained.stdout)["rejected"]
     assert any(rejection["check"] == "not_round" for rejection in rejected)
-    assert set(rejected[0]) == {"check", "reason", "center", "diameter", "value", "limit"}
+    assert set(rejected[0]) == {"check", "reason", "center", "diameter", "value", "limit", "shape"}
 
 
 def test_explain_table_lists_the_candidates(run, slot_scan):
