@@ -136,24 +136,39 @@ def run_guarded(function, *args, **kwargs):
         with interrupts.raising():
             return function(*args, **kwargs)
     except Failure as failure:
-        fail(str(failure), failure.code)
+        if interrupts.received() is None:
+            fail(str(failure), failure.code)
+        _interrupted()
     except KeyboardInterrupt:
-        click.echo("Error: interrupted", err=True)
-        # The body has cleaned up (its finally blocks ran on the way here). Leave at once: a
-        # KeyboardInterrupt that hit a C extension's initialisation can make CPython end the process
-        # by SIGINT at exit (status -2) instead of with the code asked for.
-        if interrupts.installed():
-            try:
-                sys.stdout.flush()
-            except OSError:
-                pass
-            os._exit(EXIT_INTERRUPTED)
-        sys.exit(EXIT_INTERRUPTED)
+        _interrupted()
     except BrokenPipeError:
         # The reader of stdout went away (e.g. `| head`): nothing more to say to it.
         _detach_stdout()
         sys.stderr.close()
         sys.exit(EXIT_OK)
+    except Exception:
+        # A signal's KeyboardInterrupt can come out as another exception (an ImportError, when it hit
+        # a C extension's initialisation inside an import): after a signal, that is the interrupt.
+        if interrupts.received() is None:
+            raise
+        _interrupted()
+
+
+def _interrupted():
+    """Say so and leave with 130 (see :func:`run_guarded`)."""
+    from holecli import interrupts
+
+    click.echo("Error: interrupted", err=True)
+    # The body has cleaned up (its finally blocks ran on the way here). Leave at once: a
+    # KeyboardInterrupt that hit a C extension's initialisation can make CPython end the process by
+    # SIGINT at exit (status -2) instead of with the code asked for.
+    if interrupts.installed():
+        try:
+            sys.stdout.flush()
+        except OSError:
+            pass
+        os._exit(EXIT_INTERRUPTED)
+    sys.exit(EXIT_INTERRUPTED)
 
 
 def write_stdout(text):
@@ -826,6 +841,9 @@ class _StopRequests:
 
     def _handle(self, number, frame):
         if not self._deferred:
+            from holecli import interrupts
+
+            interrupts.record(number)
             raise KeyboardInterrupt
         self.signal = number
 

@@ -15,17 +15,19 @@ import os
 import signal
 from contextlib import contextmanager
 
-__all__ = ["EXIT_INTERRUPTED", "install", "installed", "raising"]
+__all__ = ["EXIT_INTERRUPTED", "install", "installed", "raising", "received", "record"]
 
 EXIT_INTERRUPTED = 130
 SIGNALS = ("SIGINT", "SIGTERM")
 
 _raise = False
 _installed = False
+_received = None
 
 
 def _handle(number, frame):
     if _raise:
+        record(number)
         raise KeyboardInterrupt
     try:
         os.write(2, b"Error: interrupted\n")
@@ -41,6 +43,22 @@ def install():
     _installed = True
 
 
+def record(number):
+    """Note that signal ``number`` is raising KeyboardInterrupt (see :func:`received`)."""
+    global _received
+    _received = number
+
+
+def received():
+    """The signal that raised :class:`KeyboardInterrupt` in a :func:`raising` block, or None.
+
+    The exception does not always arrive as itself: raised while a C extension initialises (an import
+    inside the block), it comes out as that import's ``ImportError``. Whatever a body raised after a
+    signal was received is the interrupt's doing.
+    """
+    return _received
+
+
 def installed() -> bool:
     """Whether :func:`install` ran: this is the ``holecli`` program, not a library user or a test."""
     return _installed
@@ -48,9 +66,11 @@ def installed() -> bool:
 
 @contextmanager
 def raising():
-    """Within this block, SIGINT and SIGTERM raise :class:`KeyboardInterrupt`."""
-    global _raise
+    """Within this block, SIGINT and SIGTERM raise :class:`KeyboardInterrupt` (and :func:`received`
+    says which came; it starts as None)."""
+    global _raise, _received
     previous, _raise = _raise, True
+    _received = None
     try:
         yield
     finally:

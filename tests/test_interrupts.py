@@ -56,8 +56,9 @@ def test_a_signal_at_any_moment_of_batch_is_130_without_traceback(holecli_proces
         assert err.splitlines()[-1] == "Error: interrupted" or "interrupted after" in err, (delay, err)
 
 
-def test_raising_turns_a_signal_into_keyboard_interrupt_only_inside_the_block():
-    previous = signal.getsignal(signal.SIGINT)
+def test_raising_turns_a_signal_into_keyboard_interrupt_only_inside_the_block(monkeypatch):
+    previous = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    monkeypatch.setattr(interrupts, "_installed", False)  # put back after the test: pytest is no holecli
     interrupts.install()
     try:
         with interrupts.raising():
@@ -65,5 +66,33 @@ def test_raising_turns_a_signal_into_keyboard_interrupt_only_inside_the_block():
                 os.kill(os.getpid(), signal.SIGINT)
                 time.sleep(1)  # the handler runs between bytecodes, well within this
         assert interrupts._raise is False
+        assert interrupts.received() == signal.SIGINT
     finally:
-        signal.signal(signal.SIGINT, previous)
+        signal.signal(signal.SIGINT, previous[0])
+        signal.signal(signal.SIGTERM, previous[1])
+
+
+@pytest.mark.parametrize("raised", [ImportError("initialization failed"), RuntimeError("cancelled"), KeyboardInterrupt()])
+def test_whatever_a_body_raises_after_a_signal_is_the_interrupt(capsys, raised):
+    # A KeyboardInterrupt that hits a C extension's initialisation (an import in the body) comes out
+    # as that import's ImportError: seen in CI, a traceback and exit 1 instead of 130.
+    from holecli import cli
+
+    def body():
+        interrupts.record(signal.SIGTERM)
+        raise raised
+
+    with pytest.raises(SystemExit) as exit_info:
+        cli.run_guarded(body)
+    assert exit_info.value.code == interrupts.EXIT_INTERRUPTED
+    assert capsys.readouterr().err == "Error: interrupted\n"
+
+
+def test_without_a_signal_a_bug_is_still_a_bug():
+    from holecli import cli
+
+    def body():
+        raise ImportError("a real one")
+
+    with pytest.raises(ImportError, match="a real one"):
+        cli.run_guarded(body)
