@@ -140,16 +140,35 @@ def _local_normal(scene, center, radius, settings):
     """The surface at one hole: its tangent plane where the hole's axis meets it, from a plane or,
     on a curved surface, a quadric fitted to the plane inliers in the ring [r, 3r] (see
     :func:`_tangent_of_quadric`)."""
-    ring = _within(scene.surface_xy, center, radius, 3.0 * radius)
+    ring = _ring_plane(scene, center, radius, 3.0)
+    if ring is None:
+        return None
+    points, plane = ring
+    on_plane = from_plane_frame(np.array([center[0], center[1], 0.0]), scene.origin, scene.rotation)
+    return _tangent_of_quadric(points, plane, on_plane, settings.curvature_sigmas)
+
+
+def _ring_plane(scene, center, radius, outer_radii):
+    """The surface points in the ring [r, outer_radii r] around a hole (world) and their plane, or
+    None when the ring holds too few points (under 30) for it."""
+    ring = _within(scene.surface_xy, center, radius, outer_radii * radius)
     if len(ring) < 30:
         return None
     points = scene.points[scene.surface_index[ring]]
     try:
-        plane = fit_plane_scatter(points)
+        return points, fit_plane_scatter(points)
     except PointsError:
         return None
-    on_plane = from_plane_frame(np.array([center[0], center[1], 0.0]), scene.origin, scene.rotation)
-    return _tangent_of_quadric(points, plane, on_plane, settings.curvature_sigmas)
+
+
+def _plane_frame_at(plane, near):
+    """The foot of ``near`` on ``plane`` and the rows (first axis, second axis, normal) of the
+    plane's frame there, the first along the plane's major axis."""
+    normal = plane.normal
+    first = plane.major - (plane.major @ normal) * normal
+    first /= np.linalg.norm(first)
+    foot = near - ((near - plane.point) @ normal) * normal
+    return foot, np.vstack([first, np.cross(normal, first), normal])
 
 
 def _tangent_of_quadric(points, plane, near, sigmas):
@@ -163,12 +182,9 @@ def _tangent_of_quadric(points, plane, near, sigmas):
     only where the surface really curves (:func:`_curved_quadric`, check ``curvature_sigmas``). On a
     symmetric ring the linear terms (the normal) are those of the plane.
     """
-    normal = plane.normal
-    first = plane.major - (plane.major @ normal) * normal
-    first /= np.linalg.norm(first)
-    second = np.cross(normal, first)
-    foot = near - ((near - plane.point) @ normal) * normal
-    local = (points - foot) @ np.vstack([first, second, normal]).T
+    foot, basis = _plane_frame_at(plane, near)
+    first, second, normal = basis
+    local = (points - foot) @ basis.T
     scale = float(np.sqrt(np.mean(local[:, 0] ** 2 + local[:, 1] ** 2)))  # conditioning: unit-size coordinates
     quadric = _curved_quadric(local, scale, sigmas)
     if quadric is None:
@@ -612,21 +628,13 @@ def _on_curved_surface(scene, measured, settings, view_dir, rng):
     crop by the same method; its center and normal go back onto the quadric.
     """
     center, radius = measured.center, measured.radius
-    ring = _within(scene.surface_xy, center, radius, _CROP_RING_RADII * radius)
-    if len(ring) < 30:
+    ring = _ring_plane(scene, center, radius, _CROP_RING_RADII)
+    if ring is None:
         return None
-    ring_points = scene.points[scene.surface_index[ring]]
-    try:
-        plane = fit_plane_scatter(ring_points)
-    except PointsError:
-        return None
-    normal = plane.normal
-    first = plane.major - (plane.major @ normal) * normal
-    first /= np.linalg.norm(first)
-    second = np.cross(normal, first)
+    ring_points, plane = ring
     near = from_plane_frame(np.array([center[0], center[1], 0.0]), scene.origin, scene.rotation)
-    foot = near - ((near - plane.point) @ normal) * normal
-    basis = np.vstack([first, second, normal])
+    foot, basis = _plane_frame_at(plane, near)
+    first, second, normal = basis
     quadric = _curved_quadric((ring_points - foot) @ basis.T, radius, settings.curvature_sigmas)
     if quadric is None:
         return None
