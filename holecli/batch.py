@@ -142,7 +142,7 @@ def failure_message(path, error) -> str:
     return " ".join(message.splitlines())
 
 
-def measure_record(path, options, spec=None) -> dict:
+def measure_record(path, options, spec=None, explain=False) -> dict:
     """The record of one file.
 
     Parameters
@@ -153,6 +153,8 @@ def measure_record(path, options, spec=None) -> dict:
         Keyword arguments of :func:`holecli.detect`.
     spec : holecli.tolerance.Spec, optional
         Tolerances to check the holes against.
+    explain : bool
+        Also give the record ``rejected``, the candidates that are not holes (``detect --explain``).
 
     Returns
     -------
@@ -178,7 +180,7 @@ def measure_record(path, options, spec=None) -> dict:
         return {"file": str(path), "path": resolved,
                 "error": f"{path}: internal error (a bug: please report it; holecli detect shows the "
                          f"traceback): {problem}"}
-    record = replace(detection, file=str(path), dropped_points=cloud.dropped).to_dict()
+    record = replace(detection, file=str(path), dropped_points=cloud.dropped).to_dict(explain=explain)
     record["path"] = resolved
     return tolerance.check(record, spec) if spec is not None else record
 
@@ -198,8 +200,9 @@ PARENT_ONLY_DESCRIPTORS = set()
 _PR_SET_PDEATHSIG = 1
 
 
-def _start_worker(options, spec, preload, parent):
-    """Pool initializer: runs once in every worker process (``parent``: the batch's process id)."""
+def _start_worker(options, spec, preload, parent, explain=False):
+    """Pool initializer: runs once in every worker process (``parent``: the batch's process id;
+    ``explain``: records with their ``rejected`` list)."""
     # The parent handles Ctrl-C and SIGTERM and then ends the workers; a worker must not die of the
     # terminal's SIGINT on its own (it would break the pool and lose its record).
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -217,7 +220,7 @@ def _start_worker(options, spec, preload, parent):
             importlib.import_module(name)
         except (ImportError, OSError):
             pass  # the file that needs it reports the problem itself
-    _WORKER.update(options=options, spec=spec)
+    _WORKER.update(options=options, spec=spec, explain=explain)
 
 
 def _die_with_parent(parent):
@@ -234,10 +237,10 @@ def _die_with_parent(parent):
 
 
 def _measure_in_worker(path):
-    return measure_record(path, _WORKER["options"], _WORKER["spec"])
+    return measure_record(path, _WORKER["options"], _WORKER["spec"], _WORKER["explain"])
 
 
-def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_seconds=0.2):
+def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_seconds=0.2, explain=False):
     """Measure ``paths`` in ``jobs`` worker processes and yield each record as its file finishes.
 
     Parameters
@@ -258,6 +261,8 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
         generator returns. The records already yielded are the finished ones.
     poll_seconds : float
         See ``should_stop``.
+    explain : bool
+        Records with their ``rejected`` list (see :func:`measure_record`).
 
     Yields
     ------
@@ -278,7 +283,7 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
     while waiting or suspects:
         executor = ProcessPoolExecutor(max_workers=max(1, min(jobs, len(waiting) + len(suspects))),
                                        mp_context=context, initializer=_start_worker,
-                                       initargs=(options, spec, preload, os.getpid()))
+                                       initargs=(options, spec, preload, os.getpid(), explain))
         in_flight = {}
         finished = False
         try:

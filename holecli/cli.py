@@ -895,10 +895,14 @@ def batch_exit_code(tally):
               help="Worker processes [default: the number of cores].")
 @click.option("--resume", is_flag=True,
               help="Keep the records already in --output, skip their files and append the others.")
+@click.option("--explain", is_flag=True,
+              help="Records also list every candidate that is not a hole, with the check that refused it "
+                   "(\"rejected\"; JSON Lines only).")
 @detection_option_decorators
 @tolerance_option_decorators
-def batch(paths, recursive, pattern, fmt, output, jobs, resume, method, view_dir, min_diameter, max_holes, full_only,
-          nominal_diameter, tolerance, nominal_center, position_tolerance, nominal_normal, max_tilt, spec_file):
+def batch(paths, recursive, pattern, fmt, output, jobs, resume, explain, method, view_dir, min_diameter, max_holes,
+          full_only, nominal_diameter, tolerance, nominal_center, position_tolerance, nominal_normal, max_tilt,
+          spec_file):
     """Measure every point cloud in the folders and files PATH.
 
     A folder contributes the .ply, .pcd, .csv, .txt and .xyz files directly in it (any case; with
@@ -920,6 +924,8 @@ def batch(paths, recursive, pattern, fmt, output, jobs, resume, method, view_dir
                                    nominal_normal, max_tilt, spec_file)
     if resume and (output is None or output == "-"):
         raise click.UsageError("--resume needs --output (the file to go on with)")
+    if explain and fmt == "csv":
+        raise click.UsageError("--explain needs --format jsonl (CSV has one row per hole)")
 
     def body(stop):
         from holecli import batch as batching
@@ -949,7 +955,7 @@ def batch(paths, recursive, pattern, fmt, output, jobs, resume, method, view_dir
                 write, earlier, header = _stdout_writer, [], True
             todo = batching.files_to_do(files, earlier)
             return run_batch(batching, todo, options, spec, jobs or batching.default_jobs(), write, fmt, header,
-                             earlier, output, stop)
+                             earlier, output, stop, explain)
         finally:
             if output_file is not None:
                 output_file.close()
@@ -1010,7 +1016,7 @@ class _BatchDisplay:
             click.echo(text, err=True)
 
 
-def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop):
+def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False):
     """The measuring loop of ``holecli batch``: records out, progress and summary on stderr."""
     from contextlib import closing
 
@@ -1035,7 +1041,8 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         return stop.signal is not None
 
     stop.defer()
-    records = batching.measure_all(todo, options, spec, jobs=min(jobs, max(1, len(todo))), should_stop=should_stop)
+    records = batching.measure_all(todo, options, spec, jobs=min(jobs, max(1, len(todo))), should_stop=should_stop,
+                                   explain=explain)
     with display, closing(records):
         for record in records:
             try:

@@ -183,7 +183,7 @@ def test_measure_all_stops_when_asked(scans):
     assert calls
 
 
-def _report_worker_signals(path, options, spec=None):
+def _report_worker_signals(path, options, spec=None, explain=False):
     return {"file": path, "sigint_ignored": signal.getsignal(signal.SIGINT) == signal.SIG_IGN,
             "pid": os.getpid(), "pipeline_imported": "holecli.pipeline" in __import__("sys").modules}
 
@@ -203,10 +203,10 @@ def test_a_file_that_kills_its_worker_gets_an_error_record(scans, tmp_path, monk
     crash = str(_touch(tmp_path / "crash.ply"))
     measure = batch.measure_record
 
-    def dying(path, options, spec=None):
+    def dying(path, options, spec=None, explain=False):
         if path == crash:
             os._exit(9)
-        return measure(path, options, spec)
+        return measure(path, options, spec, explain)
 
     monkeypatch.setattr(batch, "measure_record", dying)
     records = list(batch.measure_all([scans[0], crash, scans[1], scans[2]], OPTIONS, jobs=2))
@@ -378,8 +378,8 @@ def test_open3d_is_imported_by_the_pool_initializer_when_a_compressed_pcd_is_in_
     log = tmp_path / "initializer.log"
     start = batch._start_worker
 
-    def logged(options, spec, preload, parent):
-        start(options, spec, preload, parent)
+    def logged(options, spec, preload, parent, explain=False):
+        start(options, spec, preload, parent, explain)
         with open(log, "a") as stream:
             stream.write(f"{','.join(preload)}\n")
 
@@ -421,11 +421,11 @@ def test_a_worker_killed_with_the_only_file_in_flight_is_retried_alone(scans, tm
     marker = tmp_path / "killed-once"
     measure = batch.measure_record
 
-    def killed_the_first_time(path, options, spec=None):
+    def killed_the_first_time(path, options, spec=None, explain=False):
         if not marker.exists():
             marker.write_text("")
             os.kill(os.getpid(), signal.SIGKILL)  # as the out-of-memory killer would
-        return measure(path, options, spec)
+        return measure(path, options, spec, explain)
 
     monkeypatch.setattr(batch, "measure_record", killed_the_first_time)
     (record,) = batch.measure_all([scans[0]], OPTIONS, jobs=1)
@@ -435,10 +435,10 @@ def test_a_worker_killed_with_the_only_file_in_flight_is_retried_alone(scans, tm
 def test_a_file_that_kills_its_worker_alone_too_gets_an_error_record(scans, monkeypatch):
     measure = batch.measure_record
 
-    def always_killed(path, options, spec=None):
+    def always_killed(path, options, spec=None, explain=False):
         if path == scans[1]:
             os.kill(os.getpid(), signal.SIGKILL)
-        return measure(path, options, spec)
+        return measure(path, options, spec, explain)
 
     monkeypatch.setattr(batch, "measure_record", always_killed)
     records = {record["file"]: record for record in batch.measure_all(scans, OPTIONS, jobs=2)}
@@ -456,7 +456,7 @@ def test_workers_end_when_the_batch_process_is_killed(repo_root, scans, tmp_path
     code = (
         "import sys, time\n"
         "from holecli import batch\n"
-        "def slow(path, options, spec=None):\n"
+        "def slow(path, options, spec=None, explain=False):\n"
         "    time.sleep(300)\n"
         "batch.measure_record = slow\n"
         "for record in batch.measure_all(sys.argv[1:], {'method': 'robust'}, jobs=2):\n"

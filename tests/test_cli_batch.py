@@ -535,7 +535,7 @@ def test_a_record_that_cannot_be_written_becomes_an_error_record(run, good_scans
 
     measure = batch.measure_record
 
-    def with_nan(path, options, spec=None):
+    def with_nan(path, options, spec=None, explain=False):
         record = measure(path, options, spec)
         record["holes"][0]["fit_rms"] = float("nan")
         return record
@@ -640,3 +640,14 @@ def test_a_fifo_named_to_batch_is_an_error_record_not_a_hang(holecli_process, go
     assert result.returncode == cli.EXIT_FILE_FAILED, result.stderr
     records = {record["file"]: record for record in _lines(result.stdout)}
     assert "not a regular file" in records[str(fifo)]["error"]
+
+
+def test_batch_explain_gives_every_record_its_rejected_list(run, good_scans, tmp_path):
+    result = run("batch", *good_scans, "--explain", "--jobs", "2")
+    assert result.exit_code == 0, result.stderr
+    records = _lines(result.stdout)
+    assert len(records) == len(good_scans)
+    assert all(isinstance(record["rejected"], list) for record in records)
+    plain = _lines(run("batch", *good_scans, "--jobs", "1").stdout)
+    assert all("rejected" not in record for record in plain)
+    assert run("batch", *good_scans, "--explain", "--format", "csv").exit_code == 2
