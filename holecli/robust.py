@@ -26,7 +26,7 @@ from scipy import ndimage
 
 from holecli.bias import sampling_bias
 from holecli.boundary import hole_rim, near_box_edge
-from holecli.countersink import Cone, fit_cone_edge
+from holecli.countersink import MIN_SLOPE as MIN_CONE_SLOPE, Cone, fit_cone_edge
 from holecli.edge import fit_edge
 from holecli.errors import PointsError
 from holecli.frame import canonical_rotation, from_plane_frame, slide_in_plane_frame
@@ -253,6 +253,45 @@ _AT_LIMIT = 0.02
 _CONE_WINDOW_MOVES = 3
 
 
+def _cone_in_the_plane(scene, center, cone, settings):
+    """Center and edge radius of a countersink from its cone, ``depth = s * max(0, R - |xy - c|)``
+    fitted to the points around the edge with the center ``c`` free.
+
+    The hinge of :func:`holecli.countersink.fit_cone_edge` takes the rim's center; the rim lies inside
+    the edge by what the surface band hides of the cone, and on a tilted scan the camera sees more of
+    one side of the cone than of the other, so the rim's center is off by up to 0.3 spacings there.
+    The cone's own points, wherever they are, say where its axis is. A fit that runs off (its center
+    or edge more than the edge's search window away, or its slope below a cone's) is not trusted: the
+    rim's center and the hinge's edge stay.
+    """
+    from scipy.optimize import least_squares
+
+    width = 2.0 * scene.alpha
+    index = _within(scene.xy, center, max(cone.radius - 2.0 * width, 0.0), cone.radius + width)
+    index = index[scene.heights[index] <= scene.band]
+    if len(index) < 12:
+        return center, cone.radius
+    xy = scene.xy[index]
+    depth = _surface_height(scene, center, cone.radius, settings, xy) - scene.heights[index]
+    scale = max(scene.height_noise, 1e-12 * cone.radius)
+
+    def residuals(parameters):
+        cx, cy, edge, slope = parameters
+        rho = np.hypot(xy[:, 0] - cx, xy[:, 1] - cy)
+        return (depth - slope * np.maximum(edge - rho, 0.0)) / scale
+
+    start = np.array([center[0], center[1], cone.radius, cone.slope])
+    try:
+        result = least_squares(residuals, start, loss="soft_l1", f_scale=3.0, x_scale=[width, width, width, 1.0])
+    except (ValueError, np.linalg.LinAlgError):
+        return center, cone.radius
+    cx, cy, edge, slope = result.x
+    shift = float(np.hypot(cx - center[0], cy - center[1]))
+    if not result.success or shift > width or abs(edge - cone.radius) > width or not MIN_CONE_SLOPE <= slope:
+        return center, cone.radius
+    return np.array([cx, cy]), float(edge)
+
+
 def _surface_height(scene, center, radius, settings, xy):
     """Height of the surface itself at ``xy`` (plane frame) near a hole: 0, the global plane, unless
     the surface in the ring [r, 3r] curves away from it significantly (a curved panel, where the plane
@@ -404,7 +443,8 @@ def _measure_void(scene, grid, void, settings):
     cone = _countersink(scene, center, radius, settings)
     if isinstance(cone, Cone):
         # A countersunk hole: its edge is where the cone meets the surface.
-        return _Measured(center=center, radius=cone.radius, bias=radius - cone.radius, fit=fit,
+        cone_center, cone_radius = _cone_in_the_plane(scene, center, cone, settings)
+        return _Measured(center=cone_center, radius=cone_radius, bias=radius - cone_radius, fit=fit,
                          rim_xy=rim_xy[used], partial=partial, arc_deg=arc)
     edge = None
     if scene.sampling.lattice_axes and not partial:

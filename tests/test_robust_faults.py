@@ -161,7 +161,8 @@ def test_flat_floor_ratio_is_a_setting():
     assert isinstance(result, NotACone) and result.check == "flat_floor" and result.limit == 1.5
     points = make_scan(blind(0.5), 0).points
     unchecked = replace(DEFAULT_SETTINGS, cone_depth_slope_ratio=-np.inf)
-    assert [hole.diameter for hole in detect(points, settings=unchecked).holes] == [pytest.approx(3.6, abs=0.15)]
+    (hole,) = detect(points, settings=unchecked).holes
+    assert hole.diameter > 3.2  # the floor's "cone" puts the edge well outside the 3.0 mm hole
 
 
 # --- random scenes: consecutive seeds, failure rate bounded ----------------------------------------
