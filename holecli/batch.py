@@ -444,19 +444,19 @@ class BatchOutput:
     """
 
     def __init__(self, path, fmt, resume=False):
+        from holecli.outfile import destination
+
         self.path = path
         self.earlier, self.needs_header = [], True
         try:
-            status = os.stat(path)
-        except FileNotFoundError:
-            status = None
-        if status is not None and not stat.S_ISREG(status.st_mode):
-            stream = stat.S_ISCHR(status.st_mode) or stat.S_ISFIFO(status.st_mode)
+            kind, _ = destination(path)
+        except OSError:
+            if resume:
+                raise ResumeError(f"{path}: cannot resume: not a regular file") from None
+            raise
+        if kind == "stream":
             if resume:
                 raise ResumeError(f"{path}: cannot resume: not a regular file")
-            if not stream:
-                raise IsADirectoryError(21, "is a folder") if stat.S_ISDIR(status.st_mode) else \
-                    OSError(22, "not a regular file, character device or FIFO")
             self._descriptor = os.open(path, os.O_WRONLY | os.O_CLOEXEC)
             return
         descriptor = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666)

@@ -74,7 +74,7 @@ class FloatTuple(click.ParamType):
             numbers = tuple(parse_decimal(part) for part in parts)
         except ValueError:
             self.fail(f"expected {self.count} comma-separated numbers ({self.name}), got {value!r}", param, ctx)
-        if len(numbers) != self.count or not all(abs(n) < float("inf") for n in numbers):
+        if len(numbers) != self.count:  # (parse_decimal refuses infinities)
             self.fail(f"expected {self.count} comma-separated finite numbers ({self.name}), got {value!r}",
                       param, ctx)
         return numbers
@@ -325,52 +325,51 @@ def nominal_from_options(nominal_diameter, tolerance, nominal_center, position_t
         raise click.UsageError(str(error)) from None
 
 
-# A spec file lists a part's holes: a few kB. Anything much larger is not a spec file.
+# A spec file lists a part's holes, a panel spec a part's features: a few kB. Anything much larger is
+# not one of them.
 MAX_SPEC_BYTES = 16 << 20
 
 
 def read_spec(path):
-    """The :class:`holecli.tolerance.Spec` of a spec file; :class:`Failure` with the input-error code.
-
-    Only a regular file of at most :data:`MAX_SPEC_BYTES` is read (never a device such as
-    ``/dev/zero``, a FIFO or a folder).
-    """
-    import stat
-
+    """The :class:`holecli.tolerance.Spec` of a spec file; :class:`Failure` with the input-error code."""
     from holecli.tolerance import parse_spec
 
-    try:
-        status = os.stat(path)
-        if not stat.S_ISREG(status.st_mode):
-            raise Failure(f"{path}: not a regular file ({_file_kind(status.st_mode)}): a spec must be a TOML file",
-                          EXIT_INPUT)
-        if status.st_size > MAX_SPEC_BYTES:
-            raise Failure(f"{path}: {status.st_size} bytes is too large for a spec file "
-                          f"(at most {MAX_SPEC_BYTES} bytes)", EXIT_INPUT)
-        with open(path, "rb") as stream:
-            data = stream.read(MAX_SPEC_BYTES + 1)
-    except OSError as error:
-        raise Failure(f"{path}: cannot read: {error.strerror or error}", EXIT_INPUT) from None
-    if len(data) > MAX_SPEC_BYTES:
-        raise Failure(f"{path}: too large for a spec file (more than {MAX_SPEC_BYTES} bytes)", EXIT_INPUT)
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError:
-        raise Failure(f"{path}: not a UTF-8 text file", EXIT_INPUT) from None
+    text = read_small_text(path, "a spec")
     try:
         return parse_spec(text, source=path)
     except SpecError as error:
         raise Failure(f"{path}: {error}", EXIT_INPUT) from None
 
 
-def _file_kind(mode):
+def read_small_text(path, what):
+    """The UTF-8 text of ``path``, a small TOML file (``what``: ``"a spec"``, ``"a panel spec"``);
+    :class:`Failure` with the input-error code.
+
+    Only a regular file of at most :data:`MAX_SPEC_BYTES` is read (never a device such as
+    ``/dev/zero``, a FIFO, which would block, or a folder).
+    """
     import stat
 
-    for test, kind in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
-                       (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"), (stat.S_ISLNK, "a link")):
-        if test(mode):
-            return kind
-    return "not a file"
+    from holecli.io import file_kind
+
+    try:
+        status = os.stat(path)
+        if not stat.S_ISREG(status.st_mode):
+            raise Failure(f"{path}: not a regular file ({file_kind(status.st_mode)}): {what} must be a TOML file",
+                          EXIT_INPUT)
+        if status.st_size > MAX_SPEC_BYTES:
+            raise Failure(f"{path}: {status.st_size} bytes is too large for {what} file "
+                          f"(at most {MAX_SPEC_BYTES} bytes)", EXIT_INPUT)
+        with open(path, "rb") as stream:
+            data = stream.read(MAX_SPEC_BYTES + 1)
+    except OSError as error:
+        raise Failure(f"{path}: cannot read: {error.strerror or error}", EXIT_INPUT) from None
+    if len(data) > MAX_SPEC_BYTES:
+        raise Failure(f"{path}: too large for {what} file (more than {MAX_SPEC_BYTES} bytes)", EXIT_INPUT)
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise Failure(f"{path}: not a UTF-8 text file", EXIT_INPUT) from None
 
 
 def render(records, fmt):
@@ -737,14 +736,7 @@ def _load_part(panel_file, mesh_file, view):
     if panel_file is not None:
         from holecli.panel import build_panel, panel_truth, parse_panel_toml
 
-        try:
-            with open(panel_file, encoding="utf-8") as stream:
-                text = stream.read(MAX_SPEC_BYTES + 1)
-        except OSError as error:
-            raise Failure(f"{panel_file}: cannot read: {error.strerror or error}", EXIT_INPUT) from None
-        except UnicodeDecodeError:
-            raise Failure(f"{panel_file}: not a UTF-8 text file", EXIT_INPUT) from None
-        panel = build_panel(parse_panel_toml(text))
+        panel = build_panel(parse_panel_toml(read_small_text(panel_file, "a panel spec")))
         truth = panel_truth(panel)
         return panel.vertices, panel.triangles, truth["features"], {"panel": truth["panel"], "source": panel_file}
     from holecli.errors import LoadError
@@ -848,10 +840,6 @@ class _StopRequests:
         self.signal = number
 
 
-def _stdout_writer(text):
-    write_stdout(text)
-
-
 def _batch_summary(tally, seconds, checked, earlier, output):
     def count(number, noun):
         return f"{number} {noun}{'' if number == 1 else 's'}"
@@ -952,7 +940,7 @@ def batch(paths, recursive, pattern, fmt, output, jobs, resume, explain, method,
                     raise Failure(f"{output}: cannot {action}: {error.strerror or error}", EXIT_INPUT) from None
                 write, earlier, header = output_file.write, output_file.earlier, output_file.needs_header
             else:
-                write, earlier, header = _stdout_writer, [], True
+                write, earlier, header = write_stdout, [], True
             todo = batching.files_to_do(files, earlier)
             return run_batch(batching, todo, options, spec, jobs or batching.default_jobs(), write, fmt, header,
                              earlier, output, stop, explain)

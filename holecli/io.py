@@ -200,7 +200,7 @@ def _read_raw(name: str) -> np.ndarray:
         raise _BadFile("is a directory")
     if not stat.S_ISREG(info.st_mode):
         # Decided before opening: opening a FIFO blocks until a writer comes, and a device never ends.
-        raise _BadFile(f"not a regular file ({_file_kind(info.st_mode)})")
+        raise _BadFile(f"not a regular file ({file_kind(info.st_mode)})")
     extension = os.path.splitext(name)[1].lower()
     if extension not in SUPPORTED_EXTENSIONS:
         shown = repr(extension) if extension else "(none)"
@@ -218,8 +218,10 @@ def _read_raw(name: str) -> np.ndarray:
     return _read_pcd(name, data)
 
 
-def _file_kind(mode: int) -> str:
+def file_kind(mode: int) -> str:
+    """What a file that is not a regular file is, for messages: ``"a FIFO"``, ``"a folder"``, ..."""
     for test, kind in (
+        (stat.S_ISDIR, "a folder"),
         (stat.S_ISFIFO, "a FIFO"),
         (stat.S_ISCHR, "a character device"),
         (stat.S_ISBLK, "a block device"),

@@ -27,7 +27,7 @@ import stat
 import sys
 import time
 
-__all__ = ["STDOUT", "write_bytes", "write_bytes_atomic", "write_text", "write_text_atomic"]
+__all__ = ["STDOUT", "destination", "write_bytes", "write_bytes_atomic", "write_text", "write_text_atomic"]
 
 # The path that means standard output.
 STDOUT = "-"
@@ -64,20 +64,38 @@ def write_bytes(path, payload):
     if path == STDOUT:
         _write_stdout(payload)
         return
+    kind, target = destination(path)
+    if kind == "file":
+        write_bytes_atomic(target, payload)
+    else:
+        _write_stream(target, payload)
+
+
+def destination(path):
+    """What writing to ``path`` is: ``("file", target)`` for a regular file or a path where nothing is
+    yet (``target``: a symbolic link's target, else ``path``), ``("stream", path)`` for a character
+    device or a FIFO.
+
+    Raises
+    ------
+    IsADirectoryError
+        For a folder.
+    OSError
+        For anything else (a block device, a socket): never written.
+    """
+    path = os.fspath(path)
     target = os.path.realpath(path) if os.path.islink(path) else path
     try:
         status = os.stat(target)
     except FileNotFoundError:
-        status = None
-    if status is None or stat.S_ISREG(status.st_mode):
-        write_bytes_atomic(target, payload)
-    elif stat.S_ISCHR(status.st_mode) or stat.S_ISFIFO(status.st_mode):
-        _write_stream(target, payload)
-    elif stat.S_ISDIR(status.st_mode):
+        return "file", target
+    if stat.S_ISREG(status.st_mode):
+        return "file", target
+    if stat.S_ISCHR(status.st_mode) or stat.S_ISFIFO(status.st_mode):
+        return "stream", target
+    if stat.S_ISDIR(status.st_mode):
         raise IsADirectoryError(errno.EISDIR, "is a folder", path)
-    else:
-        raise OSError(errno.EINVAL, "not a regular file, character device or FIFO (refused, left untouched)",
-                      path)
+    raise OSError(errno.EINVAL, "not a regular file, character device or FIFO (refused, left untouched)", path)
 
 
 def write_text_atomic(path, text):

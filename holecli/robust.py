@@ -225,32 +225,34 @@ def _countersink(scene, center, radius, settings):
     The edge is searched within a window of the rim's radius. Where the surface band is wide (a
     scan of a curved panel, whose plane lies tens of um off the surface), the top of the cone counts
     as surface and the rim lies inside the edge by more than the window: an edge found at the
-    window's outer limit moves the window out to it, up to ``_CONE_WINDOW_MOVES`` times.
+    window's outer limit (settings ``cone_window_limit``) moves the window out to it, up to
+    ``cone_window_moves`` times.
     """
     width = 2.0 * scene.alpha
     cone = None
-    for _ in range(_CONE_WINDOW_MOVES + 1):
-        index = _within(scene.xy, center, max(radius - 2.0 * width, 0.0), radius + width)
-        # Points above the surface band (outliers, a stray point 1e8 off along the normal) are on no
-        # cone, and one of them would outweigh every other point in the hinge's least squares.
-        index = index[scene.heights[index] <= scene.band]
-        rho = np.hypot(scene.xy[index, 0] - center[0], scene.xy[index, 1] - center[1])
-        depth = _surface_height(scene, center, radius, settings, scene.xy[index]) - scene.heights[index]
+    for _ in range(settings.cone_window_moves + 1):
+        xy, depth = _points_around_edge(scene, center, radius, width, settings)
+        rho = np.hypot(xy[:, 0] - center[0], xy[:, 1] - center[1])
         found = fit_cone_edge(rho, depth, radius, width, scene.height_noise,
                               depth_slope_ratio=settings.cone_depth_slope_ratio)
         if not isinstance(found, Cone):
             return found if cone is None else cone
         cone = found
-        if found.radius < radius + (1.0 - _AT_LIMIT) * width:
+        if found.radius < radius + (1.0 - settings.cone_window_limit) * width:
             break
         radius = found.radius
     return cone
 
 
-# An edge this close (as a fraction of the window) to the window's outer limit is at the limit; the
-# window moves out at most this many times (the band of a curved scan rarely hides more than one).
-_AT_LIMIT = 0.02
-_CONE_WINDOW_MOVES = 3
+def _points_around_edge(scene, center, radius, width, settings):
+    """The points within [r - 2 width, r + width] of ``center`` that may lie on a countersink's cone
+    (plane frame xy, (k, 2)), and their depth below the surface around the hole (k,)."""
+    index = _within(scene.xy, center, max(radius - 2.0 * width, 0.0), radius + width)
+    # Points above the surface band (outliers, a stray point 1e8 off along the normal) are on no
+    # cone, and one of them would outweigh every other point in the hinge's least squares.
+    index = index[scene.heights[index] <= scene.band]
+    xy = scene.xy[index]
+    return xy, _surface_height(scene, center, radius, settings, xy) - scene.heights[index]
 
 
 def _cone_in_the_plane(scene, center, cone, settings):
@@ -267,12 +269,9 @@ def _cone_in_the_plane(scene, center, cone, settings):
     from scipy.optimize import least_squares
 
     width = 2.0 * scene.alpha
-    index = _within(scene.xy, center, max(cone.radius - 2.0 * width, 0.0), cone.radius + width)
-    index = index[scene.heights[index] <= scene.band]
-    if len(index) < 12:
+    xy, depth = _points_around_edge(scene, center, cone.radius, width, settings)
+    if len(xy) < 12:
         return center, cone.radius
-    xy = scene.xy[index]
-    depth = _surface_height(scene, center, cone.radius, settings, xy) - scene.heights[index]
     scale = max(scene.height_noise, 1e-12 * cone.radius)
 
     def residuals(parameters):
@@ -360,10 +359,10 @@ def _measure_void(scene, grid, void, settings):
     void_center = void_xy.mean(axis=0)
     void_radius = float(np.max(np.hypot(*(void_xy - void_center).T))) + 0.5 * cell
 
-    def reject(check, value=None, limit=None, center=None, radius=None):
+    def reject(check, value=None, limit=None, center=None, radius=None, shape=None):
         return _Rejected(check=check, value=value, limit=limit,
                          center=void_center if center is None else center,
-                         radius=void_radius if radius is None else float(radius))
+                         radius=void_radius if radius is None else float(radius), shape=shape)
 
     def refusal_of_fit(fit, used, fewest):
         if fit is None:
@@ -422,7 +421,7 @@ def _measure_void(scene, grid, void, settings):
     scatter = 1.4826 * float(np.median(np.abs(fit.residuals)))
     allowed = settings.max_relative_scatter * radius + scene.gap_scatter
     if scatter > allowed:
-        return replace(reject("not_round", scatter, float(allowed), center, radius), shape=_outline_shape(rim_xy))
+        return reject("not_round", scatter, float(allowed), center, radius, shape=_outline_shape(rim_xy))
     # A closed region whose rim still misses a third of the circle lost its rim to missing data.
     # Partial: the circle is not surrounded by scanned material (cut by the scan's border, or its
     # rim lost to missing data). Such a hole is accepted on the rim points' own (conservative)
@@ -662,13 +661,13 @@ def _on_curved_surface(scene, measured, settings, view_dir, rng):
     The scan's plane serves to find the holes. On a curved panel it lies far off the surface at a hole
     away from the middle (0.4 mm across a 50 mm scan at R 800), so the band of surface points is wide,
     the top of a countersink's cone counts as surface on one side of the hole more than on the other,
-    and the rim, the edge and the center move (50 um). Here the points within ``_CROP_RADII`` radii of
+    and the rim, the edge and the center move (50 um). Here the points within ``crop_radii`` radii of
     the hole are taken into the frame of the ring's own plane, the quadric of the ring
     (:func:`_curved_quadric`) is subtracted from their heights, and the hole is measured on that flat
     crop by the same method; its center and normal go back onto the quadric.
     """
     center, radius = measured.center, measured.radius
-    ring = _ring_plane(scene, center, radius, _CROP_RING_RADII)
+    ring = _ring_plane(scene, center, radius, settings.crop_ring_radii)
     if ring is None:
         return None
     ring_points, plane = ring
@@ -678,7 +677,7 @@ def _on_curved_surface(scene, measured, settings, view_dir, rng):
     quadric = _curved_quadric((ring_points - foot) @ basis.T, radius, settings.curvature_sigmas)
     if quadric is None:
         return None
-    crop = scene.points[_within(scene.xy, center, 0.0, _CROP_RADII * radius)]
+    crop = scene.points[_within(scene.xy, center, 0.0, settings.crop_radii * radius)]
     local = (crop - foot) @ basis.T
     local[:, 2] -= quadric.height(local[:, :2])
     slide = None if view_dir is None else basis @ (np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir))
@@ -747,12 +746,6 @@ def _curved_quadric(local, scale, sigmas):
 # A sag below this fraction of the hole's radius is round-off of exact data, not curvature (a curved
 # panel's sag at a hole is 1e-3 of its radius or more).
 _SAG_ROUND_OFF = 1e-7
-
-
-# The flat crop around a hole on a curved surface: points within this many radii, the quadric from the
-# surface points in the ring from 1 to _CROP_RING_RADII radii.
-_CROP_RADII = 4.0
-_CROP_RING_RADII = 3.5
 
 
 def _as_rejected(measured, check, value, limit):

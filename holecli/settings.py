@@ -53,6 +53,15 @@ class RobustSettings:
     # center exceeds this many of its standard errors (a curved panel; on a flat one the quadric is
     # only noisier).
     curvature_sigmas: float = 3.0
+    # On such a surface each hole is measured again on its neighbourhood within this many radii,
+    # flattened by the quadric of the surface points in the ring from 1 to crop_ring_radii radii.
+    crop_radii: float = 4.0
+    crop_ring_radii: float = 3.5
+    # A countersink's edge found within this fraction of its search window's outer limit is at the
+    # limit, and the window moves out to it, at most this many times (on a wide scan of a curved
+    # panel the band hides the top of the cone; it rarely hides more than one window).
+    cone_window_limit: float = 0.02
+    cone_window_moves: int = 3
     # Holes are measured in this many threads when the cloud has at least this many points.
     threads: int = 2
     threads_from_points: int = 200_000

@@ -134,3 +134,11 @@ def test_simulate_mesh_that_is_not_a_mesh_is_one_line_error(run, tmp_path):
     result = run("simulate", tmp_path / "scan.ply", "--mesh", part)
     assert result.exit_code == cli.EXIT_INPUT
     assert result.stderr.startswith("Error: ") and str(part) in result.stderr and result.stderr.count("\n") == 1
+
+
+def test_simulate_panel_spec_that_is_a_fifo_is_refused_without_opening_it(holecli_process, tmp_path):
+    spec = tmp_path / "panel.toml"
+    os.mkfifo(spec)  # opening it would wait for a writer forever
+    result = holecli_process("simulate", tmp_path / "scan.ply", "--panel", spec, timeout=60)
+    assert result.returncode == cli.EXIT_INPUT
+    assert result.stderr == f"Error: {spec}: not a regular file (a FIFO): a panel spec must be a TOML file\n"
