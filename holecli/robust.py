@@ -728,16 +728,23 @@ def _curved_quadric(local, scale, sigmas):
     the surface really curves.
     """
     scale = max(float(scale), 1e-300)
-    s, t, h = local[:, 0] / scale, local[:, 1] / scale, local[:, 2]
-    design = np.column_stack([np.ones_like(s), s, t, s * s, s * t, t * t])
-    if len(h) <= 6:
+    if len(local) <= 6:
         return None
-    coefficients, _, rank, _ = np.linalg.lstsq(design, h, rcond=None)
-    if rank < 6:
+    s, t, h = local[:, 0] / scale, local[:, 1] / scale, np.ascontiguousarray(local[:, 2])
+    # The normal equations over the six monomials' columns, not an SVD of a (k, 6) design matrix: a
+    # ring holds up to 10^6 points on a dense scan (the copy would cost memory, the SVD time), the
+    # coordinates are scaled to the hole (well conditioned), and the inverse is wanted anyway for the
+    # standard error. Rank as numpy's lstsq judges it, on the design's singular values.
+    columns = (np.ones_like(s), s, t, s * s, s * t, t * t)
+    gram = np.array([[float(a @ b) for b in columns] for a in columns])
+    eigenvalues = np.linalg.eigvalsh(gram)
+    if not eigenvalues[0] > (np.finfo(float).eps * len(h)) ** 2 * eigenvalues[-1]:
         return None
-    residuals = design @ coefficients - h
+    inverse = np.linalg.inv(gram)
+    coefficients = inverse @ np.array([float(column @ h) for column in columns])
+    residuals = sum(c * column for c, column in zip(coefficients, columns)) - h
     variance = float(residuals @ residuals) / (len(h) - 6)
-    standard_error = np.sqrt(variance * np.linalg.inv(design.T @ design)[0, 0])
+    standard_error = np.sqrt(variance * inverse[0, 0])
     if abs(coefficients[0]) <= max(sigmas * standard_error, _SAG_ROUND_OFF * scale):
         return None
     return _Quadric(coefficients=coefficients, scale=scale)
