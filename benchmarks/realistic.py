@@ -4,7 +4,9 @@ Every scene is a panel (holecli.panel) with one feature at its middle, scanned b
 (holecli.profiler) over a 5 x 5 hole-diameter region around it, with the sensor's defects: range
 noise along the ray, 1 um range quantisation, the camera's occlusion at 25 deg, float32 output, and,
 per class, a tilted view, a curved sheet, a robot base frame in metres. Scene parameters (pitch 0.02-0.2
-mm, hole size, tilt, radius, noise 0-10 um) are drawn per seed, not picked.
+mm, hole size, tilt, radius, noise 0-10 um) are drawn per seed, not picked. ``cad_sampled`` is not a
+scan: points drawn uniformly at random over the faces of the part near the hole that a sensor above it
+could see (top, walls, cone, floor), as a CAD system's "sample points on mesh" export gives, float32.
 
 Per class it prints: holes found / expected, extra holes (anything reported on a slot, a boss or plain
 material counts), the median and worst center error (3D, um) and diameter error (um) against the
@@ -27,12 +29,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from holecli.panel import FeatureSpec, PanelSpec, build_panel, panel_truth  # noqa: E402
+from holecli.panel import FLOOR, TOP, WALL, FeatureSpec, PanelSpec, build_panel, panel_truth  # noqa: E402
 from holecli.pipeline import detect  # noqa: E402
 from holecli.profiler import ProfilerSpec  # noqa: E402
 from holecli.scan_part import scan_part  # noqa: E402
 
-CLASSES = ("through", "countersunk", "counterbored", "blind", "curved", "tilted", "robot_frame", "slot", "boss")
+CLASSES = ("through", "countersunk", "counterbored", "blind", "curved", "tilted", "robot_frame", "cad_sampled",
+           "slot", "boss")
 TARGET_MEDIAN_UM, TARGET_WORST_UM = 3.0, 15.0
 
 
@@ -45,8 +48,12 @@ def scene(kind, seed):
     noise = float(rng.choice([0.0, 0.002, 0.005, 0.01]))
     thickness = float(rng.uniform(2.0, 6.0))
     curvature, radius = "flat", None
-    feature_kind = kind if kind in ("through", "countersunk", "counterbored", "blind", "slot", "boss") else \
-        str(rng.choice(["through", "countersunk"]))
+    if kind == "cad_sampled":
+        feature_kind = str(rng.choice(["through", "countersunk", "counterbored"]))
+    elif kind in ("through", "countersunk", "counterbored", "blind", "slot", "boss"):
+        feature_kind = kind
+    else:
+        feature_kind = str(rng.choice(["through", "countersunk"]))
     if feature_kind == "countersunk":
         angle = float(rng.choice([82.0, 90.0, 100.0, 110.0]))
         depth = min(0.45 * thickness, 0.8)
@@ -93,7 +100,28 @@ def scene(kind, seed):
                         unit_scale=scale, float32=True)
     description = dict(pitch=pitch, noise=noise, hole_diameter=diameter, kind=feature_kind, curvature=curvature,
                        radius=radius)
-    return panel.vertices, panel.triangles, panel_truth(panel)["features"], spec, description
+    triangles = panel.triangles
+    if kind == "cad_sampled":
+        # what a sensor above the part could see: not the bottom face nor the outer sides
+        triangles = triangles[np.isin(panel.parts, (TOP, WALL, FLOOR))]
+    return panel.vertices, triangles, panel_truth(panel)["features"], spec, description
+
+
+def sample_surface(vertices, triangles, spacing, region, rng):
+    """Points uniformly at random over ``triangles``, one per ``spacing**2`` of area on average, those
+    within ``region`` (half-width, in x and y) of the origin, as float32."""
+    corners = vertices[triangles]
+    keep = np.all(np.min(np.abs(corners[:, :, :2]), axis=1) < region, axis=1)
+    a, b, c = (corners[keep][:, k] for k in range(3))
+    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    count = rng.poisson(area.sum() / spacing ** 2)
+    pick = rng.choice(len(area), size=count, p=area / area.sum())
+    u, v = rng.random(count), rng.random(count)
+    flip = u + v > 1.0
+    u[flip], v[flip] = 1.0 - u[flip], 1.0 - v[flip]
+    points = a[pick] + u[:, None] * (b[pick] - a[pick]) + v[:, None] * (c[pick] - a[pick])
+    points = points[np.all(np.abs(points[:, :2]) < region, axis=1)]
+    return points.astype(np.float32).astype(np.float64)
 
 
 def _rotation(a, b):
@@ -104,14 +132,19 @@ def _rotation(a, b):
 def measure(kind, seed):
     """One scene: dict with found/expected/extra, errors in um (in mm-equivalent), CPU time."""
     vertices, triangles, features, spec, description = scene(kind, seed)
-    scanned = scan_part(vertices, triangles, features, spec, rng=seed)
-    points = scanned.scan.points
-    points = points[np.isfinite(points).all(axis=1)]
+    if kind == "cad_sampled":
+        points = sample_surface(vertices, triangles, spec.point_pitch, 2.5 * description["hole_diameter"],
+                                np.random.default_rng([seed, 7]))
+        expected = [hole for hole in features if hole["is_hole"]]
+    else:
+        scanned = scan_part(vertices, triangles, features, spec, rng=seed)
+        points = scanned.scan.points
+        points = points[np.isfinite(points).all(axis=1)]
+        expected = [hole for hole in scanned.truth["holes"] if hole["inside_scan"]]
     started = time.process_time()
     detection = detect(points)
     cpu = time.process_time() - started
     unit = 1e3 / spec.unit_scale  # file units -> um
-    expected = [hole for hole in scanned.truth["holes"] if hole["inside_scan"]]
     unmatched = list(detection.holes)
     center_errors, diameter_errors = [], []
     for hole in expected:

@@ -17,7 +17,7 @@ from holecli.boundary import hole_rim
 from holecli.edge import fit_edge
 
 
-def synthetic_rim_fit(xy, center, radius, alpha, reach, margin, clip, floor, allow_open=True):
+def synthetic_rim_fit(xy, center, radius, alpha, reach, margin, clip, floor, allow_open=True, depth=None):
     """Fit the rim of a synthetic hole of ``radius`` cut at ``center`` into ``xy``.
 
     Only the ring of points between ``radius`` and ``radius + margin`` is triangulated; rim points
@@ -37,11 +37,11 @@ def synthetic_rim_fit(xy, center, radius, alpha, reach, margin, clip, floor, all
     rim_xy = rim_xy[np.hypot(*(rim_xy - center).T) <= radius + reach]
     if len(rim_xy) < 5:
         return None
-    fit, _ = fit_edge(rim_xy, alpha, floor, clip, start=(center, radius))
+    fit, _ = fit_edge(rim_xy, alpha if depth is None else depth, floor, clip, start=(center, radius))
     return None if fit is None else fit.radius
 
 
-def sampling_bias(xy, center, radius, alpha, offsets, reach, margin, clip, floor, allow_open=True):
+def sampling_bias(xy, center, radius, alpha, offsets, reach, margin, clip, floor, allow_open=True, depth=None):
     """Mean excess of the fitted over the true radius of synthetic holes cut into ``xy``.
 
     Synthetic holes must not be smaller than the real hole (else they would hold its void), so the
@@ -74,7 +74,7 @@ def sampling_bias(xy, center, radius, alpha, offsets, reach, margin, clip, floor
     excesses = []
     for offset in offsets:
         synthetic = radius + offset
-        fitted = synthetic_rim_fit(xy, center, synthetic, alpha, reach, margin, clip, floor, allow_open)
+        fitted = synthetic_rim_fit(xy, center, synthetic, alpha, reach, margin, clip, floor, allow_open, depth)
         if fitted is not None and abs(fitted - synthetic) < alpha:
             excesses.append(fitted - synthetic)
     if not excesses:

@@ -27,6 +27,7 @@ from scipy import ndimage
 from holecli.bias import sampling_bias
 from holecli.boundary import hole_rim, near_box_edge
 from holecli.countersink import MIN_SLOPE as MIN_CONE_SLOPE, Cone, fit_cone_edge
+from holecli.empty_circle import empty_circle_bias, largest_empty_circle
 from holecli.edge import fit_edge
 from holecli.errors import PointsError
 from holecli.frame import canonical_rotation, from_plane_frame, slide_in_plane_frame
@@ -60,6 +61,7 @@ class _Scene:
     cell: float
     min_radius: float
     gap_scatter: float       # rim scatter the sampling alone produces
+    envelope: float          # depth below its sector's outermost rim point at which a rim point is dropped
 
 
 @dataclass(frozen=True)
@@ -393,13 +395,13 @@ def _measure_void(scene, grid, void, settings):
     if len(rim_xy) < fewest:
         return reject("too_few_rim_points", len(rim_xy), fewest)
     floor = settings.clip_floor_spacings * scene.sampling.spacing
-    fit, used = fit_edge(rim_xy, alpha, floor, settings.clip_sigmas)
+    fit, used = fit_edge(rim_xy, scene.envelope, floor, settings.clip_sigmas)
     refused = refusal_of_fit(fit, used, fewest)
     if refused is not None:
         return refused
     # Points deep inside the fitted hole (reflections next to the edge) can shield the true rim from
     # the triangulation: drop them and extract the rim once more.
-    deep = np.hypot(*(local - fit.center).T) < fit.radius - alpha
+    deep = np.hypot(*(local - fit.center).T) < fit.radius - scene.envelope
     if np.any(deep):
         local = local[~deep]
         rim = hole_rim(local, in_void, alpha, cut=cut[~deep])
@@ -409,7 +411,7 @@ def _measure_void(scene, grid, void, settings):
         rim_xy = rim_xy[near(rim_xy)]
         if len(rim_xy) < fewest:
             return reject("too_few_rim_points", len(rim_xy), fewest, fit.center, fit.radius)
-        fit, used = fit_edge(rim_xy, alpha, floor, settings.clip_sigmas)
+        fit, used = fit_edge(rim_xy, scene.envelope, floor, settings.clip_sigmas)
         refused = refusal_of_fit(fit, used, fewest)
         if refused is not None:
             return refused
@@ -449,6 +451,8 @@ def _measure_void(scene, grid, void, settings):
     if scene.sampling.lattice_axes and not partial:
         edge = separating_circle(local, rim_xy[used], lattice_steps(local, scene.sampling.lattice_axes,
                                                                     scene.sampling.spacing), center, radius)
+    if edge is None and not partial and scene.sampling.period is None:
+        edge = _empty_circle(scene, local, center, radius)
     if edge is not None:
         center, corrected, _ = edge
         bias = radius - corrected
@@ -505,11 +509,29 @@ def _sampling_bias(scene, center, radius, settings, floor, partial):
     for _ in range(settings.bias_passes):
         # Cut the synthetic holes in phase with the current estimate of the true edge.
         estimate = sampling_bias(ring, center, radius - bias, scene.alpha, offsets, reach, margin,
-                                 settings.clip_sigmas, floor, allow_open=partial)
+                                 settings.clip_sigmas, floor, allow_open=partial, depth=scene.envelope)
         if estimate is None:
             break
         bias = estimate
     return bias
+
+
+def _empty_circle(scene, local, center, radius):
+    """The edge of a hole in irregular sampling: the largest circle empty of its surface points,
+    less that circle's overshoot on synthetic holes cut into the same points (see
+    :mod:`holecli.empty_circle`). ``(center, radius, overshoot)`` or None."""
+    reach = scene.alpha
+    found = largest_empty_circle(local, center, radius, reach)
+    if found is None:
+        return None
+    empty_center, empty_radius = found
+    offsets = [k * scene.sampling.gap for k in (1, 2, 3, 4)]
+    ring = scene.surface_xy[_within(scene.surface_xy, empty_center, empty_radius,
+                                    empty_radius + offsets[-1] + 3.0 * reach)]
+    overshoot = empty_circle_bias(ring, empty_center, empty_radius, offsets, reach)
+    if overshoot is None:
+        return None
+    return empty_center, empty_radius - overshoot, overshoot
 
 
 def _measure_voids(scene, grid, voids, settings):
@@ -621,7 +643,7 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
                    surface_density=surface_density, height_noise=height_noise, band=band, heights=heights,
                    points=points, surface_index=np.flatnonzero(surface), origin=origin, rotation=rotation,
                    direction=direction, sampling=sampling, alpha=settings.alpha_gaps * gap, cell=cell,
-                   min_radius=min_radius, gap_scatter=0.5 * gap)
+                   min_radius=min_radius, gap_scatter=0.5 * gap, envelope=settings.envelope_gaps * gap)
     found, rejected = [], []
     for measured in _measure_voids(scene, grid, find_voids(grid), settings):
         if isinstance(measured, _Rejected):

@@ -266,24 +266,16 @@ def test_several_holes_in_one_cloud(scene):
 # --- what else a scan holds: inside points, bore wall, countersink, outliers, a boss, a wall -------
 
 
-@pytest.mark.parametrize("inside", [
-    10,
-    pytest.param(100, marks=xfail(
-        "100 points inside the hole pull the rim inward: over seeds 0-7 (Table I, noise 10 % h) the "
-        "diameter error is -0.13 to -1.33 h, beyond 1 h for seeds 1 (-1.27 h) and 6 (-1.33 h)")),
-])
+@pytest.mark.parametrize("inside", [10, 100])
 def test_points_inside_the_hole(inside):
-    """The paper's Table I scene with reflections inside the hole, noise 10 % of h."""
-    check_seeds(synth.table1_scene(0.1, inside), range(8), center=LOOSE, diameter=LOOSE, normal=NORMAL_NOISY)
+    """The paper's Table I scene with reflections inside the hole (its Fig. 5), noise 10 % of h.
 
-
-def test_points_inside_the_hole_most_seeds():
-    """With 100 reflections, the errors stay within 1 h on most seeds (6 of 8)."""
-    good = 0
-    for seed in range(8):
-        result = measure_scene(synth.table1_scene(0.1, 100), seed)
-        good += not violations(result, center=LOOSE, diameter=LOOSE, normal=NORMAL_NOISY)
-    assert good >= 6
+    100 reflections in the 3 mm hole (one grid position in nine) join the material next to the edge
+    and shield its true rim; with rim points dropped only an alpha (2.5 gaps) inside their direction's
+    outermost, over seeds 0-15 the diameter came out 0.28 to 1.55 h too small. With a gap (setting
+    ``envelope_gaps``), within 0.3 h on every seed.
+    """
+    check_seeds(synth.table1_scene(0.1, inside), range(16), center=CENTER, diameter=DIAMETER, normal=NORMAL_NOISY)
 
 
 BORE = HoleSpec(center=(0.37, -0.21), diameter=3.0, bore_depth=2.0)
@@ -527,3 +519,18 @@ def test_sampling_bias_is_removed_on_average(pattern, pitch):
         assert not result.matched[0].partial, (index, result.summary())
         errors.append(result.diameter[0])
     assert abs(np.mean(errors)) < 0.1, np.round(errors, 3)
+
+
+def test_random_sampling_is_measured_by_its_largest_empty_circle():
+    """On random sampling the largest circle empty of the points, less its overshoot on synthetic holes,
+    is the edge: over 24 random full holes at zero noise the rms diameter error is below 0.06 h and
+    none is beyond 0.15 h (measured: 0.049 and 0.14; a rim fit with the sampling-bias correction: rms 0.134 h,
+    worst 0.30 h)."""
+    errors = []
+    for index, scene in enumerate(bias_scenes("random", None, seed=1, count=24)):
+        result = measure_scene(scene, index)
+        assert len(result.detection.holes) == 1, (index, result.summary())
+        errors.append(result.diameter[0])
+    errors = np.asarray(errors)
+    assert np.sqrt(np.mean(errors ** 2)) < 0.06, np.round(errors, 3)
+    assert np.max(np.abs(errors)) < 0.15, np.round(errors, 3)
