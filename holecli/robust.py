@@ -451,7 +451,10 @@ def _measure_void(scene, grid, void, settings):
     if scene.sampling.lattice_axes and not partial:
         edge = separating_circle(local, rim_xy[used], lattice_steps(local, scene.sampling.lattice_axes,
                                                                     scene.sampling.spacing), center, radius)
-    if edge is None and not partial and scene.sampling.period is None:
+    # The largest empty circle on irregular sampling whose in-plane scatter is small: on a noisy
+    # surface the noise carries points into the hole and the empty circle shrinks with it.
+    quiet = scene.height_noise * np.sqrt(scene.surface_density) <= settings.empty_circle_max_noise
+    if edge is None and not partial and scene.sampling.period is None and quiet:
         edge = _empty_circle(scene, local, center, radius)
     if edge is not None:
         center, corrected, _ = edge

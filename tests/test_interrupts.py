@@ -9,17 +9,39 @@ import pytest
 
 from holecli import interrupts
 
-# From the moment the interpreter has started holecli's code (it needs some 30 ms to get there) to the
-# end of a small detect, in steps that hit the imports, the reading and the measuring.
-DELAYS_S = (0.06, 0.1, 0.15, 0.2, 0.3, 0.45, 0.7)
+# From the moment holecli's handlers are installed (its first step) to the end of a small detect, in
+# steps that hit the imports, the reading and the measuring. A signal before that moment meets the
+# interpreter's own start-up, which no program can handle; on a loaded machine that start-up takes
+# longer than any fixed delay, so the delays count from the handlers, seen in /proc.
+DELAYS_S = (0.0, 0.03, 0.08, 0.13, 0.25, 0.4, 0.65)
+
+
+def wait_for_handlers(process, timeout_s=60.0):
+    """Wait until ``process`` catches SIGTERM (bit 15 of SigCgt in /proc/PID/status): holecli's
+    handlers are installed. Returns False if the process ended first."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        try:
+            with open(f"/proc/{process.pid}/status") as status:
+                caught = next(line for line in status if line.startswith("SigCgt:"))
+        except (FileNotFoundError, StopIteration, ProcessLookupError):
+            return False
+        if int(caught.split()[1], 16) & (1 << (signal.SIGTERM - 1)):
+            return True
+        if process.poll() is not None:
+            return False
+        time.sleep(0.002)
+    raise AssertionError("holecli never installed its signal handlers")
 
 
 @pytest.mark.parametrize("signal_number", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 def test_a_signal_at_any_moment_of_detect_is_one_line_and_130(holecli_process, table1_files, tmp_path,
                                                                signal_number):
     output = tmp_path / "result.json"
+    interrupted = 0
     for delay in DELAYS_S:
         process = holecli_process("detect", table1_files[".ply"], "-o", output, start=True)
+        wait_for_handlers(process)
         time.sleep(delay)
         process.send_signal(signal_number)
         out, err = process.communicate(timeout=60)
@@ -34,15 +56,19 @@ def test_a_signal_at_any_moment_of_detect_is_one_line_and_130(holecli_process, t
         assert out == ""
         # never a half-written result, never a temporary left behind
         assert sorted(os.listdir(tmp_path)) in ([], ["result.json"]), os.listdir(tmp_path)
+        interrupted += 1
+    assert interrupted, "no signal came while holecli ran"
 
 
 @pytest.mark.parametrize("signal_number", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 def test_a_signal_at_any_moment_of_batch_is_130_without_traceback(holecli_process, table1_files, tmp_path,
                                                                   signal_number):
     output = tmp_path / "out.jsonl"
+    interrupted = 0
     for delay in DELAYS_S:
         process = holecli_process("batch", table1_files[".ply"], table1_files[".csv"], "-o", output, "--jobs", "1",
                                   start=True)
+        wait_for_handlers(process)
         time.sleep(delay)
         process.send_signal(signal_number)
         out, err = process.communicate(timeout=60)
@@ -54,6 +80,8 @@ def test_a_signal_at_any_moment_of_batch_is_130_without_traceback(holecli_proces
         assert process.returncode == interrupts.EXIT_INTERRUPTED, (delay, process.returncode, err)
         assert "Traceback" not in err and err.strip(), (delay, err)
         assert err.splitlines()[-1] == "Error: interrupted" or "interrupted after" in err, (delay, err)
+        interrupted += 1
+    assert interrupted, "no signal came while holecli ran"
 
 
 def test_raising_turns_a_signal_into_keyboard_interrupt_only_inside_the_block(monkeypatch):
