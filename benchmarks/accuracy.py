@@ -23,7 +23,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from holecli import detect  # noqa: E402
-from holecli.synth import TABLE1_SPACING, make_scan, table1_scene  # noqa: E402
+from holecli.simulation.synth import TABLE1_SPACING, make_scan, table1_scene  # noqa: E402
 
 # The paper's Table I: noise fraction -> (e_x, e_y, e_z um, e_diameter um, e_alpha, e_beta, e_gamma deg).
 PAPER = {

@@ -30,8 +30,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from holecli import synth  # noqa: E402
 from holecli.io import save_points  # noqa: E402
+from holecli.simulation import synth  # noqa: E402
 
 TARGET_RATIO = 1.6
 

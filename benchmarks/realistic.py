@@ -1,7 +1,7 @@
 """Realistic scans: built panels scanned by the simulated laser profiler, measured by holecli.
 
-Every scene is a panel (holecli.panel) with one feature at its middle, scanned by the profiler
-(holecli.profiler) over a 5 x 5 hole-diameter region around it, with the sensor's defects: range
+Every scene is a panel (holecli.simulation.panel) with one feature at its middle, scanned by the profiler
+(holecli.simulation.profiler) over a 5 x 5 hole-diameter region around it, with the sensor's defects: range
 noise along the ray, 1 um range quantisation, the camera's occlusion at 25 deg, float32 output, and,
 per class, a tilted view, a curved sheet, a robot base frame in metres. Scene parameters (pitch 0.02-0.2
 mm, hole size, tilt, radius, noise 0-10 um) are drawn per seed, not picked. ``cad_sampled`` is not a
@@ -29,10 +29,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from holecli.panel import FLOOR, TOP, WALL, FeatureSpec, PanelSpec, build_panel, panel_truth  # noqa: E402
 from holecli.pipeline import detect  # noqa: E402
-from holecli.profiler import ProfilerSpec  # noqa: E402
-from holecli.scan_part import scan_part  # noqa: E402
+from holecli.simulation.panel import FLOOR, TOP, WALL, FeatureSpec, PanelSpec, build_panel, panel_truth  # noqa: E402
+from holecli.simulation.profiler import ProfilerSpec  # noqa: E402
+from holecli.simulation.scan_part import scan_part  # noqa: E402
 
 CLASSES = ("through", "countersunk", "counterbored", "blind", "curved", "tilted", "robot_frame", "cad_sampled",
            "slot", "boss")

@@ -40,7 +40,7 @@ PAPER_TABLE_II = {416: 0.20, 1572: 0.62, 6733: 2.72, 9498: 4.03}
 
 def table1_like(points):
     """The Table I scene with the spacing that gives about ``points`` points."""
-    from holecli.synth import table1_scene
+    from holecli.simulation.synth import table1_scene
 
     area = 64.0 - np.pi * 1.5**2
     spacing = float(np.sqrt(area / points))
@@ -52,7 +52,7 @@ def table1_like(points):
 
 def stripes_scan(points):
     """A laser-stripe scan of about ``points`` points with five holes of 3 to 9 mm, 1 m from the origin."""
-    from holecli.synth import HoleSpec, SceneSpec
+    from holecli.simulation.synth import HoleSpec, SceneSpec
 
     # 80 x 20 mm patch, scan lines 4 point spacings apart.
     spacing = float(np.sqrt(80.0 * 20.0 / points / 4.0))
@@ -67,9 +67,9 @@ def child(size, kind, repeats, delaunay):
     from scipy.spatial import Delaunay
 
     from holecli import detect, read_cloud
-    from holecli.frame import rotation_to_z, to_plane_frame
+    from holecli.geometry.frame import rotation_to_z, to_plane_frame
     from holecli.io import save_points
-    from holecli.synth import make_scan
+    from holecli.simulation.synth import make_scan
 
     scene = table1_like(size) if kind == "table1" else stripes_scan(size)
     points = make_scan(scene, 0).points

@@ -444,7 +444,7 @@ class BatchOutput:
     """
 
     def __init__(self, path, fmt, resume=False):
-        from holecli.outfile import destination
+        from holecli.io.outfile import destination
 
         self.path = path
         self.earlier, self.needs_header = [], True

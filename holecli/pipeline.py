@@ -1,4 +1,5 @@
-"""``detect``: the detection pipeline, composed from the geometric steps. No IO here."""
+"""``detect``: checks the points and options and runs the chosen method (:mod:`holecli.paper`,
+:mod:`holecli.robust`). No IO here."""
 
 from __future__ import annotations
 
@@ -6,12 +7,9 @@ import time
 
 import numpy as np
 
-from holecli.circle import fit_circle_geometric
 from holecli.errors import PointsError
-from holecli.frame import from_plane_frame, rotation_to_z, to_plane_frame
-from holecli.plane import fit_plane_svd
-from holecli.results import Detection, Hole, Plane
-from holecli.rim import paper_rim
+from holecli.paper.method import detect_paper
+from holecli.results import Detection
 
 METHODS = ("paper", "robust")
 # Fewer points than this cannot hold a plane with a hole and a rim around it.
@@ -40,40 +38,6 @@ def validate_points(points):
     if len(array) < MIN_POINTS:
         raise PointsError(f"too few points: {len(array)} (the pipeline needs at least {MIN_POINTS})")
     return array
-
-
-def _vector(array):
-    return tuple(float(v) for v in array)
-
-
-def _detect_paper(points):
-    plane = fit_plane_svd(points)
-    rotation = rotation_to_z(plane.normal)
-    xy = to_plane_frame(points, plane.point, rotation)[:, :2]
-    rim = paper_rim(xy)
-    holes = ()
-    if len(rim) >= 3:
-        try:
-            fit = fit_circle_geometric(xy[rim])
-        except PointsError:
-            fit = None
-        if fit is not None:
-            center = from_plane_frame(np.array([fit.center[0], fit.center[1], 0.0]), plane.point, rotation)
-            holes = (
-                Hole(
-                    index=0,
-                    center=_vector(center),
-                    diameter=2.0 * fit.radius,
-                    normal=_vector(plane.normal),
-                    rim_points=int(len(rim)),
-                    fit_rms=fit.rms,
-                    max_residual=fit.max_residual,
-                    roundness=fit.roundness,
-                ),
-            )
-    plane_result = Plane(point=_vector(plane.point), normal=_vector(plane.normal), rms=plane.rms,
-                         inliers=len(points))
-    return plane_result, holes
 
 
 def _check_options(view_dir, min_diameter, max_holes):
@@ -135,10 +99,10 @@ def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_hol
     if method == "paper":
         if view_dir is not None or min_diameter is not None or max_holes is not None or full_only:
             raise PointsError("the paper method takes no options (view_dir, min_diameter, max_holes, full_only)")
-        plane, holes = _detect_paper(points)
+        plane, holes = detect_paper(points)
         rejected = ()
     else:
-        from holecli.robust import detect_robust
+        from holecli.robust.method import detect_robust
         from holecli.settings import DEFAULT_SETTINGS
 
         plane, holes, rejected = detect_robust(points, view_dir=view_dir, min_diameter=min_diameter,

@@ -1,6 +1,6 @@
 """Tunables of the robust method, in one place.
 
-Every length is a multiple of a scale measured on the cloud itself (see :mod:`holecli.spacing`), never
+Every length is a multiple of a scale measured on the cloud itself (see :mod:`holecli.robust.sampling`), never
 an absolute length, so a cloud in metres gives the same result as the same cloud in millimetres:
 ``spacing`` (h) is the median nearest-neighbour distance of the surface points and ``gap`` (g) the
 90th percentile of the empty-circle radii of their local Delaunay triangles (0.71 h on a square grid,
@@ -79,7 +79,7 @@ class RobustSettings:
     threads_from_points: int = 200_000
     # A countersink cone's points below the surface must deepen toward the center at least at this
     # fraction of the cone's fitted slope (depth per radius): the flat floor of a blind hole, at one
-    # depth all across the inside, is not a cone (check "flat_floor" of holecli.countersink).
+    # depth all across the inside, is not a cone (check "flat_floor" of holecli.robust.countersink).
     cone_depth_slope_ratio: float = 0.3
     # Fewest rim points for a full hole, and for a partial hole or any hole found in a bay of the
     # scan's border (where the dents of a ragged border must not pass for holes).

@@ -36,8 +36,8 @@ import tomllib
 from dataclasses import dataclass, replace
 from typing import Optional
 
-from holecli.decimal_text import parse_decimal
 from holecli.errors import SpecError
+from holecli.io.decimal_text import parse_decimal
 
 __all__ = ["Band", "NominalHole", "Spec", "check", "nominal_spec", "parse_band", "parse_spec"]
 

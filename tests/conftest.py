@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from holecli import synth
+from holecli.simulation import synth
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 

@@ -7,11 +7,12 @@ from pathlib import Path
 
 import pytest
 
-from holecli import batch, synth
+from holecli import batch
 from holecli.batch import FileSummary, RecordWriter, ResumeError, Tally
 from holecli.errors import LoadError
 from holecli.io import save_points
 from holecli.report import BATCH_CSV_COLUMNS
+from holecli.simulation import synth
 from holecli.tolerance import nominal_spec
 
 OPTIONS = {"method": "robust"}

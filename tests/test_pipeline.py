@@ -6,11 +6,11 @@ import json
 import numpy as np
 import pytest
 
-from holecli import synth
 from holecli.errors import PointsError
+from holecli.geometry.plane import orient_normal
 from holecli.pipeline import MIN_POINTS, detect, validate_points
-from holecli.plane import orient_normal
 from holecli.results import Detection, Hole, Plane
+from holecli.simulation import synth
 
 PLANE_KEYS = {"point", "normal", "rms", "inliers"}
 HOLE_KEYS = {

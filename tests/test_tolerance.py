@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from holecli import synth
 from holecli.errors import SpecError
+from holecli.simulation import synth
 from holecli.tolerance import Band, check, nominal_spec, parse_band, parse_spec
 
 SPEC_TEXT = """

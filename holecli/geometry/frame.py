@@ -1,0 +1,116 @@
+"""Rotation of a cloud into the frame of its plane, and back.
+
+The paper's Eq. (9)/(10) is not a rotation matrix as printed (METHOD.md, errata); this module uses the
+standard Rodrigues formula ``R = I + sin(t) K + (1 - cos(t)) K^2``, with ``K`` the cross-product matrix of
+the unit axis, and treats the two degenerate normals (+z and -z) explicitly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from holecli.errors import PointsError
+
+_Z = np.array([0.0, 0.0, 1.0])
+# Below this sine the axis n x z is numerically undefined and n is taken as +z or -z.
+_PARALLEL_SINE = 1e-12
+
+
+def _unit(vector, name):
+    vector = np.asarray(vector, dtype=np.float64).reshape(-1)
+    if vector.shape != (3,) or not np.all(np.isfinite(vector)):
+        raise PointsError(f"{name} must be a finite 3-vector, got {vector!r}")
+    norm = np.linalg.norm(vector)
+    if norm == 0.0:
+        raise PointsError(f"{name} must not be the zero vector")
+    return vector / norm
+
+
+def cross_matrix(axis):
+    """The matrix ``K`` with ``K @ v == np.cross(axis, v)``."""
+    x, y, z = axis
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def rotation_to_z(normal):
+    """Rotation matrix that turns ``normal`` onto the z axis.
+
+    Parameters
+    ----------
+    normal : (3,) float
+        Direction to rotate; need not be unit length.
+
+    Returns
+    -------
+    (3, 3) float ndarray
+        Proper rotation ``R`` (``R @ R.T == I``, ``det R == 1``) with ``R @ n == (0, 0, 1)`` for the
+        unit vector ``n`` along ``normal``. For ``n == +z`` it is the identity; for ``n == -z`` it is the
+        half turn about the x axis.
+    """
+    n = _unit(normal, "normal")
+    axis = np.cross(n, _Z)
+    sine = np.linalg.norm(axis)
+    cosine = float(np.dot(n, _Z))
+    if sine < _PARALLEL_SINE:
+        if cosine > 0:
+            return np.eye(3)
+        return np.diag([1.0, -1.0, -1.0])
+    k = cross_matrix(axis / sine)
+    return np.eye(3) + sine * k + (1.0 - cosine) * (k @ k)
+
+
+def to_plane_frame(points, origin, rotation):
+    """Coordinates of ``points`` (n, 3) in the frame centred on ``origin`` and rotated by ``rotation``."""
+    return (np.asarray(points, dtype=np.float64) - origin) @ rotation.T
+
+
+def from_plane_frame(local, origin, rotation):
+    """Inverse of :func:`to_plane_frame`."""
+    return np.asarray(local, dtype=np.float64) @ rotation + origin
+
+
+def slide_in_plane_frame(local, direction):
+    """Move each point along ``direction`` until it lies on the plane, in plane-frame coordinates.
+
+    A laser triangulation sensor's range noise lies along its viewing ray; sliding along that ray,
+    rather than projecting orthogonally, keeps the noise out of the in-plane coordinates.
+
+    Parameters
+    ----------
+    local : (n, 3) float
+        Plane-frame coordinates (x, y in the plane, z the height above it); x and y are updated in
+        place, z is left as it is.
+    direction : (3,) float
+        The slide direction in the plane frame; need not be unit length.
+
+    Raises
+    ------
+    PointsError
+        When ``direction`` is zero or (nearly) parallel to the plane.
+    """
+    direction = _unit(direction, "view direction")
+    if abs(direction[2]) < 0.05:
+        raise PointsError(
+            f"view direction {np.round(direction, 4).tolist()} is within 3 degrees of the surface plane; "
+            "points cannot be slid onto it"
+        )
+    local[:, 0] -= local[:, 2] * (direction[0] / direction[2])
+    local[:, 1] -= local[:, 2] * (direction[1] / direction[2])
+
+
+def canonical_rotation(points, plane):
+    """Rotation into a frame that moves with the points: rows (major, minor, normal).
+
+    ``plane`` is a :class:`holecli.geometry.plane.PlaneFit` of ``points`` with ``inliers`` and ``major`` (the
+    in-plane direction of largest spread of its points). The major axis is turned so that the inliers'
+    third moment along it is not negative, and ``minor = normal x major``. Coordinates in this frame
+    (about the plane's centroid) do not change under a rigid motion of the cloud, so grids and windows
+    laid out in them do not depend on how the part sat in the world (when the two in-plane spreads are
+    exactly equal the axes are arbitrary).
+    """
+    normal = np.asarray(plane.normal, dtype=np.float64)
+    major = np.asarray(plane.major, dtype=np.float64)
+    along = points @ major - float(plane.point @ major)
+    if float(np.sum(along[plane.inliers] ** 3)) < 0.0:
+        major = -major
+    return np.vstack([major, np.cross(normal, major), normal])

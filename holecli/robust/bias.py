@@ -1,0 +1,82 @@
+"""Sampling-bias correction of a fitted rim radius.
+
+The rim points are material points, all outside the true edge, so a circle through them is too large
+by an amount that depends on the sampling pattern (square grid, stripes, jitter, random) and on the
+noise. Instead of a fixed correction, the bias is measured on the scan's own points: synthetic holes of
+known radius ``r + offset`` are cut at the measured center into the material around the real hole,
+their rims extracted and fitted exactly as the real one, and the mean excess of the fitted radius over
+the known one is the bias. The synthetic holes share the real hole's center, so they see the same
+phase of a periodic pattern (stripes), the same noise and the same extraction.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from holecli.robust.boundary import hole_rim
+from holecli.robust.edge import fit_edge
+
+
+def synthetic_rim_fit(xy, center, radius, alpha, reach, margin, clip, floor, allow_open=True, depth=None):
+    """Fit the rim of a synthetic hole of ``radius`` cut at ``center`` into ``xy``.
+
+    Only the ring of points between ``radius`` and ``radius + margin`` is triangulated; rim points
+    farther than ``radius + reach`` from the center (where a partial hole opens onto the scan's
+    edge) are ignored. Returns the fitted radius or None.
+    """
+    distance = np.hypot(*(xy - center).T)
+    keep = (distance > radius) & (distance < radius + margin)
+    local = xy[keep]
+    def in_disk(positions):
+        return np.hypot(*(positions - center).T) < radius
+
+    rim = hole_rim(local, in_disk, alpha, cut=distance[keep] > radius + margin - 2.0 * alpha)
+    if rim is None or (rim.open and not allow_open):
+        return None
+    rim_xy = local[rim.index]
+    rim_xy = rim_xy[np.hypot(*(rim_xy - center).T) <= radius + reach]
+    if len(rim_xy) < 5:
+        return None
+    fit, _ = fit_edge(rim_xy, alpha if depth is None else depth, floor, clip, start=(center, radius))
+    return None if fit is None else fit.radius
+
+
+def sampling_bias(xy, center, radius, alpha, offsets, reach, margin, clip, floor, allow_open=True, depth=None):
+    """Mean excess of the fitted over the true radius of synthetic holes cut into ``xy``.
+
+    Synthetic holes must not be smaller than the real hole (else they would hold its void), so the
+    offsets are positive.
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+        Surface points around the hole, reaching at least ``radius + max(offsets) + margin``.
+    center : (2,) float
+    radius : float
+        The current estimate of the true edge radius.
+    alpha : float
+        The empty-circle radius of the rim extraction.
+    offsets : sequence of float
+        The synthetic radii are ``radius + offset``, file units, each > 0. On a regular pattern they
+        are multiples of its period so that each synthetic edge meets the scan lines in the same
+        phase as the real one.
+    reach, margin : float
+        Rim points beyond ``radius + reach`` are ignored; the ring triangulated is ``margin`` wide.
+    allow_open : bool
+        Whether a synthetic hole may reach the scan's edge (true for a partial hole).
+
+    Returns
+    -------
+    float or None
+        The radial bias (positive: rim fits come out too large), None when no synthetic hole could
+        be measured (the material around the hole is too narrow).
+    """
+    excesses = []
+    for offset in offsets:
+        synthetic = radius + offset
+        fitted = synthetic_rim_fit(xy, center, synthetic, alpha, reach, margin, clip, floor, allow_open, depth)
+        if fitted is not None and abs(fitted - synthetic) < alpha:
+            excesses.append(fitted - synthetic)
+    if not excesses:
+        return None
+    return float(np.mean(excesses))

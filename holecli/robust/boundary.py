@@ -1,0 +1,151 @@
+"""The rim of one hole from a local Delaunay triangulation: an alpha-shape boundary.
+
+A Delaunay triangle's circumcircle holds no point, so a triangle whose circumradius exceeds ``alpha``
+marks an empty disk larger than any natural gap of the sampling: a piece of a hole. The hole region is
+the set of such triangles connected to the seed positions, together with any islands it surrounds
+(reflections or debris inside the hole); the rim is the set of points on the edges between that region
+and the surrounding material. Unlike the paper's convex hull of the candidates, this serves holes of
+any number, next to ragged borders, and with points inside.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import QhullError
+
+from holecli.geometry.kernels import circumradii, triangulate
+
+
+@dataclass(frozen=True, eq=False)
+class Rim:
+    """Rim points of a hole region.
+
+    Attributes
+    ----------
+    index : (m,) int
+        Indices (into the local points) of the rim points.
+    open : bool
+        True when the hole region reaches the outer boundary of the local points (a hole cut by the
+        scan border, or a region that leaks out of the window).
+    """
+
+    index: np.ndarray
+    open: bool
+
+
+def _components(neighbors, keep):
+    """Connected components of the triangles ``keep`` through shared edges (labels; -1 elsewhere)."""
+    count = len(neighbors)
+    rows = np.repeat(np.arange(count), 3)
+    cols = neighbors.ravel()
+    valid = (cols >= 0) & keep[rows]
+    valid[valid] &= keep[cols[valid]]
+    graph = coo_matrix((np.ones(valid.sum(), dtype=np.int8), (rows[valid], cols[valid])), shape=(count, count))
+    _, labels = connected_components(graph, directed=False)
+    labels = labels.astype(np.int64)
+    labels[~keep] = -1
+    return labels
+
+
+def hole_rim(xy, in_hole, alpha, cut=None):
+    """Rim of the hole that holds the positions ``in_hole`` marks.
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+        Local surface points around the hole, projected onto the plane.
+    in_hole : callable
+        ``in_hole(positions) -> (k,) bool`` for (k, 2) positions: True where a position lies in the
+        hole's empty region as the caller knows it (a void of the occupancy grid, a synthetic disk).
+        Hole triangles whose circumcenter it marks seed the hole region.
+    alpha : float
+        Empty-circle radius above which a triangle belongs to a hole.
+    cut : (n,) bool, optional
+        Points within ``2 alpha`` of the line along which the local points were cut out of the scan:
+        triangles touching them are material (the cut, not a hole, leaves gaps there).
+
+    Returns
+    -------
+    Rim or None
+        None when no hole triangle has its circumcenter in the marked region (the void is a natural
+        gap smaller than alpha).
+    """
+    if len(xy) < 4:
+        return None
+    try:
+        triangulation = triangulate(xy)
+    except QhullError:
+        return None
+    simplices = triangulation.simplices
+    neighbors = triangulation.neighbors
+    radius, centers = circumradii(xy, simplices)
+    big = radius > alpha
+    # On the outer boundary a circumcircle reaches beyond the points, where nothing was scanned: a
+    # large circle there shows the end of the scan, not a hole, unless the boundary edge itself is
+    # wider than an alpha disk (the mouth of a hole cut by the border).
+    t, k = np.nonzero(neighbors < 0)
+    if len(t):
+        ends = simplices[t][np.arange(3)[None, :] != k[:, None]].reshape(-1, 2)
+        narrow = np.hypot(*(xy[ends[:, 0]] - xy[ends[:, 1]]).T) < 2.0 * alpha
+        big[t[narrow]] = False
+    if cut is not None:
+        big[np.any(cut[simplices], axis=1)] = False
+    seed_triangles = np.flatnonzero(big)
+    seed_triangles = seed_triangles[in_hole(centers[seed_triangles])]
+    if len(seed_triangles) == 0:
+        return None
+    big_labels = _components(neighbors, big)
+    region = np.isin(big_labels, np.unique(big_labels[seed_triangles]))
+    # Everything not in the region, grouped; the groups that reach the triangulation's boundary are
+    # the surrounding material, the others are islands the region encloses.
+    other_labels = _components(neighbors, ~region)
+    on_boundary = np.any(neighbors < 0, axis=1)
+    outer_groups = np.unique(other_labels[on_boundary & ~region])
+    outside = np.isin(other_labels, outer_groups) & ~region
+    hole = ~outside
+    # Rim edges: a hole triangle next to an outside triangle; neighbour k is opposite vertex k.
+    t, k = np.nonzero(hole[:, None] & (neighbors >= 0) & outside[np.maximum(neighbors, 0)])
+    keep = np.ones((len(t), 3), dtype=bool)
+    keep[np.arange(len(t)), k] = False
+    index = np.unique(simplices[t][keep])
+    is_open = bool(np.any(region & on_boundary))
+    return Rim(index=index, open=is_open)
+
+
+def outer_envelope(rim_xy, center, depth, sectors):
+    """Rim points within ``depth`` of the outermost rim point of their angular sector.
+
+    Points inside a hole that lie closer than alpha to its edge join the material in the
+    triangulation; they sit deeper in the hole than the true rim points of the same direction and
+    are dropped here.
+
+    Parameters
+    ----------
+    rim_xy : (m, 2) float
+    center : (2,) float
+        Current estimate of the hole's center.
+    depth : float
+    sectors : int
+        Number of equal angular sectors around ``center``.
+
+    Returns
+    -------
+    (m,) bool
+    """
+    offset = rim_xy - center
+    radius = np.hypot(offset[:, 0], offset[:, 1])
+    sector = ((np.arctan2(offset[:, 1], offset[:, 0]) + np.pi) / (2 * np.pi) * sectors).astype(np.int64)
+    sector = np.clip(sector, 0, sectors - 1)
+    outermost = np.full(sectors, -np.inf)
+    np.maximum.at(outermost, sector, radius)
+    return radius >= outermost[sector] - depth
+
+
+def near_box_edge(xy, low, high, distance):
+    """Points within ``distance`` of the sides of the box ``(low, high)`` (a ``cut`` for hole_rim)."""
+    clearance = np.minimum(np.min(xy - low, axis=1), np.min(high - xy, axis=1))
+    return clearance < distance

@@ -1,0 +1,800 @@
+"""The robust method: every hole in the scan, with rim outliers rejected and the sampling bias removed.
+
+Steps (each its own module):
+
+1. plane of the dominant surface by RANSAC and iterated least squares (:func:`holecli.geometry.plane.fit_plane_robust`);
+2. rotation into the plane frame, with an orthogonal projection or a slide along the sensor's view
+   direction (:mod:`holecli.geometry.frame`);
+3. the sampling's spacing and gap scale (:mod:`holecli.robust.sampling`): every threshold below is a multiple;
+4. hole candidates as voids of an occupancy grid, linear in the point count (:mod:`holecli.robust.candidates`);
+5. per candidate, a local Delaunay triangulation and its alpha-shape rim (:mod:`holecli.robust.boundary`);
+6. a robust geometric circle fit (:mod:`holecli.robust.edge`, :mod:`holecli.geometry.circle`), checks that the void is
+   a round hole and not a boss, a dent of the border or a natural gap, and its scanned coverage;
+7. the edge: where a countersink cone meets the surface (:mod:`holecli.robust.countersink`; the flat floor of
+   a blind hole is no cone), else the rim fit corrected for the sampling bias, by lattice brackets on
+   regular scans (:mod:`holecli.robust.lattice`) or by synthetic holes (:mod:`holecli.robust.bias`); a local plane
+   gives the normal and the 3D center.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy import ndimage
+
+from holecli.errors import PointsError
+from holecli.geometry.frame import canonical_rotation, from_plane_frame, slide_in_plane_frame
+from holecli.geometry.plane import PlaneFit, fit_plane_robust, fit_plane_scatter, orient_normal
+from holecli.results import Hole, Plane, Rejection
+from holecli.robust.bias import sampling_bias
+from holecli.robust.boundary import hole_rim, near_box_edge
+from holecli.robust.candidates import find_voids, occupancy_grid
+from holecli.robust.countersink import MIN_SLOPE as MIN_CONE_SLOPE
+from holecli.robust.countersink import Cone, fit_cone_edge
+from holecli.robust.edge import fit_edge
+from holecli.robust.empty_circle import empty_circle_bias, largest_empty_circle
+from holecli.robust.lattice import lattice_steps, separating_circle
+from holecli.robust.sampling import estimate_sampling
+from holecli.settings import DEFAULT_SETTINGS
+
+
+@dataclass(frozen=True, eq=False)
+class _Scene:
+    """What every candidate's measurement needs to know of the whole scan."""
+
+    xy: np.ndarray           # (n, 2) all points in the plane frame (projected or slid)
+    surface_xy: np.ndarray   # (m, 2) the plane inliers' rows of xy
+    material_xy: np.ndarray  # surface_xy in material cells of the grid (specks inside holes removed)
+    above_xy: np.ndarray     # (k, 2) points standing above the surface band (a boss, outliers)
+    surface_density: float   # surface points per unit area of scanned material
+    height_noise: float      # robust sd of the surface points' heights
+    band: float              # largest |height| of a surface point: above it stand a boss or outliers
+    points: np.ndarray       # (n, 3) the cloud, world coordinates
+    surface_index: np.ndarray  # (m,) rows of the plane inliers in points
+    heights: np.ndarray      # (n,) signed distance from the plane
+    origin: np.ndarray
+    rotation: np.ndarray
+    direction: np.ndarray    # projection direction (unit, world)
+    sampling: object
+    alpha: float
+    cell: float
+    min_radius: float
+    gap_scatter: float       # rim scatter the sampling alone produces
+    envelope: float          # depth below its sector's outermost rim point at which a rim point is dropped
+
+
+@dataclass(frozen=True)
+class _Rejected:
+    """A candidate void that is not reported as a hole: the check that refused it, with its value and
+    limit (None where the check has no number), and where the void is (plane frame)."""
+
+    check: str
+    value: object
+    limit: object
+    center: np.ndarray
+    radius: float
+    shape: object = None  # (length, width, direction (2,)) of a cut-out that is not round
+
+
+# What each check means, for the record and for people (holecli detect --explain).
+REJECTION_REASONS = {
+    "no_rim": "no hole boundary around the void (a gap of the sampling)",
+    "too_few_rim_points": "too few rim points for a circle fit",
+    "no_circle_fit": "the rim points do not give a circle",
+    "below_min_diameter": "smaller than the minimum diameter",
+    "circle_off_void": "the fitted circle does not cover the void it came from",
+    "not_round": "the rim is not round (robust scatter of the radial residuals above the limit)",
+    "partial_rim_arc": "a partial hole whose rim covers too little of its circle",
+    "boss": "material stands above the surface inside it (a pin or boss, not a hole)",
+    "duplicate": "the same hole as another candidate with more rim points",
+    "partial_left_out": "a partial hole, left out by --full-only",
+    "beyond_max_holes": "smaller than the holes kept by --max-holes",
+}
+
+
+@dataclass(frozen=True, eq=False)
+class _Measured:
+    center: np.ndarray       # (2,) plane frame
+    radius: float            # corrected
+    bias: float              # radial
+    fit: object
+    rim_xy: np.ndarray
+    partial: bool
+    arc_deg: float
+    surface_plane: object = None  # PlaneFit of the surface around the hole (None: the global plane)
+
+
+def _box_indices(xy, low, high):
+    inside = (xy[:, 0] >= low[0]) & (xy[:, 0] <= high[0]) & (xy[:, 1] >= low[1]) & (xy[:, 1] <= high[1])
+    return np.flatnonzero(inside)
+
+
+def _rim_arc(rim_xy, center):
+    """Degrees of the circle not in the largest angular gap between rim points."""
+    angles = np.sort(np.arctan2(rim_xy[:, 1] - center[1], rim_xy[:, 0] - center[0]))
+    gaps = np.diff(np.concatenate([angles, [angles[0] + 2 * np.pi]]))
+    return float(np.degrees(2 * np.pi - gaps.max()))
+
+
+def _material_arc(grid, center, radius, samples=720):
+    """Degrees of the circle with scanned material just outside it (a cell beyond the edge).
+
+    Counted on the occupancy grid rather than from the rim points, whose spacing along a sparse rim
+    (or near the scan's edge) would understate the coverage.
+    """
+    angles = np.linspace(0.0, 2 * np.pi, samples, endpoint=False)
+    ring = center + (radius + grid.cell) * np.column_stack([np.cos(angles), np.sin(angles)])
+    return 360.0 * float(np.mean(grid.lookup(grid.solid, ring)))
+
+
+def _within(xy, center, inner, outer):
+    """Indices of the points of ``xy`` at a distance in [inner, outer) from ``center``.
+
+    A box test first: on a million points it is several times cheaper than the distances.
+    """
+    index = _box_indices(xy, center - outer, center + outer)
+    distance = np.hypot(xy[index, 0] - center[0], xy[index, 1] - center[1])
+    return index[(distance >= inner) & (distance < outer)]
+
+
+def _local_normal(scene, center, radius, settings):
+    """The surface at one hole: its tangent plane where the hole's axis meets it, from a plane or,
+    on a curved surface, a quadric fitted to the plane inliers in the ring [r, 3r] (see
+    :func:`_tangent_of_quadric`)."""
+    ring = _ring_plane(scene, center, radius, 3.0)
+    if ring is None:
+        return None
+    points, plane = ring
+    on_plane = from_plane_frame(np.array([center[0], center[1], 0.0]), scene.origin, scene.rotation)
+    return _tangent_of_quadric(points, plane, on_plane, settings.curvature_sigmas)
+
+
+def _ring_plane(scene, center, radius, outer_radii):
+    """The surface points in the ring [r, outer_radii r] around a hole (world) and their plane, or
+    None when the ring holds too few points (under 30) for it."""
+    ring = _within(scene.surface_xy, center, radius, outer_radii * radius)
+    if len(ring) < 30:
+        return None
+    points = scene.points[scene.surface_index[ring]]
+    try:
+        return points, fit_plane_scatter(points)
+    except PointsError:
+        return None
+
+
+def _plane_frame_at(plane, near):
+    """The foot of ``near`` on ``plane`` and the rows (first axis, second axis, normal) of the
+    plane's frame there, the first along the plane's major axis."""
+    normal = plane.normal
+    first = plane.major - (plane.major @ normal) * normal
+    first /= np.linalg.norm(first)
+    foot = near - ((near - plane.point) @ normal) * normal
+    return foot, np.vstack([first, np.cross(normal, first), normal])
+
+
+def _tangent_of_quadric(points, plane, near, sigmas):
+    """Tangent plane of ``h = a + b s + c t + d s^2 + e s t + f t^2`` fitted to ``points`` in the frame
+    of ``plane`` centred at ``near``'s foot on it, taken at that foot; ``plane`` itself when the
+    curvature is not significant.
+
+    A plane through the ring around a hole of a curved panel (cylindrical, R 500-2000 mm) lies below
+    or above the surface at the hole by the sag of the ring (10 um for a 5 mm hole at R 800): the
+    quadric follows the curvature and puts the center on the surface. The quadric is taken
+    only where the surface really curves (:func:`_curved_quadric`, check ``curvature_sigmas``). On a
+    symmetric ring the linear terms (the normal) are those of the plane.
+    """
+    foot, basis = _plane_frame_at(plane, near)
+    first, second, normal = basis
+    local = (points - foot) @ basis.T
+    scale = float(np.sqrt(np.mean(local[:, 0] ** 2 + local[:, 1] ** 2)))  # conditioning: unit-size coordinates
+    quadric = _curved_quadric(local, scale, sigmas)
+    if quadric is None:
+        return plane
+    origin = np.zeros((1, 2))
+    (b, c), = quadric.gradient(origin)
+    tangent_normal = orient_normal(normal - b * first - c * second)
+    rms = float(np.sqrt(np.mean((quadric.height(local[:, :2]) - local[:, 2]) ** 2)))
+    return PlaneFit(point=foot + float(quadric.height(origin)[0]) * normal, normal=tangent_normal, rms=rms,
+                    major=first)
+
+
+def _scan_lines(scene, rim_xy, center, radius):
+    """Number of scan lines with rim points across the hole, for striped scans (else None)."""
+    sampling = scene.sampling
+    if sampling.line_direction is None:
+        return None
+    across_axis = np.array([-sampling.line_direction[1], sampling.line_direction[0]])
+    across = rim_xy @ across_axis - center @ across_axis
+    across = across[np.abs(across) < radius]
+    if len(across) == 0:
+        return 0
+    return int(len(np.unique(np.round((across - across.min()) / sampling.line_pitch))))
+
+
+def _boss_points(scene, center, radius, settings):
+    """Points standing above the surface inside the void, and how many a hole may have: more is
+    material (a pin or boss), not a hole."""
+    above = len(_within(scene.above_xy, center, 0.0, 0.9 * radius))
+    allowed = settings.boss_fraction * scene.surface_density * np.pi * (0.9 * radius) ** 2
+    return above, float(allowed)
+
+
+def _countersink(scene, center, radius, settings):
+    """The countersink cone around a fitted rim, or the named check it failed (a
+    :class:`holecli.robust.countersink.NotACone`; see :mod:`holecli.robust.countersink`).
+
+    The edge is searched within a window of the rim's radius. Where the surface band is wide (a
+    scan of a curved panel, whose plane lies tens of um off the surface), the top of the cone counts
+    as surface and the rim lies inside the edge by more than the window: an edge found at the
+    window's outer limit (settings ``cone_window_limit``) moves the window out to it, up to
+    ``cone_window_moves`` times.
+    """
+    width = 2.0 * scene.alpha
+    cone = None
+    for _ in range(settings.cone_window_moves + 1):
+        xy, depth = _points_around_edge(scene, center, radius, width, settings)
+        rho = np.hypot(xy[:, 0] - center[0], xy[:, 1] - center[1])
+        found = fit_cone_edge(rho, depth, radius, width, scene.height_noise,
+                              depth_slope_ratio=settings.cone_depth_slope_ratio)
+        if not isinstance(found, Cone):
+            return found if cone is None else cone
+        cone = found
+        if found.radius < radius + (1.0 - settings.cone_window_limit) * width:
+            break
+        radius = found.radius
+    return cone
+
+
+def _points_around_edge(scene, center, radius, width, settings):
+    """The points within [r - 2 width, r + width] of ``center`` that may lie on a countersink's cone
+    (plane frame xy, (k, 2)), and their depth below the surface around the hole (k,)."""
+    index = _within(scene.xy, center, max(radius - 2.0 * width, 0.0), radius + width)
+    # Points above the surface band (outliers, a stray point 1e8 off along the normal) are on no
+    # cone, and one of them would outweigh every other point in the hinge's least squares.
+    index = index[scene.heights[index] <= scene.band]
+    xy = scene.xy[index]
+    return xy, _surface_height(scene, center, radius, settings, xy) - scene.heights[index]
+
+
+def _cone_in_the_plane(scene, center, cone, settings):
+    """Center and edge radius of a countersink from its cone, ``depth = s * max(0, R - |xy - c|)``
+    fitted to the points around the edge with the center ``c`` free.
+
+    The hinge of :func:`holecli.robust.countersink.fit_cone_edge` takes the rim's center; the rim lies inside
+    the edge by what the surface band hides of the cone, and on a tilted scan the camera sees more of
+    one side of the cone than of the other, so the rim's center is off by up to 0.3 spacings there.
+    The cone's own points, wherever they are, say where its axis is. A fit that runs off (its center
+    or edge more than the edge's search window away, or its slope below a cone's) is not trusted: the
+    rim's center and the hinge's edge stay.
+    """
+    from scipy.optimize import least_squares
+
+    width = 2.0 * scene.alpha
+    xy, depth = _points_around_edge(scene, center, cone.radius, width, settings)
+    if len(xy) < 12:
+        return center, cone.radius
+    scale = max(scene.height_noise, 1e-12 * cone.radius)
+
+    def residuals(parameters):
+        cx, cy, edge, slope = parameters
+        rho = np.hypot(xy[:, 0] - cx, xy[:, 1] - cy)
+        return (depth - slope * np.maximum(edge - rho, 0.0)) / scale
+
+    start = np.array([center[0], center[1], cone.radius, cone.slope])
+    try:
+        result = least_squares(residuals, start, loss="soft_l1", f_scale=3.0, x_scale=[width, width, width, 1.0])
+    except (ValueError, np.linalg.LinAlgError):
+        return center, cone.radius
+    cx, cy, edge, slope = result.x
+    shift = float(np.hypot(cx - center[0], cy - center[1]))
+    if not result.success or shift > width or abs(edge - cone.radius) > width or not MIN_CONE_SLOPE <= slope:
+        return center, cone.radius
+    return np.array([cx, cy]), float(edge)
+
+
+def _surface_height(scene, center, radius, settings, xy):
+    """Height of the surface itself at ``xy`` (plane frame) near a hole: 0, the global plane, unless
+    the surface in the ring [r, 3r] curves away from it significantly (a curved panel, where the plane
+    of a large scan lies tens of um off the surface at a hole and a countersink's depth would be
+    measured from the wrong level); then a quadric fitted to that ring (check ``curvature_sigmas``)."""
+    ring = _within(scene.surface_xy, center, radius, 3.0 * radius)
+    if len(ring) < 30:
+        return np.zeros(len(xy))
+    local = np.column_stack([scene.surface_xy[ring] - center, scene.heights[scene.surface_index[ring]]])
+    quadric = _curved_quadric(local, radius, settings.curvature_sigmas)
+    if quadric is None:
+        return np.zeros(len(xy))
+    return quadric.height(xy - center)
+
+
+def _near_void(grid, void, cells):
+    """A test ``near(xy) -> bool``: within ``cells`` grid cells (8-connected) of the void."""
+    lower = void.lower - cells
+    shape = void.upper - void.lower + 1 + 2 * cells
+    mask = np.zeros(shape, dtype=bool)
+    mask[void.cells[:, 0] - lower[0], void.cells[:, 1] - lower[1]] = True
+    mask = ndimage.binary_dilation(mask, structure=np.ones((3, 3), dtype=bool), iterations=cells)
+
+    def near(xy):
+        ij = grid.cell_of(xy) - lower
+        inside = np.all((ij >= 0) & (ij < shape), axis=1)
+        out = np.zeros(len(xy), dtype=bool)
+        out[inside] = mask[ij[inside, 0], ij[inside, 1]]
+        return out
+
+    return near
+
+
+def _void_neighbourhood(scene, grid, void, void_mask, margin):
+    """Material points around a void, and which of them lie near the line they were cut along.
+
+    An enclosed void takes a ring: from just inside its largest empty disk (the inside of a hole
+    holds nothing the rim needs) to ``margin`` beyond its farthest cell. A bay takes its bounding box
+    grown by ``margin``.
+    """
+    cell, alpha = scene.cell, scene.alpha
+    centers = grid.center_of(void.cells)
+    if void.enclosed:
+        center = centers.mean(axis=0)
+        distance = np.hypot(*(centers - center).T)
+        lower, upper = void.lower, void.upper + 1
+        eroded = ndimage.binary_erosion(void_mask[lower[0]:upper[0], lower[1]:upper[1]])
+        border = void.cells[~eroded[void.cells[:, 0] - lower[0], void.cells[:, 1] - lower[1]]]
+        inner = max(0.0, float(np.min(np.hypot(*(grid.center_of(border) - center).T))) - cell - 2.0 * alpha)
+        outer = float(distance.max()) + cell + margin
+        if np.all(np.hypot(*(centers - center).T) < outer - margin):
+            index = _within(scene.material_xy, center, inner, outer)
+            local = scene.material_xy[index]
+            return local, np.hypot(*(local - center).T) > outer - 2.0 * alpha
+    low = centers.min(axis=0) - 0.5 * cell - margin
+    high = centers.max(axis=0) + 0.5 * cell + margin
+    local = scene.material_xy[_box_indices(scene.material_xy, low, high)]
+    return local, near_box_edge(local, low, high, 2.0 * alpha)
+
+
+def _measure_void(scene, grid, void, settings):
+    """Measure one void; returns a :class:`_Measured`, or a :class:`_Rejected` naming the check that
+    refused it."""
+    cell, alpha = scene.cell, scene.alpha
+    void_xy = grid.center_of(void.cells)
+    void_center = void_xy.mean(axis=0)
+    void_radius = float(np.max(np.hypot(*(void_xy - void_center).T))) + 0.5 * cell
+
+    def reject(check, value=None, limit=None, center=None, radius=None, shape=None):
+        return _Rejected(check=check, value=value, limit=limit,
+                         center=void_center if center is None else center,
+                         radius=void_radius if radius is None else float(radius), shape=shape)
+
+    def refusal_of_fit(fit, used, fewest):
+        if fit is None:
+            return reject("no_circle_fit")
+        if used.sum() < fewest:
+            return reject("too_few_rim_points", int(used.sum()), fewest, fit.center, fit.radius)
+        if fit.radius < scene.min_radius:
+            return reject("below_min_diameter", 2.0 * fit.radius, 2.0 * scene.min_radius, fit.center, fit.radius)
+        return None
+    margin = settings.margin_alphas * alpha + cell
+    void_mask = np.zeros_like(grid.material)
+    void_mask[void.cells[:, 0], void.cells[:, 1]] = True
+
+    def in_void(positions):
+        return grid.lookup(void_mask, positions)
+
+    local, cut = _void_neighbourhood(scene, grid, void, void_mask, margin)
+    rim = hole_rim(local, in_void, alpha, cut=cut)
+    if rim is None:
+        return reject("no_rim")
+    rim_xy = local[rim.index]
+    # Keep rim points next to the void: an open region also runs along the scan's outer edge.
+    near = _near_void(grid, void, 2)
+    rim_xy = rim_xy[near(rim_xy)]
+    # A void open to the scan's outside (a bay) needs the stronger evidence of a partial hole even
+    # when its rim closes: dents of a ragged border are bays too.
+    fewest = settings.min_partial_rim_points if not void.enclosed else settings.min_rim_points
+    if len(rim_xy) < fewest:
+        return reject("too_few_rim_points", len(rim_xy), fewest)
+    floor = settings.clip_floor_spacings * scene.sampling.spacing
+    fit, used = fit_edge(rim_xy, scene.envelope, floor, settings.clip_sigmas)
+    refused = refusal_of_fit(fit, used, fewest)
+    if refused is not None:
+        return refused
+    # Points deep inside the fitted hole (reflections next to the edge) can shield the true rim from
+    # the triangulation: drop them and extract the rim once more.
+    deep = np.hypot(*(local - fit.center).T) < fit.radius - scene.envelope
+    if np.any(deep):
+        local = local[~deep]
+        rim = hole_rim(local, in_void, alpha, cut=cut[~deep])
+        if rim is None:
+            return reject("no_rim", center=fit.center, radius=fit.radius)
+        rim_xy = local[rim.index]
+        rim_xy = rim_xy[near(rim_xy)]
+        if len(rim_xy) < fewest:
+            return reject("too_few_rim_points", len(rim_xy), fewest, fit.center, fit.radius)
+        fit, used = fit_edge(rim_xy, scene.envelope, floor, settings.clip_sigmas)
+        refused = refusal_of_fit(fit, used, fewest)
+        if refused is not None:
+            return refused
+    center, radius = fit.center, fit.radius
+    # The circle must sit on the void it came from, and the rim must be round.
+    off_void = float(np.min(np.hypot(*(void_xy - center).T)))
+    if off_void > radius:
+        return reject("circle_off_void", off_void, float(radius), center, radius)
+    scatter = 1.4826 * float(np.median(np.abs(fit.residuals)))
+    allowed = settings.max_relative_scatter * radius + scene.gap_scatter
+    if scatter > allowed:
+        return reject("not_round", scatter, float(allowed), center, radius, shape=_outline_shape(rim_xy))
+    # A closed region whose rim still misses a third of the circle lost its rim to missing data.
+    # Partial: the circle is not surrounded by scanned material (cut by the scan's border, or its
+    # rim lost to missing data). Such a hole is accepted on the rim points' own (conservative)
+    # coverage and reported with the scanned coverage.
+    arc = _material_arc(grid, center, radius)
+    partial = arc < settings.full_arc_deg
+    if partial:
+        rim_arc = _rim_arc(rim_xy[used], center)
+        if rim_arc < settings.min_partial_arc_deg:
+            return reject("partial_rim_arc", float(rim_arc), settings.min_partial_arc_deg, center, radius)
+        if used.sum() < settings.min_partial_rim_points:
+            return reject("too_few_rim_points", int(used.sum()), settings.min_partial_rim_points, center, radius)
+    else:
+        arc = 360.0
+    above, allowed_above = _boss_points(scene, center, radius, settings)
+    if above > allowed_above:
+        return reject("boss", above, allowed_above, center, radius)
+    cone = _countersink(scene, center, radius, settings)
+    if isinstance(cone, Cone):
+        # A countersunk hole: its edge is where the cone meets the surface.
+        cone_center, cone_radius = _cone_in_the_plane(scene, center, cone, settings)
+        return _Measured(center=cone_center, radius=cone_radius, bias=radius - cone_radius, fit=fit,
+                         rim_xy=rim_xy[used], partial=partial, arc_deg=arc)
+    edge = None
+    if scene.sampling.lattice_axes and not partial:
+        edge = separating_circle(local, rim_xy[used], lattice_steps(local, scene.sampling.lattice_axes,
+                                                                    scene.sampling.spacing), center, radius)
+    # The largest empty circle on irregular sampling whose in-plane scatter is small: on a noisy
+    # surface the noise carries points into the hole and the empty circle shrinks with it.
+    quiet = scene.height_noise * np.sqrt(scene.surface_density) <= settings.empty_circle_max_noise
+    if edge is None and not partial and scene.sampling.period is None and quiet:
+        edge = _empty_circle(scene, local, center, radius)
+    if edge is not None:
+        center, corrected, _ = edge
+        bias = radius - corrected
+    else:
+        bias = _sampling_bias(scene, center, radius, settings, floor, partial)
+    if radius - bias < scene.min_radius:
+        return reject("below_min_diameter", 2.0 * (radius - bias), 2.0 * scene.min_radius, center, radius - bias)
+    return _Measured(center=center, radius=radius - bias, bias=bias, fit=fit, rim_xy=rim_xy[used],
+                     partial=partial, arc_deg=arc)
+
+
+def _outline_shape(rim_xy):
+    """Length, width and direction (plane frame) of a cut-out from its rim: its extent along its
+    principal axes (a slot's overall length and width).
+
+    The rim holds the material points within an alpha of the edge, a few rows deep: the width is
+    taken between the innermost rows of the two long sides (the 10th percentile of each side's
+    distance from the axis, over the middle half of the length), the length between the innermost
+    points of the two rounded ends, each corrected for where it sits on its end's semicircle.
+    """
+    centred = rim_xy - rim_xy.mean(axis=0)
+    _, vectors = np.linalg.eigh(centred.T @ centred)
+    major = vectors[:, 1]
+    along, across = centred @ major, centred @ vectors[:, 0]
+    middle = np.abs(along) < 0.25 * np.ptp(along)  # the long sides, away from the ends
+    left, right = -across[middle & (across < 0)], across[middle & (across > 0)]
+    if len(left) < 3 or len(right) < 3:
+        return float(np.ptp(along)), float(np.ptp(across)), major
+    width = float(np.percentile(left, 10) + np.percentile(right, 10))
+    # On a rounded end a rim point at distance a from the axis lies sqrt(w^2/4 - a^2) short of the
+    # end's tip: each end point gives the half length it implies; the innermost one counts.
+    near_axis = np.abs(across) < 0.4 * width
+    half = np.abs(along[near_axis]) + 0.5 * width - np.sqrt(np.maximum(0.25 * width ** 2 - across[near_axis] ** 2, 0.0))
+    ends = np.sign(along[near_axis])
+    if not (np.any(ends < 0) and np.any(ends > 0)):
+        return float(np.ptp(along)), width, major
+    length = float(half[ends < 0].min() + half[ends > 0].min())
+    return length, width, major
+
+
+def _sampling_bias(scene, center, radius, settings, floor, partial):
+    """Radial sampling bias of a rim fit of ``radius`` at ``center`` (see :mod:`holecli.robust.bias`)."""
+    period = scene.sampling.period or 0.5 * scene.alpha
+    # Enough synthetic holes for about bias_rim_points rim points in all: a large hole's rim alone
+    # pins the bias down, a small one needs several.
+    rim_points = max(2.0 * np.pi * radius / scene.sampling.spacing, 1.0)
+    count = int(np.clip(np.ceil(settings.bias_rim_points / rim_points), 1, len(settings.bias_offsets)))
+    offsets = [k * period for k in settings.bias_offsets[:count]]
+    reach = scene.alpha + 2.0 * scene.cell
+    margin = settings.margin_alphas * scene.alpha + scene.cell
+    ring = scene.material_xy[_within(scene.material_xy, center, radius - period,
+                                     radius + offsets[-1] + margin + period)]
+    bias = 0.0
+    for _ in range(settings.bias_passes):
+        # Cut the synthetic holes in phase with the current estimate of the true edge.
+        estimate = sampling_bias(ring, center, radius - bias, scene.alpha, offsets, reach, margin,
+                                 settings.clip_sigmas, floor, allow_open=partial, depth=scene.envelope)
+        if estimate is None:
+            break
+        bias = estimate
+    return bias
+
+
+def _empty_circle(scene, local, center, radius):
+    """The edge of a hole in irregular sampling: the largest circle empty of its surface points,
+    less that circle's overshoot on synthetic holes cut into the same points (see
+    :mod:`holecli.robust.empty_circle`). ``(center, radius, overshoot)`` or None."""
+    reach = scene.alpha
+    found = largest_empty_circle(local, center, radius, reach)
+    if found is None:
+        return None
+    empty_center, empty_radius = found
+    offsets = [k * scene.sampling.gap for k in (1, 2, 3, 4)]
+    ring = scene.surface_xy[_within(scene.surface_xy, empty_center, empty_radius,
+                                    empty_radius + offsets[-1] + 3.0 * reach)]
+    overshoot = empty_circle_bias(ring, empty_center, empty_radius, offsets, reach)
+    if overshoot is None:
+        return None
+    return empty_center, empty_radius - overshoot, overshoot
+
+
+def _measure_voids(scene, grid, voids, settings):
+    """:func:`_measure_void` of every void (a hole or a rejection), in order; on a large cloud two at
+    a time in threads.
+
+    The per-hole work is mostly Qhull and numpy, which release the interpreter lock, so a second
+    thread uses the second core of the machine; small clouds are not worth the threads.
+    """
+    def measure(void):
+        measured = _measure_void(scene, grid, void, settings)
+        if isinstance(measured, _Rejected):
+            return measured
+        return replace(measured, surface_plane=_local_normal(scene, measured.center, measured.radius, settings))
+
+    if len(voids) < 2 or len(scene.xy) < settings.threads_from_points:
+        return [measure(void) for void in voids]
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=min(settings.threads, len(voids))) as pool:
+        return list(pool.map(measure, voids))
+
+
+def _overlaps(a, b):
+    return np.hypot(*(a.center - b.center)) < max(a.radius, b.radius)
+
+
+def _to_hole(scene, measured, index):
+    center2d = measured.center
+    local_plane = measured.surface_plane
+    on_plane = from_plane_frame(np.array([center2d[0], center2d[1], 0.0]), scene.origin, scene.rotation)
+    normal = scene.rotation[2]
+    if local_plane is not None:
+        normal = local_plane.normal
+        # Move the center along the projection direction onto the local plane.
+        along = float(scene.direction @ normal)
+        if abs(along) > 1e-6:
+            on_plane = on_plane - scene.direction * (float((on_plane - local_plane.point) @ normal) / along)
+    fit = measured.fit
+    return Hole(
+        index=index,
+        center=tuple(map(float, on_plane)),
+        diameter=2.0 * measured.radius,
+        normal=tuple(map(float, normal)),
+        rim_points=int(fit.kept.sum()),
+        fit_rms=fit.rms,
+        max_residual=fit.max_residual,
+        roundness=fit.roundness,
+        bias_correction=2.0 * measured.bias,
+        partial=measured.partial,
+        arc_deg=measured.arc_deg,
+        scan_lines=_scan_lines(scene, measured.rim_xy, center2d, measured.radius),
+    )
+
+
+def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, full_only=False,
+                  settings=DEFAULT_SETTINGS, rng=0, flat_crop=False):
+    """The robust method; see the module docstring.
+
+    Returns
+    -------
+    plane : Plane
+    holes : tuple of Hole
+        Full holes before partial ones, each group ordered by center x, then y, then z.
+    rejected : tuple of Rejection
+        Every candidate void that is not a hole, with the check that refused it, largest first.
+
+    ``flat_crop`` marks the call that measures one hole of a curved surface again on its flattened
+    neighbourhood (see :func:`_on_curved_surface`): it does not recurse.
+    """
+    plane = fit_plane_robust(points, rng=rng, sample=settings.ransac_sample,
+                             hypotheses=settings.ransac_hypotheses, quantile=settings.ransac_quantile,
+                             clip=settings.plane_clip)
+    normal, origin = plane.normal, plane.point
+    # In-plane axes from the surface points themselves (centroid, principal axes), so that the grid
+    # and the windows below move with the cloud under any rigid motion.
+    rotation = canonical_rotation(points, plane)
+    # One (n, 3) @ (3, 3) product with a C-ordered right factor (BLAS); the rows of the rotation are
+    # the in-plane axes and the normal, so the third coordinate is the height above the plane.
+    local = (points - origin) @ np.ascontiguousarray(rotation.T)
+    heights = np.ascontiguousarray(local[:, 2])
+    surface = plane.inliers
+    if view_dir is None:
+        direction = normal
+    else:
+        direction = np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir)
+        # Only the surface's points slide: their height above the plane is range noise along the
+        # ray. A point of a cone, a bore wall or a floor is really below the surface; sliding it would
+        # move it sideways by its depth times the tilt and bend the cone the countersink fit reads.
+        surface_local = local[surface]
+        slide_in_plane_frame(surface_local, rotation @ direction)
+        local[surface] = surface_local
+    # Column-major: the box tests below read x and y as contiguous columns.
+    xy = np.asfortranarray(local[:, :2])
+    del local
+    band = float(np.max(np.abs(heights[surface])))
+    sampling = estimate_sampling(xy[surface], windows=settings.sampling_windows,
+                                 window_points=settings.sampling_window_points)
+    gap = sampling.gap
+    min_radius = 0.5 * (min_diameter if min_diameter is not None else settings.min_diameter_gaps * gap)
+    surface_xy = np.asfortranarray(xy[surface])
+    cell = settings.cell_gaps * gap
+    grid = occupancy_grid(surface_xy, cell)
+    material_xy = np.asfortranarray(surface_xy[grid.lookup(grid.material, surface_xy)])
+    above_xy = np.asfortranarray(xy[(heights > band) & ~surface])
+    surface_density = len(surface_xy) / max(float(np.count_nonzero(grid.material)) * cell * cell, 1e-300)
+    height_noise = 1.4826 * float(np.median(np.abs(heights[surface])))
+    scene = _Scene(xy=xy, surface_xy=surface_xy, material_xy=material_xy, above_xy=above_xy,
+                   surface_density=surface_density, height_noise=height_noise, band=band, heights=heights,
+                   points=points, surface_index=np.flatnonzero(surface), origin=origin, rotation=rotation,
+                   direction=direction, sampling=sampling, alpha=settings.alpha_gaps * gap, cell=cell,
+                   min_radius=min_radius, gap_scatter=0.5 * gap, envelope=settings.envelope_gaps * gap)
+    found, rejected = [], []
+    for measured in _measure_voids(scene, grid, find_voids(grid), settings):
+        if isinstance(measured, _Rejected):
+            rejected.append(measured)
+            continue
+        twin = next((i for i, other in enumerate(found) if _overlaps(measured, other)), None)
+        if twin is None:
+            found.append(measured)
+            continue
+        kept, dropped = (measured, found[twin]) if measured.fit.kept.sum() > found[twin].fit.kept.sum() \
+            else (found[twin], measured)
+        found[twin] = kept
+        rejected.append(_as_rejected(dropped, "duplicate", int(dropped.fit.kept.sum()), int(kept.fit.kept.sum())))
+    if full_only:
+        rejected.extend(_as_rejected(m, "partial_left_out", m.arc_deg, settings.full_arc_deg)
+                        for m in found if m.partial)
+        found = [m for m in found if not m.partial]
+    if max_holes is not None and len(found) > max_holes:
+        ranked = sorted(found, key=lambda m: -m.radius)
+        found = ranked[:max_holes]
+        rejected.extend(_as_rejected(m, "beyond_max_holes", 2.0 * m.radius, 2.0 * found[-1].radius)
+                        for m in ranked[max_holes:])
+    holes = [(None if flat_crop else _on_curved_surface(scene, measured, settings, view_dir, rng))
+             or _to_hole(scene, measured, 0) for measured in found]
+    holes.sort(key=lambda hole: (hole.partial, hole.center))
+    holes = tuple(Hole(**{**hole.__dict__, "index": i}) for i, hole in enumerate(holes))
+    plane_result = Plane(point=tuple(map(float, origin)), normal=tuple(map(float, normal)), rms=plane.rms,
+                         inliers=int(surface.sum()))
+    rejections = tuple(sorted((_to_rejection(scene, r) for r in rejected), key=lambda r: (-r.diameter, r.center)))
+    return plane_result, holes, rejections
+
+
+def _on_curved_surface(scene, measured, settings, view_dir, rng):
+    """The hole measured again on the surface around it flattened, when that surface is curved; else
+    None.
+
+    The scan's plane serves to find the holes. On a curved panel it lies far off the surface at a hole
+    away from the middle (0.4 mm across a 50 mm scan at R 800), so the band of surface points is wide,
+    the top of a countersink's cone counts as surface on one side of the hole more than on the other,
+    and the rim, the edge and the center move (50 um). Here the points within ``crop_radii`` radii of
+    the hole are taken into the frame of the ring's own plane, the quadric of the ring
+    (:func:`_curved_quadric`) is subtracted from their heights, and the hole is measured on that flat
+    crop by the same method; its center and normal go back onto the quadric.
+    """
+    center, radius = measured.center, measured.radius
+    ring = _ring_plane(scene, center, radius, settings.crop_ring_radii)
+    if ring is None:
+        return None
+    ring_points, plane = ring
+    near = from_plane_frame(np.array([center[0], center[1], 0.0]), scene.origin, scene.rotation)
+    foot, basis = _plane_frame_at(plane, near)
+    first, second, normal = basis
+    quadric = _curved_quadric((ring_points - foot) @ basis.T, radius, settings.curvature_sigmas)
+    if quadric is None:
+        return None
+    crop = scene.points[_within(scene.xy, center, 0.0, settings.crop_radii * radius)]
+    local = (crop - foot) @ basis.T
+    local[:, 2] -= quadric.height(local[:, :2])
+    slide = None if view_dir is None else basis @ (np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir))
+    try:
+        _, holes, _ = detect_robust(local, view_dir=slide, min_diameter=radius, settings=settings, rng=rng,
+                                    flat_crop=True)
+    except PointsError:
+        return None
+    if not holes:
+        return None
+    hole = min(holes, key=lambda h: np.hypot(h.center[0], h.center[1]))
+    if np.hypot(hole.center[0], hole.center[1]) > 0.5 * radius:
+        return None
+    at = np.array([[hole.center[0], hole.center[1]]])
+    height = float(quadric.height(at)[0])
+    ds, dt = quadric.gradient(at)[0]
+    world_center = foot + at[0, 0] * first + at[0, 1] * second + height * normal
+    world_normal = orient_normal(normal - ds * first - dt * second)
+    return Hole(**{**hole.__dict__, "center": tuple(map(float, world_center)),
+                   "normal": tuple(map(float, world_normal))})
+
+
+@dataclass(frozen=True, eq=False)
+class _Quadric:
+    """``h(s, t) = a + b u + c v + d u^2 + e u v + f v^2`` with ``u, v = s / scale, t / scale``."""
+
+    coefficients: np.ndarray
+    scale: float
+
+    def height(self, st):
+        u, v = st[:, 0] / self.scale, st[:, 1] / self.scale
+        return np.column_stack([np.ones_like(u), u, v, u * u, u * v, v * v]) @ self.coefficients
+
+    def gradient(self, st):
+        """(dh/ds, dh/dt) at each of ``st`` (k, 2)."""
+        a, b, c, d, e, f = self.coefficients
+        u, v = st[:, 0] / self.scale, st[:, 1] / self.scale
+        return np.column_stack([b + 2 * d * u + e * v, c + e * u + 2 * f * v]) / self.scale
+
+
+def _curved_quadric(local, scale, sigmas):
+    """The quadric of ``local`` ((k, 3): s, t and the height, in a frame centred on a hole), or None
+    when the surface is not significantly curved there: its sag at the origin within ``sigmas``
+    standard errors (check ``curvature_sigmas``), or within the round-off of the coordinates.
+
+    On a flat surface a quadric's height at the center is only noisier than a plane's (its curvature
+    terms are fitted to noise: about 1.7 times the spread on the Table I ring), so it is used only where
+    the surface really curves.
+    """
+    scale = max(float(scale), 1e-300)
+    if len(local) <= 6:
+        return None
+    s, t, h = local[:, 0] / scale, local[:, 1] / scale, np.ascontiguousarray(local[:, 2])
+    # The normal equations over the six monomials' columns, not an SVD of a (k, 6) design matrix: a
+    # ring holds up to 10^6 points on a dense scan (the copy would cost memory, the SVD time), the
+    # coordinates are scaled to the hole (well conditioned), and the inverse is wanted anyway for the
+    # standard error. Rank as numpy's lstsq judges it, on the design's singular values.
+    columns = (np.ones_like(s), s, t, s * s, s * t, t * t)
+    gram = np.array([[float(a @ b) for b in columns] for a in columns])
+    eigenvalues = np.linalg.eigvalsh(gram)
+    if not eigenvalues[0] > (np.finfo(float).eps * len(h)) ** 2 * eigenvalues[-1]:
+        return None
+    inverse = np.linalg.inv(gram)
+    coefficients = inverse @ np.array([float(column @ h) for column in columns])
+    residuals = sum(c * column for c, column in zip(coefficients, columns)) - h
+    variance = float(residuals @ residuals) / (len(h) - 6)
+    standard_error = np.sqrt(variance * inverse[0, 0])
+    if abs(coefficients[0]) <= max(sigmas * standard_error, _SAG_ROUND_OFF * scale):
+        return None
+    return _Quadric(coefficients=coefficients, scale=scale)
+
+
+# A sag below this fraction of the hole's radius is round-off of exact data, not curvature (a curved
+# panel's sag at a hole is 1e-3 of its radius or more).
+_SAG_ROUND_OFF = 1e-7
+
+
+def _as_rejected(measured, check, value, limit):
+    return _Rejected(check=check, value=value, limit=limit, center=measured.center, radius=float(measured.radius))
+
+
+def _to_rejection(scene, rejected):
+    center = from_plane_frame(np.array([rejected.center[0], rejected.center[1], 0.0]), scene.origin, scene.rotation)
+
+    def number(value):
+        return None if value is None else (int(value) if isinstance(value, (int, np.integer)) else float(value))
+
+    shape = None
+    if rejected.shape is not None:
+        length, width, major = rejected.shape
+        direction = scene.rotation[:2].T @ major  # in-plane axes back to the world
+        shape = {"length": length, "width": width, "direction": [float(v) for v in direction]}
+    return Rejection(check=rejected.check, reason=REJECTION_REASONS[rejected.check],
+                     center=tuple(map(float, center)), diameter=2.0 * rejected.radius,
+                     value=number(rejected.value), limit=number(rejected.limit), shape=shape)

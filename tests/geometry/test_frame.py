@@ -1,0 +1,199 @@
+"""Tests of holecli.geometry.frame: the rotation onto z (not the paper's Eq. (9)/(10)), the plane frame, sliding."""
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from holecli.errors import PointsError
+from holecli.geometry.frame import (
+    from_plane_frame,
+    rotation_to_z,
+    slide_in_plane_frame,
+    to_plane_frame,
+)
+
+Z = np.array([0.0, 0.0, 1.0])
+
+
+def _random_unit_vectors(rng, count):
+    vectors = rng.normal(size=(count, 3))
+    return vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
+
+
+def slide_onto_plane(points, origin, normal, direction):
+    """World-frame slide through the plane frame, as the robust method does it."""
+    rotation = rotation_to_z(normal)
+    local = to_plane_frame(points, origin, rotation)
+    slide_in_plane_frame(local, rotation @ np.asarray(direction, dtype=np.float64))
+    local[:, 2] = 0.0
+    return from_plane_frame(local, origin, rotation)
+
+
+def _rodrigues(normal):
+    """Textbook Rodrigues: R = cos t I + sin t [k]x + (1 - cos t) k k^T, k = n x z / |n x z|."""
+    n = normal / np.linalg.norm(normal)
+    axis = np.cross(n, Z)
+    angle = np.arctan2(np.linalg.norm(axis), n @ Z)
+    k = axis / np.linalg.norm(axis)
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.cos(angle) * np.eye(3) + np.sin(angle) * kx + (1.0 - np.cos(angle)) * np.outer(k, k)
+
+
+def _assert_proper_rotation_onto_z(rotation, normal):
+    n = np.asarray(normal, dtype=float) / np.linalg.norm(normal)
+    np.testing.assert_allclose(rotation @ n, Z, atol=1e-12)
+    np.testing.assert_allclose(rotation @ rotation.T, np.eye(3), atol=1e-12)
+    assert np.linalg.det(rotation) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_rotation_to_z_random_normals(rng):
+    for normal in _random_unit_vectors(rng, 200):
+        _assert_proper_rotation_onto_z(rotation_to_z(normal), normal)
+
+
+def test_rotation_to_z_is_the_standard_rodrigues_rotation(rng):
+    # The paper's printed Eq. (9)/(10) is not orthogonal; the module must give the textbook rotation.
+    for normal in _random_unit_vectors(rng, 50):
+        np.testing.assert_allclose(rotation_to_z(normal), _rodrigues(normal), atol=1e-12)
+
+
+def test_rotation_to_z_is_the_shortest_rotation_of_scipy(rng):
+    for normal in _random_unit_vectors(rng, 50):
+        expected, _ = Rotation.align_vectors([Z], [normal])
+        np.testing.assert_allclose(rotation_to_z(normal), expected.as_matrix(), atol=1e-12)
+
+
+def test_rotation_to_z_keeps_the_in_plane_axis_perpendicular_to_n_and_z(rng):
+    # A minimal rotation leaves the axis n x z fixed.
+    for normal in _random_unit_vectors(rng, 20):
+        axis = np.cross(normal, Z)
+        np.testing.assert_allclose(rotation_to_z(normal) @ axis, axis, atol=1e-12)
+
+
+def test_rotation_to_z_of_plus_z_is_the_identity():
+    np.testing.assert_array_equal(rotation_to_z([0.0, 0.0, 1.0]), np.eye(3))
+
+
+def test_rotation_to_z_of_minus_z_is_a_proper_half_turn():
+    rotation = rotation_to_z([0.0, 0.0, -1.0])
+    _assert_proper_rotation_onto_z(rotation, [0.0, 0.0, -1.0])
+    # A half turn: rotation angle pi (trace -1) and its own inverse.
+    assert np.trace(rotation) == pytest.approx(-1.0, abs=1e-12)
+    np.testing.assert_allclose(rotation @ rotation, np.eye(3), atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "normal",
+    [
+        (1e-15, 0.0, 1.0),
+        (0.0, -1e-15, 1.0),
+        (1e-15, 1e-15, -1.0),
+        (-1e-15, 0.0, -1.0),
+        (1e-9, 0.0, -1.0),
+        (0.0, 1e-9, 1.0),
+    ],
+)
+def test_rotation_to_z_nearly_parallel_to_z(normal):
+    rotation = rotation_to_z(normal)
+    assert np.all(np.isfinite(rotation))
+    _assert_proper_rotation_onto_z(rotation, normal)
+
+
+@pytest.mark.parametrize("scale", [1e-6, 3.0, 1e6])
+def test_rotation_to_z_does_not_need_a_unit_vector(rng, scale):
+    normal = _random_unit_vectors(rng, 1)[0]
+    np.testing.assert_allclose(rotation_to_z(scale * normal), rotation_to_z(normal), atol=1e-12)
+    np.testing.assert_allclose(rotation_to_z([0.0, 0.0, -scale]), rotation_to_z([0.0, 0.0, -1.0]), atol=0)
+
+
+@pytest.mark.parametrize(
+    "normal, match",
+    [
+        ((0.0, 0.0, 0.0), "zero vector"),
+        ((1.0, 0.0), "3-vector"),
+        ((np.nan, 0.0, 1.0), "finite"),
+        ((np.inf, 0.0, 1.0), "finite"),
+    ],
+)
+def test_rotation_to_z_refuses_bad_normals(normal, match):
+    with pytest.raises(PointsError, match=match):
+        rotation_to_z(normal)
+
+
+def test_the_first_two_rows_are_the_in_plane_basis(rng):
+    normal = _random_unit_vectors(rng, 1)[0]
+    e1, e2 = rotation_to_z(normal)[:2]
+    np.testing.assert_allclose([e1 @ normal, e2 @ normal, e1 @ e2], 0.0, atol=1e-12)
+    np.testing.assert_allclose(np.cross(e1, e2), normal, atol=1e-12)
+
+
+def test_plane_frame_round_trip(rng):
+    normal = _random_unit_vectors(rng, 1)[0]
+    rotation = rotation_to_z(normal)
+    origin = np.array([769.0, -83.6, 218.8])
+    points = origin + rng.normal(scale=10.0, size=(500, 3))
+    local = to_plane_frame(points, origin, rotation)
+    np.testing.assert_allclose(from_plane_frame(local, origin, rotation), points, rtol=0, atol=1e-12)
+    # Distances are kept and the local z is the height above the plane.
+    np.testing.assert_allclose(np.linalg.norm(local, axis=1), np.linalg.norm(points - origin, axis=1), atol=1e-12)
+    np.testing.assert_allclose(local[:, 2], (points - origin) @ normal, atol=1e-12)
+
+
+def test_points_on_the_plane_have_zero_local_z(rng):
+    normal = _random_unit_vectors(rng, 1)[0]
+    e1, e2 = rotation_to_z(normal)[:2]
+    origin = np.array([3.0, 4.0, 5.0])
+    uv = rng.uniform(-5, 5, size=(100, 2))
+    points = origin + uv[:, :1] * e1 + uv[:, 1:] * e2
+    local = to_plane_frame(points, origin, rotation_to_z(normal))
+    np.testing.assert_allclose(local[:, 2], 0.0, atol=1e-12)
+    np.testing.assert_allclose(local[:, :2], uv, atol=1e-12)
+
+
+def test_slide_onto_plane_moves_points_along_the_direction_onto_the_plane(rng):
+    normal = np.array([0.2, -0.3, 0.9])
+    unit = normal / np.linalg.norm(normal)
+    origin = np.array([1.0, 2.0, 3.0])
+    direction = np.array([0.1, 0.4, 1.0])
+    points = origin + rng.normal(scale=2.0, size=(300, 3))
+    slid = slide_onto_plane(points, origin, normal, direction)
+    np.testing.assert_allclose((slid - origin) @ unit, 0.0, atol=1e-12)
+    # The move is parallel to the direction: no component across it.
+    np.testing.assert_allclose(np.cross(slid - points, direction), 0.0, atol=1e-12)
+    assert np.max(np.linalg.norm(slid - points, axis=1)) > 0.1
+
+
+def test_slide_along_the_normal_is_the_orthogonal_projection(rng):
+    normal = np.array([0.0, 0.6, 0.8])
+    origin = np.zeros(3)
+    points = rng.normal(size=(50, 3))
+    expected = points - np.outer(points @ normal, normal)
+    np.testing.assert_allclose(slide_onto_plane(points, origin, normal, -3.0 * normal), expected, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "direction",
+    [
+        (1.0, 0.0, 0.0),  # in the plane
+        (0.0, 1.0, 0.0),
+        (1.0, 0.0, np.tan(np.radians(2.0))),  # 2 degrees off the plane
+    ],
+)
+def test_slide_onto_plane_refuses_a_direction_parallel_to_the_plane(direction):
+    with pytest.raises(PointsError, match="surface plane"):
+        slide_onto_plane(np.zeros((3, 3)), np.zeros(3), (0.0, 0.0, 1.0), direction)
+
+
+def test_slide_onto_plane_accepts_a_steep_enough_direction():
+    direction = (1.0, 0.0, np.tan(np.radians(5.0)))
+    slid = slide_onto_plane(np.array([[0.0, 0.0, 1.0]]), np.zeros(3), (0.0, 0.0, 1.0), direction)
+    assert slid[0, 2] == pytest.approx(0.0, abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    "normal, direction",
+    [((0.0, 0.0, 1.0), (0.0, 0.0, 0.0)), ((0.0, 0.0, 0.0), (0.0, 0.0, 1.0))],
+)
+def test_slide_onto_plane_refuses_the_zero_vector(normal, direction):
+    with pytest.raises(PointsError, match="zero vector"):
+        slide_onto_plane(np.ones((2, 3)), np.zeros(3), normal, direction)

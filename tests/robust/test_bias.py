@@ -1,0 +1,79 @@
+"""Tests of holecli.robust.bias: the sampling bias of a rim fit, measured with synthetic holes."""
+
+import numpy as np
+import pytest
+
+from holecli.robust.bias import sampling_bias, synthetic_rim_fit
+from holecli.robust.boundary import hole_rim
+from holecli.robust.edge import fit_edge
+
+H = 0.1
+CENTER = np.array([0.37, -0.21])
+RADIUS = 1.5
+CLIP = 3.0
+FLOOR = 0.05 * H
+
+
+def lattice(pitch, angle_deg=23.0):
+    angle = np.radians(angle_deg)
+    along, across = np.array([np.cos(angle), np.sin(angle)]), np.array([-np.sin(angle), np.cos(angle)])
+    i, j = np.meshgrid(np.arange(-60, 61), np.arange(-int(6.0 / pitch), int(6.0 / pitch) + 1))
+    return np.outer(i.ravel() * H, along) + np.outer(j.ravel() * pitch, across) + [0.0123, 0.0071]
+
+
+def scales(pitch):
+    """The pipeline's alpha, reach and ring margin for a lattice (2.5 gaps; cell of 2 gaps)."""
+    gap = H / np.sqrt(2) if pitch == H else np.hypot(pitch / 2, H / 2)
+    alpha, cell = 2.5 * gap, 2.0 * gap
+    return alpha, alpha + 2.0 * cell, 3.0 * alpha + cell
+
+
+def rim_fit(material, alpha):
+    rim = hole_rim(material, lambda p: np.hypot(*(p - CENTER).T) < RADIUS, alpha)
+    fit, _ = fit_edge(material[rim.index], alpha, FLOOR, CLIP)
+    return fit
+
+
+@pytest.mark.parametrize("pitch", [H, 2 * H, 3 * H])
+def test_bias_is_positive_and_removes_most_of_the_excess(pitch):
+    """Rim points are material points outside the edge: the rim fit is too large, and the bias the
+    synthetic holes measure takes the excess (0.4 to 0.55 h here) to within 0.1 h."""
+    xy = lattice(pitch)
+    material = xy[np.hypot(*(xy - CENTER).T) >= RADIUS]
+    alpha, reach, margin = scales(pitch)
+    fit = rim_fit(material, alpha)
+    excess = fit.radius - RADIUS
+    assert excess > 0.3 * H
+    bias = sampling_bias(material, fit.center, fit.radius, alpha, [k * pitch for k in (1, 2, 3, 4)], reach, margin,
+                         CLIP, FLOOR)
+    assert bias > 0.0
+    assert abs(excess - bias) < 0.1 * H
+
+
+def test_synthetic_hole_fit_is_too_large_on_a_grid():
+    material = lattice(H)
+    alpha, reach, margin = scales(H)
+    for radius in (1.0, 1.3, 1.7):
+        fitted = synthetic_rim_fit(material, CENTER, radius, alpha, reach, margin, CLIP, FLOOR)
+        assert radius < fitted < radius + alpha
+
+
+def test_no_material_no_bias():
+    alpha, reach, margin = scales(H)
+    assert sampling_bias(np.zeros((0, 2)), CENTER, RADIUS, alpha, [H], reach, margin, CLIP, FLOOR) is None
+    # Material only far beyond the synthetic holes' ring.
+    xy = lattice(H)
+    far = xy[np.hypot(*(xy - CENTER).T) > RADIUS + 4 * H + margin + 1.0]
+    assert sampling_bias(far, CENTER, RADIUS, alpha, [k * H for k in (1, 2, 3, 4)], reach, margin, CLIP,
+                         FLOOR) is None
+
+
+def test_bias_does_not_depend_on_the_point_order(rng):
+    xy = lattice(3 * H)
+    material = xy[np.hypot(*(xy - CENTER).T) >= RADIUS]
+    alpha, reach, margin = scales(3 * H)
+    offsets = [k * 3 * H for k in (1, 2)]
+    reference = sampling_bias(material, CENTER, RADIUS + 0.05, alpha, offsets, reach, margin, CLIP, FLOOR)
+    shuffled = sampling_bias(material[rng.permutation(len(material))], CENTER, RADIUS + 0.05, alpha, offsets, reach,
+                             margin, CLIP, FLOOR)
+    assert shuffled == pytest.approx(reference, abs=1e-9 * H)

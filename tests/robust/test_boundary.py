@@ -1,0 +1,120 @@
+"""Tests of holecli.robust.boundary: the alpha-shape rim of a hole, its outer envelope and the window cut."""
+
+import numpy as np
+
+from holecli.robust.boundary import Rim, hole_rim, near_box_edge, outer_envelope
+
+H = 0.1
+ALPHA = 2.5 * H / np.sqrt(2)  # the pipeline's alpha on a grid: 2.5 gaps, a gap being 0.71 h
+CENTER = np.array([0.237, -0.111])
+RADIUS = 1.2
+
+
+def grid(xmin=-3.0, xmax=3.0, ymin=-3.0, ymax=3.0, angle_deg=13.0):
+    x, y = np.meshgrid(np.arange(xmin, xmax + 1e-9, H), np.arange(ymin, ymax + 1e-9, H))
+    angle = np.radians(angle_deg)
+    c, s = np.cos(angle), np.sin(angle)
+    u, v = x.ravel(), y.ravel()
+    return np.column_stack([c * u - s * v, s * u + c * v])
+
+
+def holed(xy, center=CENTER, radius=RADIUS):
+    return xy[np.hypot(*(xy - center).T) >= radius]
+
+
+def in_disk(center=CENTER, radius=RADIUS):
+    return lambda positions: np.hypot(*(positions - center).T) < radius
+
+
+def test_rim_of_a_grid_hole_hugs_the_edge():
+    xy = holed(grid())
+    rim = hole_rim(xy, in_disk(), ALPHA)
+    assert isinstance(rim, Rim) and not rim.open
+    distance = np.hypot(*(xy[rim.index] - CENTER).T)
+    # Material points, all outside the edge and within about alpha of it.
+    assert distance.min() >= RADIUS
+    assert distance.max() < RADIUS + ALPHA
+    # The rim goes all the way round, with no gap wider than a few spacings.
+    angles = np.sort(np.arctan2(*(xy[rim.index] - CENTER).T[::-1]))
+    gaps = np.diff(np.concatenate([angles, [angles[0] + 2 * np.pi]]))
+    assert gaps.max() * RADIUS < 4 * H  # measured 3 h
+    # The material point nearest the edge is on it (others as close as 0.46 h can hide behind a
+    # rim edge between two nearer points).
+    assert np.argmin(np.hypot(*(xy - CENTER).T)) in set(rim.index)
+
+
+def test_rim_does_not_depend_on_the_point_order(rng):
+    xy = holed(grid())
+    order = rng.permutation(len(xy))
+    reference = hole_rim(xy, in_disk(), ALPHA)
+    permuted = hole_rim(xy[order], in_disk(), ALPHA)
+    np.testing.assert_array_equal(np.sort(order[permuted.index]), np.sort(reference.index))
+
+
+def test_a_hole_cut_by_the_border_is_open():
+    center = np.array([2.0, 3.0])  # on the top border of the patch
+    xy = holed(grid(angle_deg=0.0), center=center)
+    rim = hole_rim(xy, in_disk(center=center), ALPHA)
+    assert rim.open
+    distance = np.hypot(*(xy[rim.index] - center).T)
+    assert distance.min() >= RADIUS and np.percentile(distance, 90) < RADIUS + ALPHA
+
+
+def test_islands_inside_the_hole_are_not_rim():
+    xy = holed(grid())
+    # A 3 x 3 block of reflections near the middle of the hole, and a single stray point.
+    block = CENTER + 0.3 + H * np.stack(np.meshgrid(np.arange(3), np.arange(3)), axis=-1).reshape(-1, 2)
+    stray = CENTER + np.array([[-0.5, 0.2]])
+    points = np.concatenate([xy, block, stray])
+    rim = hole_rim(points, in_disk(), ALPHA)
+    assert rim is not None and not rim.open
+    assert not np.any(rim.index >= len(xy))
+    assert np.hypot(*(points[rim.index] - CENTER).T).min() >= RADIUS
+
+
+def test_no_hole_no_rim():
+    xy = grid()
+    assert hole_rim(xy, in_disk(), ALPHA) is None
+    # A void smaller than alpha is a natural gap, not a hole.
+    small = holed(xy, radius=0.12)
+    assert hole_rim(small, in_disk(radius=0.12), ALPHA) is None
+    assert hole_rim(xy[:3], in_disk(), ALPHA) is None
+
+
+def test_the_window_cut_keeps_the_rim_on_the_hole():
+    """A box of points cut out around the hole: triangles along the cut are material, not hole."""
+    xy = holed(grid(-6.0, 6.0, -6.0, 6.0))
+    low, high = CENTER - 2.0, CENTER + 2.0
+    local = xy[np.all((xy >= low) & (xy <= high), axis=1)]
+    cut = near_box_edge(local, low, high, 2.0 * ALPHA)
+    rim = hole_rim(local, in_disk(), ALPHA, cut=cut)
+    assert not rim.open
+    distance = np.hypot(*(local[rim.index] - CENTER).T)
+    assert distance.min() >= RADIUS and distance.max() < RADIUS + ALPHA
+    assert not np.any(cut[rim.index])
+
+
+def test_near_box_edge():
+    xy = np.array([[0.0, 0.0], [0.95, 0.5], [0.5, 0.05], [0.5, 0.5]])
+    np.testing.assert_array_equal(near_box_edge(xy, np.zeros(2), np.ones(2), 0.1), [True, True, True, False])
+
+
+def test_outer_envelope_drops_points_deeper_in_the_hole():
+    angles = np.linspace(0.0, 2 * np.pi, 72, endpoint=False)
+    edge = CENTER + RADIUS * np.column_stack([np.cos(angles), np.sin(angles)])
+    # Reflections next to the edge join the rim of a triangulation; they lie deeper than the edge.
+    deep_angles = angles[::6] + 0.01
+    deep = CENTER + (RADIUS - 0.3) * np.column_stack([np.cos(deep_angles), np.sin(deep_angles)])
+    rim = np.concatenate([edge, deep])
+    keep = outer_envelope(rim, CENTER, depth=0.1, sectors=24)
+    assert keep[: len(edge)].all()
+    assert not keep[len(edge):].any()
+    # A depth larger than the offset keeps everything.
+    assert outer_envelope(rim, CENTER, depth=0.5, sectors=24).all()
+
+
+def test_outer_envelope_keeps_a_noisy_edge(rng):
+    angles = rng.uniform(0.0, 2 * np.pi, 200)
+    radius = RADIUS + rng.normal(0.0, 0.01, 200)
+    rim = CENTER + radius[:, None] * np.column_stack([np.cos(angles), np.sin(angles)])
+    assert outer_envelope(rim, CENTER, depth=ALPHA, sectors=len(rim) // 3).all()

@@ -1,0 +1,104 @@
+"""Tests of holecli.robust.lattice: lattice step vectors and the largest-margin separating circle."""
+
+import numpy as np
+import pytest
+
+from holecli.robust.lattice import lattice_steps, separating_circle
+
+H = 0.1
+CENTER = np.array([0.37, -0.21])
+RADIUS = 1.5
+ANGLE = np.radians(23.0)
+AXES = (np.array([np.cos(ANGLE), np.sin(ANGLE)]), np.array([-np.sin(ANGLE), np.cos(ANGLE)]))
+
+
+def lattice(pitch=H, half=45, across=None):
+    """A lattice of step h along AXES[0] and ``pitch`` along AXES[1], rotated by 23 degrees."""
+    i, j = np.meshgrid(np.arange(-half, half + 1), np.arange(-(across or half), (across or half) + 1))
+    return np.outer(i.ravel() * H, AXES[0]) + np.outer(j.ravel() * pitch, AXES[1]) + [0.0123, 0.0071]
+
+
+def with_hole(xy, center=CENTER, radius=RADIUS):
+    material = xy[np.hypot(*(xy - center).T) >= radius]
+    rim = material[np.hypot(*(material - center).T) < radius + 1.5 * H]
+    return material, rim
+
+
+def test_lattice_steps_on_a_grid():
+    xy = lattice()
+    steps = lattice_steps(xy, AXES, H)
+    assert len(steps) == 4  # the two axes and the two diagonals
+    np.testing.assert_allclose(steps[0], H * AXES[0], atol=1e-12)
+    np.testing.assert_allclose(steps[1], H * AXES[1], atol=1e-12)
+    np.testing.assert_allclose(steps[2], steps[0] + steps[1])
+    np.testing.assert_allclose(steps[3], steps[0] - steps[1])
+
+
+def test_lattice_steps_refine_a_rough_axis():
+    rough = (np.array([np.cos(ANGLE + 0.02), np.sin(ANGLE + 0.02)]),)
+    (step,) = lattice_steps(lattice(pitch=3 * H, across=15), rough, H)
+    np.testing.assert_allclose(step, H * AXES[0], atol=1e-12)
+
+
+def test_lattice_steps_none_without_a_regular_step(rng):
+    xy = lattice() + rng.uniform(-0.25 * H, 0.25 * H, (91 * 91, 2))
+    assert lattice_steps(xy, AXES, H) == [None, None]
+
+
+@pytest.mark.parametrize("pitch", [H, 3 * H])
+@pytest.mark.parametrize("radius", [0.5, 0.73, 1.1, 1.5, 2.0])
+def test_separating_circle_pins_the_edge(pitch, radius):
+    """On an exact grid the circle between present and missing positions is within 0.05 h of the
+    edge; on stripes within 0.05 of the line pitch (the coarser step across the lines)."""
+    material, rim = with_hole(lattice(pitch=pitch, across=int(45 * H / pitch)), radius=radius)
+    axes = AXES if pitch == H else AXES[:1]
+    steps = lattice_steps(material, axes, H)
+    # Start from a rim-like estimate: too large and off center, as a rim fit is.
+    found = separating_circle(material, rim, steps, CENTER + [0.02, -0.01], radius + 0.05)
+    if found is None:
+        # Five lines across a 1 mm hole on stripes 0.3 mm apart leave a quarter without a bracket.
+        assert pitch > H and radius < 0.6
+        return
+    center, fitted, margin = found
+    tolerance = 0.05 * pitch
+    assert np.linalg.norm(center - CENTER) < tolerance
+    assert abs(fitted - radius) < tolerance
+    assert 0.0 < margin <= pitch
+    # Every material point lies outside the circle.
+    assert np.hypot(*(material - center).T).min() >= fitted
+
+
+def test_separating_circle_none_on_jittered_points(rng):
+    xy = lattice() + rng.uniform(-0.25 * H, 0.25 * H, (91 * 91, 2))
+    material, rim = with_hole(xy)
+    steps = [H * AXES[0], H * AXES[1]]  # even given the nominal steps, the brackets contradict
+    assert separating_circle(material, rim, steps, CENTER, RADIUS + 0.05) is None
+
+
+def test_separating_circle_needs_steps():
+    material, rim = with_hole(lattice())
+    assert separating_circle(material, rim, [None, None], CENTER, RADIUS) is None
+
+
+def test_separating_circle_needs_brackets_all_round():
+    """A rim covering only half the circle leaves a quarter without a bracket: no circle."""
+    material, rim = with_hole(lattice())
+    half = rim[(rim - CENTER) @ AXES[0] > 0]
+    assert separating_circle(material, half, lattice_steps(material, AXES, H), CENTER, RADIUS + 0.05) is None
+
+
+@pytest.mark.parametrize("factor", [
+    0.001,
+    25.4,
+    1000.0,
+])
+def test_separating_circle_is_scale_free(factor):
+    material, rim = with_hole(lattice())
+    steps = lattice_steps(material, AXES, H)
+    center, radius, margin = separating_circle(material, rim, steps, CENTER + 0.01, RADIUS + 0.05)
+    scaled = separating_circle(material * factor, rim * factor, lattice_steps(material * factor, AXES, H * factor),
+                               (CENTER + 0.01) * factor, (RADIUS + 0.05) * factor)
+    assert scaled is not None
+    assert np.linalg.norm(scaled[0] / factor - center) < 1e-6 * H
+    assert abs(scaled[1] / factor - radius) < 1e-6 * H
+    assert scaled[2] / factor == pytest.approx(margin, rel=1e-6)
