@@ -16,12 +16,31 @@ DECIMAL = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?
 
 
 def is_decimal(text) -> bool:
-    """Whether ``text`` is a plain ASCII decimal number (no surrounding space)."""
+    """Whether ``text`` is a plain ASCII decimal number (no surrounding space).
+
+    Parameters
+    ----------
+    text : object
+        Anything; only a ``str`` can be a decimal.
+
+    Returns
+    -------
+    bool
+    """
     return isinstance(text, str) and DECIMAL.fullmatch(text) is not None
 
 
 def parse_decimal(text) -> float:
     """The value of the plain ASCII decimal ``text``.
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    float
+        Finite.
 
     Raises
     ------

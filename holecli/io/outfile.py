@@ -39,7 +39,24 @@ _LEGACY_TEMPORARY_AGE_S = 600.0
 
 def write_text(path, text):
     """:func:`write_bytes` for UTF-8 text (a file name that is not UTF-8, decoded by Python with
-    ``surrogateescape``, is written as its own bytes)."""
+    ``surrogateescape``, is written as its own bytes).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The destination; ``"-"`` is standard output.
+    text : str
+        The whole content.
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    OSError
+        As :func:`write_bytes`.
+    """
     write_bytes(path, text.encode("utf-8", "surrogateescape"))
 
 
@@ -52,6 +69,10 @@ def write_bytes(path, payload):
         The destination; ``"-"`` is standard output.
     payload : bytes
         The whole content.
+
+    Returns
+    -------
+    None
 
     Raises
     ------
@@ -72,9 +93,17 @@ def write_bytes(path, payload):
 
 
 def destination(path):
-    """What writing to ``path`` is: ``("file", target)`` for a regular file or a path where nothing is
-    yet (``target``: a symbolic link's target, else ``path``), ``("stream", path)`` for a character
-    device or a FIFO.
+    """What writing to ``path`` is.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    (kind, target) : (str, str)
+        ``("file", target)`` for a regular file or a path where nothing is yet (``target``: a
+        symbolic link's target, else ``path``), ``("stream", path)`` for a character device or a FIFO.
 
     Raises
     ------
@@ -99,7 +128,18 @@ def destination(path):
 
 
 def write_text_atomic(path, text):
-    """:func:`write_bytes_atomic` for UTF-8 text."""
+    """:func:`write_bytes_atomic` for UTF-8 text.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A regular file or a new path.
+    text : str
+
+    Returns
+    -------
+    None
+    """
     write_bytes_atomic(path, text.encode("utf-8"))
 
 
@@ -109,6 +149,16 @@ def write_bytes_atomic(path, payload):
 
     Callers that do not know what ``path`` is use :func:`write_bytes`, which sends devices, FIFOs,
     symbolic links and ``-`` where they belong and only regular files here.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A regular file or a new path; an existing file keeps its mode.
+    payload : bytes
+
+    Returns
+    -------
+    None
 
     Raises
     ------

@@ -16,7 +16,20 @@ CONFIDENCE_Z = 1.96
 
 
 def triangle_areas(xy, simplices):
-    """Areas of the triangles ``simplices`` (m, 3) over the vertices ``xy`` (n, 2)."""
+    """Areas of triangles.
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+        Vertices.
+    simplices : (m, 3) int
+        Rows of ``xy``, one triangle each.
+
+    Returns
+    -------
+    (m,) float
+        Unsigned areas.
+    """
     a = xy[simplices[:, 0]]
     b = xy[simplices[:, 1]]
     c = xy[simplices[:, 2]]
@@ -24,7 +37,20 @@ def triangle_areas(xy, simplices):
 
 
 def area_bound(areas, z=CONFIDENCE_Z):
-    """The paper's Eq. (12): upper 95 % confidence bound on the mean triangle area."""
+    """The paper's Eq. (12): upper confidence bound on the mean triangle area.
+
+    Parameters
+    ----------
+    areas : (m,) float
+        Triangle areas, m >= 2.
+    z : float
+        Normal quantile of the bound (1.96: 95 %).
+
+    Returns
+    -------
+    float
+        ``mean + z * sd / sqrt(m)``.
+    """
     return float(areas.mean() + z * areas.std(ddof=1) / np.sqrt(len(areas)))
 
 
