@@ -12,6 +12,20 @@ writes an array back. Supported formats, chosen by the extension (any case):
 ``.xyz``  same as ``.csv``
 ========  ==================================================================================
 
+Where each thing happens:
+
+- this module: :class:`Cloud`, :func:`read_cloud`, :func:`load_points`, :func:`save_points`, the
+  checks every file goes through (exists, a regular file, a supported extension, not empty), the
+  dispatch by extension, and dropping the non-finite rows;
+- :mod:`holecli.io.ply`: PLY reading and writing;
+- :mod:`holecli.io.pcd`: PCD reading (ascii, binary, binary_compressed/LZF, old PCL padding) and writing;
+- :mod:`holecli.io.text`: CSV, TXT and XYZ tables, reading and writing;
+- :mod:`holecli.io._common`: what the readers share: the error they raise, the phrases of its
+  messages, the header size limit, x, y, z from binary records, and the ascii body reader of PLY
+  and PCD;
+- :mod:`holecli.io.outfile`: atomic writes of any output file; :mod:`holecli.io.decimal_text`:
+  decimals for text output.
+
 Every problem with a file raises :class:`holecli.errors.LoadError`, never another exception type,
 and a file is never half-read: a count that disagrees with its header is refused rather than
 padded or cut. Messages name rows and lines by their 1-based line number in the file.
@@ -128,6 +142,17 @@ def load_points(path) -> np.ndarray:
     ------
     LoadError
         See :func:`read_cloud`.
+
+    Examples
+    --------
+    From the root of the repository:
+
+    >>> from holecli.io import load_points
+    >>> points = load_points("sample_clouds/table1.ply")
+    >>> points.shape, points.dtype
+    ((7062, 3), dtype('float64'))
+    >>> bool(points.flags.c_contiguous)
+    True
     """
     return read_cloud(path).points
 
@@ -173,7 +198,7 @@ def save_points(path, points, float32=False) -> None:
     write_bytes(name, payload)
 
 
-# --- dispatch and common checks ---------------------------------------------------------------
+# --- checks every file goes through, and the dispatch by extension ----------------------------
 
 
 def _read_raw(name: str) -> np.ndarray:
@@ -209,7 +234,19 @@ def _read_raw(name: str) -> np.ndarray:
 
 
 def file_kind(mode: int) -> str:
-    """What a file that is not a regular file is, for messages: ``"a FIFO"``, ``"a folder"``, ..."""
+    """What a file that is not a regular file is, for messages: ``"a FIFO"``, ``"a folder"``, ...
+
+    Parameters
+    ----------
+    mode : int
+        The ``st_mode`` of the file's :func:`os.stat`.
+
+    Returns
+    -------
+    str
+        ``"a folder"``, ``"a FIFO"``, ``"a character device"``, ``"a block device"``,
+        ``"a socket"``, or ``"file type 0o..."`` for any other kind.
+    """
     for test, kind in (
         (stat.S_ISDIR, "a folder"),
         (stat.S_ISFIFO, "a FIFO"),

@@ -30,7 +30,7 @@ _QUOTE_CHARS = 40
 
 
 class _BadFile(Exception):
-    """A problem with the file being read; :func:`holecli.io.read_cloud` adds the path and raises LoadError."""
+    """A problem with the file being read; :func:`holecli.io.read_cloud` adds the path, raises LoadError."""
 
 
 # A count in a header: digits only (no sign, no exponent).
