@@ -123,6 +123,10 @@ class RobustSettings:
     # At most this many planar faces are peeled off the RANSAC sample, largest wins (counts): the
     # top, a countersink or bore wall and a floor are the faces a hole scan holds.
     plane_max_faces: int = 3
+    # A view direction (--view-dir) must make at least this sine of an angle with the plane
+    # (dimensionless; 0.05 is 2.9 degrees): sliding a point along a ray that grazes the surface moves
+    # it sideways by its height over this sine, 20 times its range noise at the limit.
+    view_min_sine: float = 0.05
 
     # --- Sampling statistics (holecli.robust.sampling.estimate_sampling), in spacings h ---
     # g is this percentile of the empty-circle radii (the scale ladder's definition of g): high
@@ -144,6 +148,10 @@ class RobustSettings:
     # The line pitch is read from each point's nearest neighbour on another line among this many
     # nearest neighbours (points): enough to reach the next line on stripes of pitch up to ~4 h.
     sampling_pitch_neighbours: int = 16
+    # The windows sit this many standard deviations of the coordinates off their mean, per axis
+    # (in sd of the point coordinates): on a uniformly covered patch mean -+ 0.7 sd are about its 30th
+    # and 70th percentiles, inside the scan yet off its middle, where a scan's hole often is.
+    sampling_window_offset_sd: float = 0.7
 
     # --- Occupancy grid (holecli.robust.candidates.occupancy_grid), in cells ---
     # Clusters of occupied cells of at most this many cells that the 3 x 3 opening removes and that
@@ -244,6 +252,7 @@ _RANGES = (
     ("cone_depth_slope_ratio", -_INF, 1.0),
     ("min_rim_points", 3, 10 ** 9), ("min_partial_rim_points", 3, 10 ** 9),
     ("plane_refine_rounds", 1, 10 ** 6), ("plane_refine_sample", 3, 10 ** 12), ("plane_max_faces", 1, 100),
+    ("view_min_sine", 0.0, 1.0), ("sampling_window_offset_sd", 0.0, _INF),
     ("sampling_gap_percentile", 0.0, 100.0), ("sampling_inner_fraction", 0.0, _INF),
     ("sampling_line_coherence", 0.0, 1.0), ("sampling_min_pitch_spacings", 0.0, _INF),
     ("sampling_lattice_coherence", 0.0, 1.0), ("sampling_pitch_neighbours", 1, 10 ** 6),

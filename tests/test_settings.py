@@ -38,7 +38,7 @@ def test_function_defaults_are_the_settings():
     values production uses)."""
     import inspect
 
-    from holecli.geometry import circle, plane
+    from holecli.geometry import circle, frame, plane
     from holecli.robust import bias, candidates, countersink, lattice, sampling
 
     def defaults(function):
@@ -51,6 +51,7 @@ def test_function_defaults_are_the_settings():
         s.ransac_sample, s.ransac_hypotheses, s.ransac_quantile, s.plane_clip)
     assert (robust["max_rounds"], robust["refine_sample"], robust["max_faces"]) == (
         s.plane_refine_rounds, s.plane_refine_sample, s.plane_max_faces)
+    assert defaults(frame.slide_in_plane_frame)["min_sine"] == s.view_min_sine
     windows = defaults(sampling.estimate_sampling)
     assert (windows["windows"], windows["window_points"]) == (s.sampling_windows, s.sampling_window_points)
     assert defaults(circle.fit_circle_robust)["clip"] == circle.CLIP_SIGMAS == s.clip_sigmas
@@ -67,7 +68,8 @@ def test_function_defaults_are_the_settings():
 def test_the_new_tunables_keep_their_values():
     """Moving a literal into RobustSettings changed no value."""
     s = DEFAULT_SETTINGS
-    assert (s.plane_refine_rounds, s.plane_refine_sample, s.plane_max_faces) == (20, 50_000, 3)
+    assert (s.plane_refine_rounds, s.plane_refine_sample, s.plane_max_faces, s.view_min_sine) == (20, 50_000, 3, 0.05)
+    assert s.sampling_window_offset_sd == 0.7
     assert (s.sampling_gap_percentile, s.sampling_inner_fraction, s.sampling_line_coherence,
             s.sampling_min_pitch_spacings, s.sampling_lattice_coherence, s.sampling_pitch_neighbours) == (
         90.0, 0.6, 0.6, 1.3, 0.6, 16)

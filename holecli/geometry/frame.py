@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from holecli.errors import PointsError
+from holecli.settings import DEFAULT_SETTINGS
 
 _Z = np.array([0.0, 0.0, 1.0])
 # Below this sine the axis n x z is numerically undefined and n is taken as +z or -z.
@@ -108,7 +109,7 @@ def from_plane_frame(local, origin, rotation):
     return np.asarray(local, dtype=np.float64) @ rotation + origin
 
 
-def slide_in_plane_frame(local, direction):
+def slide_in_plane_frame(local, direction, min_sine=DEFAULT_SETTINGS.view_min_sine):
     """Move each point along ``direction`` until it lies on the plane, in plane-frame coordinates.
 
     A laser triangulation sensor's range noise lies along its viewing ray; sliding along that ray,
@@ -121,6 +122,8 @@ def slide_in_plane_frame(local, direction):
         place, z is left as it is.
     direction : (3,) float
         The slide direction in the plane frame; need not be unit length.
+    min_sine : float
+        Smallest sine of the angle between ``direction`` and the plane (RobustSettings.view_min_sine).
 
     Returns
     -------
@@ -133,9 +136,10 @@ def slide_in_plane_frame(local, direction):
         When ``direction`` is zero or (nearly) parallel to the plane.
     """
     direction = _unit(direction, "view direction")
-    if abs(direction[2]) < 0.05:
+    if abs(direction[2]) < min_sine:
         raise PointsError(
-            f"view direction {np.round(direction, 4).tolist()} is within 3 degrees of the surface plane; "
+            f"view direction {np.round(direction, 4).tolist()} is within "
+            f"{np.degrees(np.arcsin(min(min_sine, 1.0))):.0f} degrees of the surface plane; "
             "points cannot be slid onto it"
         )
     local[:, 0] -= local[:, 2] * (direction[0] / direction[2])

@@ -109,7 +109,8 @@ def estimate_sampling(xy, windows=DEFAULT_SETTINGS.sampling_windows,
     x, y = columns[:, 0], columns[:, 1]
     # Window positions from the mean and standard deviation of the coordinates (two cheap passes,
     # where quantiles would partition a million points): on a uniformly covered patch, mean -+ 0.7 sd
-    # are about its 30th and 70th percentiles and mean -+ 1.56 sd its 5th and 95th.
+    # (sampling_window_offset_sd) are about its 30th and 70th percentiles and mean -+ 1.56 sd its 5th
+    # and 95th.
     mean = np.array([x.mean(), y.mean()])
     spread = np.array([x.std(), y.std()])
     area = max(float(np.prod(3.12 * spread)) / 0.81, 1e-300)
@@ -123,7 +124,7 @@ def estimate_sampling(xy, windows=DEFAULT_SETTINGS.sampling_windows,
     enough = max(10, min(window_points // 2, n // 2))
     chosen, largest = [], None
     for pair in pairs:
-        centers = [mean + 0.7 * spread * np.array(offset) for offset in pair]
+        centers = [mean + settings.sampling_window_offset_sd * spread * np.array(offset) for offset in pair]
         indices = [box_indices(columns, center - half, center + half) for center in centers]
         for index in indices:
             if largest is None or len(index) > len(largest):
