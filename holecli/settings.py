@@ -1,10 +1,35 @@
 """Tunables of the robust method, in one place.
 
 Every length is a multiple of a scale measured on the cloud itself (see :mod:`holecli.robust.sampling`), never
-an absolute length, so a cloud in metres gives the same result as the same cloud in millimetres:
-``spacing`` (h) is the median nearest-neighbour distance of the surface points and ``gap`` (g) the
-90th percentile of the empty-circle radii of their local Delaunay triangles (0.71 h on a square grid,
-about half the line pitch on stripes, 2.8 h on random sampling).
+an absolute length, so a cloud in metres gives the same result as the same cloud in millimetres.
+
+The scale ladder
+----------------
+Each rung is a multiple of the one before, so one measured number (h) sets every length:
+
+``h`` (spacing)
+    The median nearest-neighbour distance of the surface points.
+``g`` (gap)
+    The ``sampling_gap_percentile`` (90th) percentile of the empty-circle radii of their local
+    Delaunay triangles: 0.71 h on a square grid, about half the line pitch on stripes, 2.8 h on
+    random sampling. The sampling's own holes are this size, so everything that tells a hole from
+    the sampling is in gaps.
+``alpha`` = ``alpha_gaps`` g
+    The empty-circle radius above which a Delaunay triangle belongs to a hole (2.5 g).
+``cell`` = ``cell_gaps`` g
+    The occupancy grid's cell (2 g), in which candidate voids are found.
+``margin`` = ``margin_alphas`` alpha + cell
+    The width of the material ring triangulated around a hole.
+
+A few tunables are in other scales, named by their suffix or their comment: the period of a regular
+pattern (line pitch or grid spacing), a lattice step, a hole's radius (``_radii``), the height noise
+(``_sigmas`` of a robust standard deviation), grid cells (``_cells``), points (counts) and degrees.
+Every field is validated when a :class:`RobustSettings` is made (the ``_RANGES`` table below).
+
+Fields that a step of the method reads from :data:`DEFAULT_SETTINGS` at import (the module-level
+defaults of :mod:`holecli.geometry.plane`, :mod:`holecli.robust.sampling`, ``candidates``,
+``lattice``, ``bias`` and ``countersink``) are the single source of those values; a caller that
+passes its own ``RobustSettings`` changes them only where the step is given that object.
 """
 
 from __future__ import annotations
@@ -86,6 +111,109 @@ class RobustSettings:
     min_rim_points: int = 6
     min_partial_rim_points: int = 12
 
+    # --- Plane (holecli.geometry.plane.fit_plane_robust) ---
+    # At most this many least-squares refits of the plane on its inliers (each refit re-selects the
+    # points within plane_clip robust sd); in practice the inlier set settles in a few rounds, the
+    # bound only stops an oscillation at the band's edge.
+    plane_refine_rounds: int = 20
+    # The refits run on a random subsample of this many points (points), the final inlier set on all
+    # of them: a million points need not be refitted twenty times, and 50 000 pin a plane far below
+    # any noise.
+    plane_refine_sample: int = 50_000
+    # At most this many planar faces are peeled off the RANSAC sample, largest wins (counts): the
+    # top, a countersink or bore wall and a floor are the faces a hole scan holds.
+    plane_max_faces: int = 3
+    # A view direction (--view-dir) must make at least this sine of an angle with the plane
+    # (dimensionless; 0.05 is 2.9 degrees): sliding a point along a ray that grazes the surface moves
+    # it sideways by its height over this sine, 20 times its range noise at the limit.
+    view_min_sine: float = 0.05
+
+    # --- Sampling statistics (holecli.robust.sampling.estimate_sampling), in spacings h ---
+    # g is this percentile of the empty-circle radii (the scale ladder's definition of g): high
+    # enough to be the size of the sampling's own largest gaps, low enough that a hole in a window
+    # does not move it.
+    sampling_gap_percentile: float = 90.0
+    # Only triangles whose circumcenter lies within this fraction of the window's extent from its
+    # mean count for g (fraction of the window): the hull's slivers at the window's border are not
+    # gaps of the sampling.
+    sampling_inner_fraction: float = 0.6
+    # Scan lines: the mean of the nearest-neighbour directions (doubled angles, 1 when all point one
+    # way, 0 when spread evenly) must exceed this (dimensionless): stripes give ~1, a square grid ~0.
+    sampling_line_coherence: float = 0.6
+    # ... and the lines' pitch must exceed this many spacings, else the points are not on separate
+    # lines (a pitch of one spacing is a grid).
+    sampling_min_pitch_spacings: float = 1.3
+    # A square grid: the quadrupled angles' mean must exceed this (dimensionless), as for lines.
+    sampling_lattice_coherence: float = 0.6
+    # The line pitch is read from each point's nearest neighbour on another line among this many
+    # nearest neighbours (points): enough to reach the next line on stripes of pitch up to ~4 h.
+    sampling_pitch_neighbours: int = 16
+    # The windows sit this many standard deviations of the coordinates off their mean, per axis
+    # (in sd of the point coordinates): on a uniformly covered patch mean -+ 0.7 sd are about its 30th
+    # and 70th percentiles, inside the scan yet off its middle, where a scan's hole often is.
+    sampling_window_offset_sd: float = 0.7
+
+    # --- Occupancy grid (holecli.robust.candidates.occupancy_grid), in cells ---
+    # Clusters of occupied cells of at most this many cells that the 3 x 3 opening removes and that
+    # touch no material are specks (reflections inside a hole), not material: a boss or debris
+    # larger than this stays, and the void around it becomes a ring.
+    max_speck_cells: int = 8
+
+    # --- Synthetic holes of the bias correction (holecli.robust.bias), in alphas ---
+    # Points within this many alphas of the outer line of the triangulated ring are cut-zone
+    # material (the cut, not a hole, leaves empty triangles there): an alpha disk's diameter.
+    cut_alphas: float = 2.0
+    # Fewest rim points of a synthetic hole that is fitted (points).
+    bias_min_rim_points: int = 5
+    # A synthetic hole whose fitted radius is off its known one by this many alphas or more failed
+    # (the rim ran off into another void), and is left out of the mean.
+    bias_max_excess_alphas: float = 1.0
+
+    # --- Lattice brackets (holecli.robust.lattice), in lattice steps ---
+    # A neighbour one step along an axis is present within this fraction of the step: far above the
+    # in-plane noise of a quiet regular scan, far below half a step.
+    lattice_present_steps: float = 0.15
+    # A lattice position is missing when no point lies within this fraction of the step (half a
+    # step: the point would be nearer the next position).
+    lattice_missing_steps: float = 0.5
+    # An axis has a regular step only where at least this fraction of the points have their
+    # neighbour one step along it (fraction of the points).
+    lattice_min_present_fraction: float = 0.5
+    # Fewest brackets (points) for the separating circle: three define a circle, eight around it
+    # constrain all three parameters with a margin.
+    lattice_min_brackets: int = 8
+    # ... and no angular gap between brackets larger than this (degrees): a quarter of the circle
+    # without a bracket leaves the circle free to slide that way.
+    lattice_max_gap_deg: float = 90.0
+    # Other material points within this many steps outside the circle must lie outside it too.
+    lattice_others_steps: float = 2.0
+
+    # --- Countersink cone (holecli.robust.countersink.fit_cone_edge) ---
+    # A cone's wall slopes between these (depth per unit radius: 0.2 is 11 degrees from the surface,
+    # 3.0 is 72; a 100-degree countersink slopes 0.84, a 60-degree one 1.73); a steeper "cone" is a
+    # bore wall, a flatter one is noise.
+    cone_min_slope: float = 0.2
+    cone_max_slope: float = 3.0
+    # The cone must hold this many points clearly below the surface inside the rim (points).
+    cone_min_points_below: int = 12
+    # "Clearly below the surface": deeper than this many robust sd of the surface heights (height
+    # noise): three sigma keeps the surface's own noise out.
+    cone_below_sigmas: float = 3.0
+    # The window of the edge search reaches this many window widths inside the rim's radius (one
+    # width outside it): the cone's points lie inside the edge.
+    cone_inner_widths: float = 2.0
+    # The hinge fit trims points farther than this many robust sd of its residuals (bore-wall and
+    # floor points far below the cone), at most cone_trim_rounds times.
+    cone_trim_sigmas: float = 3.0
+    cone_trim_rounds: int = 3
+    # The edge is searched on this many radii across the window, then as many again around the best
+    # (counts): the second pass resolves 1/64^2 of the window.
+    cone_edge_steps: int = 64
+    # The flat-floor check cuts the points below the surface inside the edge into this many radial
+    # bins, each kept with at least this many points (counts).
+    cone_depth_bins: int = 8
+    cone_min_bin_points: int = 3
+
     def __post_init__(self):
         for name, low, high in _RANGES:
             value = getattr(self, name)
@@ -123,11 +251,29 @@ _RANGES = (
     # below 1: a cone's points must deepen at some fraction of its slope; -inf turns the check off
     ("cone_depth_slope_ratio", -_INF, 1.0),
     ("min_rim_points", 3, 10 ** 9), ("min_partial_rim_points", 3, 10 ** 9),
+    ("plane_refine_rounds", 1, 10 ** 6), ("plane_refine_sample", 3, 10 ** 12), ("plane_max_faces", 1, 100),
+    ("view_min_sine", 0.0, 1.0), ("sampling_window_offset_sd", 0.0, _INF),
+    ("sampling_gap_percentile", 0.0, 100.0), ("sampling_inner_fraction", 0.0, _INF),
+    ("sampling_line_coherence", 0.0, 1.0), ("sampling_min_pitch_spacings", 0.0, _INF),
+    ("sampling_lattice_coherence", 0.0, 1.0), ("sampling_pitch_neighbours", 1, 10 ** 6),
+    ("max_speck_cells", 0, 10 ** 9),
+    ("cut_alphas", 0.0, _INF), ("bias_min_rim_points", 3, 10 ** 9), ("bias_max_excess_alphas", 0.0, _INF),
+    ("lattice_present_steps", 0.0, 1.0), ("lattice_missing_steps", 0.0, 1.0),
+    ("lattice_min_present_fraction", 0.0, 1.0), ("lattice_min_brackets", 3, 10 ** 9),
+    ("lattice_max_gap_deg", 0.0, 360.0), ("lattice_others_steps", 0.0, _INF),
+    ("cone_min_slope", 0.0, _INF), ("cone_max_slope", 0.0, _INF), ("cone_min_points_below", 1, 10 ** 9),
+    ("cone_below_sigmas", 0.0, _INF), ("cone_inner_widths", 0.0, _INF), ("cone_trim_sigmas", 0.0, _INF),
+    ("cone_trim_rounds", 1, 1000), ("cone_edge_steps", 2, 10 ** 6), ("cone_depth_bins", 2, 10 ** 6),
+    ("cone_min_bin_points", 1, 10 ** 9),
 )
 _COUNTS = {"ransac_sample", "ransac_hypotheses", "sampling_windows", "sampling_window_points", "bias_passes",
            "bias_rim_points", "cone_window_moves", "threads", "threads_from_points", "min_rim_points",
-           "min_partial_rim_points"}
-_CLOSED = {"min_partial_arc_deg", "full_arc_deg", "boss_fraction"}
+           "min_partial_rim_points", "plane_refine_rounds", "plane_refine_sample", "plane_max_faces",
+           "sampling_pitch_neighbours", "max_speck_cells", "bias_min_rim_points", "lattice_min_brackets",
+           "cone_min_points_below", "cone_trim_rounds", "cone_edge_steps", "cone_depth_bins",
+           "cone_min_bin_points"}
+_CLOSED = {"min_partial_arc_deg", "full_arc_deg", "boss_fraction", "lattice_min_present_fraction",
+           "lattice_max_gap_deg"}
 
 
 def _describe(name, low, high):

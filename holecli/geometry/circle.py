@@ -13,9 +13,11 @@ from scipy.optimize import least_squares
 
 from holecli.errors import PointsError
 from holecli.geometry.kernels import circles_through
+from holecli.settings import DEFAULT_SETTINGS
 
-# A radial residual above this many robust standard deviations marks a rim point as an outlier.
-CLIP_SIGMAS = 3.0
+# A radial residual above this many robust standard deviations marks a rim point as an outlier: the
+# robust method's value (RobustSettings.clip_sigmas), so that a default fit is the production fit.
+CLIP_SIGMAS = DEFAULT_SETTINGS.clip_sigmas
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,10 +41,12 @@ class CircleFit:
 
     @property
     def rms(self) -> float:
+        """Root mean square of the residuals."""
         return float(np.sqrt(np.mean(self.residuals**2)))
 
     @property
     def max_residual(self) -> float:
+        """Largest absolute residual."""
         return float(np.max(np.abs(self.residuals)))
 
     @property
@@ -62,6 +66,11 @@ def _check(xy, minimum=3):
 
 def fit_circle_algebraic(xy):
     """Kasa's algebraic circle fit (linear least squares); a starting point for the geometric fit.
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+        At least three points, not collinear.
 
     Returns
     -------
@@ -195,11 +204,15 @@ def fit_circle_robust(xy, *, clip=CLIP_SIGMAS, floor=0.0, max_rounds=10, start=N
     Parameters
     ----------
     xy : (n, 2) float
+        At least three points, not collinear.
     clip : float
-        Clipping threshold in robust standard deviations.
+        Clipping threshold in robust standard deviations (default ``CLIP_SIGMAS``, the robust
+        method's ``RobustSettings.clip_sigmas``).
     floor : float
         Smallest residual scale, in the units of ``xy`` (keeps noise-free data from clipping
         round-off).
+    max_rounds : int
+        Most clipping rounds.
     start : ((2,) float, float), optional
         Initial center and radius; by default the better (by median absolute residual) of the
         algebraic fit of all points and a least-quantile-of-squares circle through three of them.

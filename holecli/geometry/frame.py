@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from holecli.errors import PointsError
+from holecli.settings import DEFAULT_SETTINGS
 
 _Z = np.array([0.0, 0.0, 1.0])
 # Below this sine the axis n x z is numerically undefined and n is taken as +z or -z.
@@ -27,7 +28,17 @@ def _unit(vector, name):
 
 
 def cross_matrix(axis):
-    """The matrix ``K`` with ``K @ v == np.cross(axis, v)``."""
+    """The matrix ``K`` with ``K @ v == np.cross(axis, v)``.
+
+    Parameters
+    ----------
+    axis : (3,) float
+
+    Returns
+    -------
+    (3, 3) float ndarray
+        The skew-symmetric cross-product matrix of ``axis``.
+    """
     x, y, z = axis
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
@@ -60,16 +71,45 @@ def rotation_to_z(normal):
 
 
 def to_plane_frame(points, origin, rotation):
-    """Coordinates of ``points`` (n, 3) in the frame centred on ``origin`` and rotated by ``rotation``."""
+    """Coordinates of ``points`` in the frame centred on ``origin`` and rotated by ``rotation``.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        World coordinates.
+    origin : (3,) float
+        The frame's origin, world coordinates.
+    rotation : (3, 3) float
+        Rows: the frame's axes in world coordinates (as :func:`rotation_to_z` returns).
+
+    Returns
+    -------
+    (n, 3) float ndarray
+        ``(points - origin) @ rotation.T``.
+    """
     return (np.asarray(points, dtype=np.float64) - origin) @ rotation.T
 
 
 def from_plane_frame(local, origin, rotation):
-    """Inverse of :func:`to_plane_frame`."""
+    """Inverse of :func:`to_plane_frame`.
+
+    Parameters
+    ----------
+    local : (n, 3) or (3,) float
+        Plane-frame coordinates.
+    origin : (3,) float
+    rotation : (3, 3) float
+        As for :func:`to_plane_frame`.
+
+    Returns
+    -------
+    (n, 3) or (3,) float ndarray
+        World coordinates ``local @ rotation + origin``.
+    """
     return np.asarray(local, dtype=np.float64) @ rotation + origin
 
 
-def slide_in_plane_frame(local, direction):
+def slide_in_plane_frame(local, direction, min_sine=DEFAULT_SETTINGS.view_min_sine):
     """Move each point along ``direction`` until it lies on the plane, in plane-frame coordinates.
 
     A laser triangulation sensor's range noise lies along its viewing ray; sliding along that ray,
@@ -82,6 +122,13 @@ def slide_in_plane_frame(local, direction):
         place, z is left as it is.
     direction : (3,) float
         The slide direction in the plane frame; need not be unit length.
+    min_sine : float
+        Smallest sine of the angle between ``direction`` and the plane (RobustSettings.view_min_sine).
+
+    Returns
+    -------
+    None
+        ``local`` is changed in place.
 
     Raises
     ------
@@ -89,9 +136,10 @@ def slide_in_plane_frame(local, direction):
         When ``direction`` is zero or (nearly) parallel to the plane.
     """
     direction = _unit(direction, "view direction")
-    if abs(direction[2]) < 0.05:
+    if abs(direction[2]) < min_sine:
         raise PointsError(
-            f"view direction {np.round(direction, 4).tolist()} is within 3 degrees of the surface plane; "
+            f"view direction {np.round(direction, 4).tolist()} is within "
+            f"{np.degrees(np.arcsin(min(min_sine, 1.0))):.0f} degrees of the surface plane; "
             "points cannot be slid onto it"
         )
     local[:, 0] -= local[:, 2] * (direction[0] / direction[2])
@@ -107,6 +155,18 @@ def canonical_rotation(points, plane):
     (about the plane's centroid) do not change under a rigid motion of the cloud, so grids and windows
     laid out in them do not depend on how the part sat in the world (when the two in-plane spreads are
     exactly equal the axes are arbitrary).
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        The cloud, world coordinates.
+    plane : PlaneFit
+        Its plane, with ``inliers`` and ``major`` set (:func:`holecli.geometry.plane.fit_plane_robust`).
+
+    Returns
+    -------
+    (3, 3) float ndarray
+        Rows (major, minor, normal): a proper rotation into the plane's frame.
     """
     normal = np.asarray(plane.normal, dtype=np.float64)
     major = np.asarray(plane.major, dtype=np.float64)

@@ -1,4 +1,6 @@
-"""Small vectorised geometric kernels shared by the pipeline steps."""
+"""Small vectorised geometric kernels shared by the pipeline steps, and named helpers for idioms that
+recur across holecli: the robust standard deviation, box queries, the largest angular gap and the
+sign convention of normals."""
 
 from __future__ import annotations
 
@@ -7,6 +9,90 @@ from scipy.spatial import Delaunay
 
 # Relative size of the wobble that breaks the ties of a regular grid before triangulating it.
 _WOBBLE = 1e-9
+# Consistency constant of the median absolute deviation: 1 / Phi^-1(3/4), so that 1.4826 * median(|x|)
+# is the standard deviation of normally distributed x of mean zero.
+MAD_TO_SIGMA = 1.4826
+# Below this magnitude a normal's component counts as zero for the sign convention.
+_ZERO_COMPONENT = 1e-12
+
+
+def robust_sigma(x):
+    """Robust standard deviation of values about zero: ``1.4826 * median(|x|)``.
+
+    Parameters
+    ----------
+    x : array_like of float
+        Residuals (about zero: the median is of their magnitudes, not of their deviations from
+        their own median).
+
+    Returns
+    -------
+    float
+        The scale, NaN for an empty ``x``.
+    """
+    return MAD_TO_SIGMA * float(np.median(np.abs(x)))
+
+
+def box_indices(xy, low, high):
+    """Indices of the points of ``xy`` inside the closed box ``[low, high]``.
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+        Points; a Fortran-ordered array reads its columns contiguously.
+    low, high : (2,) float
+        Lower and upper corners of the box; a point on a side counts as inside.
+
+    Returns
+    -------
+    (k,) int ndarray
+        Rows of ``xy`` in the box, in increasing order.
+    """
+    inside = (xy[:, 0] >= low[0]) & (xy[:, 0] <= high[0]) & (xy[:, 1] >= low[1]) & (xy[:, 1] <= high[1])
+    return np.flatnonzero(inside)
+
+
+def largest_angular_gap(xy, center):
+    """Largest angle, seen from ``center``, between two angularly neighbouring points of ``xy``.
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+        At least one point.
+    center : (2,) float
+
+    Returns
+    -------
+    float
+        The gap in radians, in [0, 2 pi] (2 pi for a single point), the wrap-around from the last to
+        the first angle included.
+    """
+    angles = np.sort(np.arctan2(xy[:, 1] - center[1], xy[:, 0] - center[0]))
+    return float(np.max(np.diff(np.concatenate([angles, [angles[0] + 2 * np.pi]]))))
+
+
+def orient_normal(normal):
+    """Flip ``normal`` so that its z component is positive (ties: y, then x).
+
+    This is holecli's sign convention for every normal it reports and for the truth of its
+    simulations. A component of magnitude at most 1e-12 counts as zero (a wall given as a 90 degree
+    rotation, cos 90 deg = 6e-17, is oriented by y); a vector with all three components that small
+    is returned as it is.
+
+    Parameters
+    ----------
+    normal : (3,) array_like of float
+
+    Returns
+    -------
+    (3,) float ndarray
+        ``normal`` or ``-normal``.
+    """
+    normal = np.asarray(normal, dtype=np.float64)
+    for component in (2, 1, 0):
+        if abs(normal[component]) > _ZERO_COMPONENT:
+            return normal if normal[component] > 0 else -normal
+    return normal
 
 
 def triangulate(xy):
@@ -17,6 +103,16 @@ def triangulate(xy):
     each point's coordinates (so the result does not depend on their order); a tie can be broken
     either way without changing any circumradius beyond that size. Callers measure on the original
     coordinates. Raises ``scipy.spatial.QhullError`` like ``Delaunay``.
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+        Points to triangulate.
+
+    Returns
+    -------
+    scipy.spatial.Delaunay
+        The triangulation of the wobbled points (its ``simplices`` index ``xy``).
     """
     scale = float(np.max(np.ptp(xy, axis=0))) if len(xy) else 1.0
     scale = scale if scale > 0 else 1.0
@@ -26,7 +122,12 @@ def triangulate(xy):
 
 
 def circles_through(a, b, c):
-    """Circles through the point triples ``a``, ``b``, ``c`` (each (k, 2)).
+    """Circles through the point triples ``a``, ``b``, ``c``.
+
+    Parameters
+    ----------
+    a, b, c : (k, 2) float
+        The three points of each triple.
 
     Returns
     -------

@@ -7,6 +7,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from holecli.errors import PointsError
+from holecli.geometry.kernels import orient_normal, robust_sigma
+from holecli.settings import DEFAULT_SETTINGS
+
+__all__ = ["PlaneFit", "fit_plane_robust", "fit_plane_scatter", "fit_plane_svd", "orient_normal"]
 
 # Relative round-off floor of a plane's noise (a multiple of the magnitude of the surface's own
 # coordinates): far below any real noise, far above float error, so that exact data keeps a band.
@@ -42,19 +46,8 @@ class PlaneFit:
 
     @property
     def inlier_count(self) -> int:
+        """Number of inliers, -1 when ``inliers`` is None."""
         return -1 if self.inliers is None else int(self.inliers.sum())
-
-
-def orient_normal(normal):
-    """Flip ``normal`` so that its z component is positive (ties: y, then x).
-
-    This is holecli's sign convention for every normal it reports.
-    """
-    normal = np.asarray(normal, dtype=np.float64)
-    for component in (2, 1, 0):
-        if abs(normal[component]) > 1e-12:
-            return normal if normal[component] > 0 else -normal
-    return normal
 
 
 def fit_plane_svd(points):
@@ -90,6 +83,17 @@ def fit_plane_scatter(points):
 
     The same plane as :func:`fit_plane_svd`, in one pass over the points instead of an SVD of the
     whole (n, 3) array: the fast path for large clouds. ``rms`` is computed from the residuals.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        At least three points, not all on one line.
+
+    Returns
+    -------
+    PlaneFit
+        Centroid, unit normal (eigenvector of the smallest eigenvalue, oriented by
+        :func:`orient_normal`), rms distance and ``major`` (eigenvector of the largest).
     """
     points = np.asarray(points, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 3 or len(points) < 3:
@@ -131,7 +135,7 @@ def _hypothesis_normals(sample, rng, count):
     return a[good], normals[good] / lengths[good, None]
 
 
-def _faces(sample, rng, hypotheses, quantile, clip, origin, max_faces=3):
+def _faces(sample, rng, hypotheses, quantile, clip, origin, max_faces):
     """Planar faces in a sample, one after the other: (count, normal, offset, sigma) each.
 
     Each round takes the RANSAC hypothesis with the smallest ``quantile`` of absolute residuals
@@ -165,8 +169,10 @@ def _faces(sample, rng, hypotheses, quantile, clip, origin, max_faces=3):
     return faces
 
 
-def fit_plane_robust(points, *, rng=0, sample=2000, hypotheses=96, quantile=0.3, clip=4.0, max_rounds=20,
-                     refine_sample=50000):
+def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
+                     hypotheses=DEFAULT_SETTINGS.ransac_hypotheses, quantile=DEFAULT_SETTINGS.ransac_quantile,
+                     clip=DEFAULT_SETTINGS.plane_clip, max_rounds=DEFAULT_SETTINGS.plane_refine_rounds,
+                     refine_sample=DEFAULT_SETTINGS.plane_refine_sample, max_faces=DEFAULT_SETTINGS.plane_max_faces):
     """Plane of the dominant surface, ignoring bore-wall, countersink, inside-hole and outlier points.
 
     RANSAC hypotheses from point triples are scored by the ``quantile`` of their absolute residuals
@@ -176,11 +182,27 @@ def fit_plane_robust(points, *, rng=0, sample=2000, hypotheses=96, quantile=0.3,
     on the points within ``clip`` robust standard deviations (1.4826 * MAD) until the inlier set
     stops changing: on a subsample of ``refine_sample`` points first, then on all points.
 
+    Every default is the field of :data:`holecli.settings.DEFAULT_SETTINGS` named in brackets.
+
     Parameters
     ----------
     points : (n, 3) float
     rng : numpy.random.Generator or int
         Random source for the hypotheses (results do not depend on it beyond round-off).
+    sample : int
+        Points drawn for the RANSAC faces (``ransac_sample``).
+    hypotheses : int
+        Point triples tried per face (``ransac_hypotheses``).
+    quantile : float
+        Quantile of the absolute residuals that scores a hypothesis, in (0, 1) (``ransac_quantile``).
+    clip : float
+        Inlier band, in robust standard deviations of the residuals (``plane_clip``).
+    max_rounds : int
+        Most refits on the subsample (``plane_refine_rounds``).
+    refine_sample : int
+        Size of the subsample refitted (``plane_refine_sample``).
+    max_faces : int
+        Most faces taken from the RANSAC sample (``plane_max_faces``).
 
     Returns
     -------
@@ -200,7 +222,7 @@ def fit_plane_robust(points, *, rng=0, sample=2000, hypotheses=96, quantile=0.3,
         return points[chosen] - origin
 
     subset = sample_of(sample)
-    faces = _faces(subset, rng, hypotheses, quantile, clip, origin)
+    faces = _faces(subset, rng, hypotheses, quantile, clip, origin, max_faces)
     if not faces:
         raise PointsError("the points are collinear (or coincide): no plane is defined")
     # The dominant face is the one that holds the most points, whatever its noise.
@@ -218,7 +240,7 @@ def fit_plane_robust(points, *, rng=0, sample=2000, hypotheses=96, quantile=0.3,
         fit = fit_plane_scatter(refine[inliers])
         normal, offset = fit.normal, float(fit.normal @ fit.point)
         distance = refine @ normal - offset
-        sigma = max(1.4826 * float(np.median(np.abs(distance[inliers]))), floor)
+        sigma = max(robust_sigma(distance[inliers]), floor)
         new_inliers = np.abs(distance) <= clip * sigma
         if np.array_equal(new_inliers, inliers):
             break

@@ -15,14 +15,41 @@ import numpy as np
 
 from holecli.robust.boundary import hole_rim
 from holecli.robust.edge import fit_edge
+from holecli.settings import DEFAULT_SETTINGS
 
 
-def synthetic_rim_fit(xy, center, radius, alpha, reach, margin, clip, floor, allow_open=True, depth=None):
+def synthetic_rim_fit(xy, center, radius, alpha, reach, margin, clip, floor, allow_open=True, depth=None, *,
+                      settings=DEFAULT_SETTINGS):
     """Fit the rim of a synthetic hole of ``radius`` cut at ``center`` into ``xy``.
 
     Only the ring of points between ``radius`` and ``radius + margin`` is triangulated; rim points
     farther than ``radius + reach`` from the center (where a partial hole opens onto the scan's
-    edge) are ignored. Returns the fitted radius or None.
+    edge) are ignored.
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+        Surface points around the hole.
+    center : (2,) float
+    radius : float
+        The synthetic hole's radius.
+    alpha : float
+        The empty-circle radius of the rim extraction.
+    reach, margin : float
+        As for :func:`sampling_bias`.
+    clip, floor : float
+        Clipping threshold (robust sd) and residual-scale floor (file units) of the circle fit.
+    allow_open : bool
+        Whether the synthetic hole may reach the scan's edge.
+    depth : float, optional
+        Envelope depth of :func:`holecli.robust.edge.fit_edge`; ``alpha`` by default.
+    settings : RobustSettings
+        Source of ``cut_alphas`` (the cut zone at the ring's outer line) and ``bias_min_rim_points``.
+
+    Returns
+    -------
+    float or None
+        The fitted radius, None when the synthetic hole gives no usable rim.
     """
     distance = np.hypot(*(xy - center).T)
     keep = (distance > radius) & (distance < radius + margin)
@@ -30,18 +57,19 @@ def synthetic_rim_fit(xy, center, radius, alpha, reach, margin, clip, floor, all
     def in_disk(positions):
         return np.hypot(*(positions - center).T) < radius
 
-    rim = hole_rim(local, in_disk, alpha, cut=distance[keep] > radius + margin - 2.0 * alpha)
+    rim = hole_rim(local, in_disk, alpha, cut=distance[keep] > radius + margin - settings.cut_alphas * alpha)
     if rim is None or (rim.open and not allow_open):
         return None
     rim_xy = local[rim.index]
     rim_xy = rim_xy[np.hypot(*(rim_xy - center).T) <= radius + reach]
-    if len(rim_xy) < 5:
+    if len(rim_xy) < settings.bias_min_rim_points:
         return None
     fit, _ = fit_edge(rim_xy, alpha if depth is None else depth, floor, clip, start=(center, radius))
     return None if fit is None else fit.radius
 
 
-def sampling_bias(xy, center, radius, alpha, offsets, reach, margin, clip, floor, allow_open=True, depth=None):
+def sampling_bias(xy, center, radius, alpha, offsets, reach, margin, clip, floor, allow_open=True, depth=None, *,
+                  settings=DEFAULT_SETTINGS):
     """Mean excess of the fitted over the true radius of synthetic holes cut into ``xy``.
 
     Synthetic holes must not be smaller than the real hole (else they would hold its void), so the
@@ -62,8 +90,15 @@ def sampling_bias(xy, center, radius, alpha, offsets, reach, margin, clip, floor
         phase as the real one.
     reach, margin : float
         Rim points beyond ``radius + reach`` are ignored; the ring triangulated is ``margin`` wide.
+    clip, floor : float
+        Clipping threshold (robust sd) and residual-scale floor (file units) of the circle fits.
     allow_open : bool
         Whether a synthetic hole may reach the scan's edge (true for a partial hole).
+    depth : float, optional
+        Envelope depth of the rim fits; ``alpha`` by default.
+    settings : RobustSettings
+        Source of ``cut_alphas``, ``bias_min_rim_points`` and ``bias_max_excess_alphas`` (a synthetic
+        hole fitted that far off its known radius is left out).
 
     Returns
     -------
@@ -74,8 +109,9 @@ def sampling_bias(xy, center, radius, alpha, offsets, reach, margin, clip, floor
     excesses = []
     for offset in offsets:
         synthetic = radius + offset
-        fitted = synthetic_rim_fit(xy, center, synthetic, alpha, reach, margin, clip, floor, allow_open, depth)
-        if fitted is not None and abs(fitted - synthetic) < alpha:
+        fitted = synthetic_rim_fit(xy, center, synthetic, alpha, reach, margin, clip, floor, allow_open, depth,
+                                   settings=settings)
+        if fitted is not None and abs(fitted - synthetic) < settings.bias_max_excess_alphas * alpha:
             excesses.append(fitted - synthetic)
     if not excesses:
         return None

@@ -129,12 +129,14 @@ def outer_envelope(rim_xy, center, depth, sectors):
     center : (2,) float
         Current estimate of the hole's center.
     depth : float
+        Depth below its sector's outermost point at which a rim point is dropped.
     sectors : int
         Number of equal angular sectors around ``center``.
 
     Returns
     -------
     (m,) bool
+        True for the points kept.
     """
     offset = rim_xy - center
     radius = np.hypot(offset[:, 0], offset[:, 1])
@@ -146,6 +148,19 @@ def outer_envelope(rim_xy, center, depth, sectors):
 
 
 def near_box_edge(xy, low, high, distance):
-    """Points within ``distance`` of the sides of the box ``(low, high)`` (a ``cut`` for hole_rim)."""
+    """Points within ``distance`` of the sides of the box ``(low, high)`` (a ``cut`` for hole_rim).
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+        Points inside the box.
+    low, high : (2,) float
+        The box's corners.
+    distance : float
+
+    Returns
+    -------
+    (n,) bool ndarray
+    """
     clearance = np.minimum(np.min(xy - low, axis=1), np.min(high - xy, axis=1))
     return clearance < distance

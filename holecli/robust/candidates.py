@@ -18,10 +18,13 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import ConvexHull, QhullError
 
+from holecli.settings import DEFAULT_SETTINGS
+
 _CROSS = ndimage.generate_binary_structure(2, 1)
 _SQUARE = np.ones((3, 3), dtype=bool)
-# Clusters of occupied cells up to this size that the opening removes are specks, not material.
-MAX_SPECK_CELLS = 8
+# Clusters of occupied cells up to this size that the opening removes are specks, not material
+# (RobustSettings.max_speck_cells).
+MAX_SPECK_CELLS = DEFAULT_SETTINGS.max_speck_cells
 
 
 @dataclass(frozen=True, eq=False)
@@ -34,14 +37,44 @@ class Grid:
     solid: np.ndarray     # the material with isolated empty cells (natural gaps of random sampling) filled
 
     def cell_of(self, xy):
-        """Integer (i, j) cell indices of 2D points (may fall outside the grid)."""
+        """Integer (i, j) cell indices of 2D points (may fall outside the grid).
+
+        Parameters
+        ----------
+        xy : (n, 2) float
+
+        Returns
+        -------
+        (n, 2) int64 ndarray
+        """
         return np.floor((xy - self.origin) / self.cell).astype(np.int64)
 
     def center_of(self, ij):
+        """Centers of the cells ``ij``.
+
+        Parameters
+        ----------
+        ij : (k, 2) int
+
+        Returns
+        -------
+        (k, 2) float ndarray
+        """
         return self.origin + (np.asarray(ij) + 0.5) * self.cell
 
     def lookup(self, mask, xy):
-        """Value of the (nx, ny) bool ``mask`` at each point (False outside the grid)."""
+        """Value of the (nx, ny) bool ``mask`` at each point (False outside the grid).
+
+        Parameters
+        ----------
+        mask : (nx, ny) bool
+            A mask of the grid's cells (``material``, ``solid``, a void).
+        xy : (n, 2) float
+
+        Returns
+        -------
+        (n,) bool ndarray
+        """
         ij = self.cell_of(xy)
         inside = (ij[:, 0] >= 0) & (ij[:, 1] >= 0) & (ij[:, 0] < mask.shape[0]) & (ij[:, 1] < mask.shape[1])
         out = np.zeros(len(xy), dtype=bool)
@@ -66,19 +99,34 @@ class Void:
 
     @property
     def lower(self):
+        """(2,) int: the smallest cell indices of the void."""
         return self.cells.min(axis=0)
 
     @property
     def upper(self):
+        """(2,) int: the largest cell indices of the void."""
         return self.cells.max(axis=0)
 
 
-def occupancy_grid(xy, cell):
+def occupancy_grid(xy, cell, max_speck_cells=MAX_SPECK_CELLS):
     """The occupancy grid of ``xy`` at ``cell``, padded by at least two empty cells on every side.
 
     Specks (small clusters of occupied cells that hold no 3 x 3 block and touch no material: random
     reflections inside a hole) are removed by a morphological opening; they cannot be the edge of a
     hole.
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+        Surface points in the plane frame.
+    cell : float
+        The cell's side, file units (``cell_gaps`` gaps in the pipeline).
+    max_speck_cells : int
+        Largest cluster of occupied cells that can be a speck (RobustSettings.max_speck_cells).
+
+    Returns
+    -------
+    Grid
     """
     # Cell boundaries at whole multiples of the cell from the frame's origin (the points' centroid in
     # the pipeline), so that the grid is the same after a half turn of the frame.
@@ -96,7 +144,7 @@ def occupancy_grid(xy, cell):
         sizes = np.bincount(removed.ravel())
         empty_labels, _ = ndimage.label(~occupied, structure=_CROSS)
         exterior = empty_labels == empty_labels[0, 0]
-        keep = sizes > MAX_SPECK_CELLS
+        keep = sizes > max_speck_cells
         for neighbour in (opened, exterior):
             touching = ndimage.binary_dilation(neighbour, structure=_SQUARE) & (removed > 0)
             keep[np.unique(removed[touching])] = True
@@ -141,6 +189,12 @@ def _hull_mask(material):
 
 def find_voids(grid, min_cells=1):
     """Enclosed voids and bays of ``grid``.
+
+    Parameters
+    ----------
+    grid : Grid
+    min_cells : int
+        Fewest cells of a void reported (a bay needs at least two).
 
     Returns
     -------

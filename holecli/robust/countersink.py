@@ -19,18 +19,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# A countersink wall slopes between these (depth per unit radius: 0.2 is 11 degrees from the surface,
-# 3.0 is 72; a 100-degree countersink slopes 0.84, a 60-degree one 1.73); a steeper "cone" is a bore
-# wall. The cone must hold this many points clearly below the surface.
-MIN_SLOPE = 0.2
-MAX_SLOPE = 3.0
-MIN_POINTS_BELOW = 12
-# The points below the surface inside the edge are cut into this many radial bins (between their 1st
-# and 99th radius percentiles), each kept with at least this many points.
-DEPTH_BINS = 8
-MIN_BIN_POINTS = 3
-# Default of RobustSettings.cone_depth_slope_ratio (see there).
-DEPTH_SLOPE_RATIO = 0.3
+from holecli.geometry.kernels import robust_sigma
+from holecli.settings import DEFAULT_SETTINGS
+
+# The defaults, from RobustSettings (see there): a countersink wall slopes between MIN_SLOPE and
+# MAX_SLOPE (cone_min_slope, cone_max_slope) and holds MIN_POINTS_BELOW points clearly below the
+# surface (cone_min_points_below); the flat-floor check cuts the points below the surface inside the
+# edge into DEPTH_BINS radial bins (between their 1st and 99th radius percentiles), each kept with
+# at least MIN_BIN_POINTS points (cone_depth_bins, cone_min_bin_points), and wants a depth slope of
+# DEPTH_SLOPE_RATIO of the cone's (cone_depth_slope_ratio).
+MIN_SLOPE = DEFAULT_SETTINGS.cone_min_slope
+MAX_SLOPE = DEFAULT_SETTINGS.cone_max_slope
+MIN_POINTS_BELOW = DEFAULT_SETTINGS.cone_min_points_below
+DEPTH_BINS = DEFAULT_SETTINGS.cone_depth_bins
+MIN_BIN_POINTS = DEFAULT_SETTINGS.cone_min_bin_points
+DEPTH_SLOPE_RATIO = DEFAULT_SETTINGS.cone_depth_slope_ratio
 
 
 @dataclass(frozen=True)
@@ -47,7 +50,7 @@ class NotACone:
     """Why the points around a rim are not a countersink cone: the check, its value and its limit.
 
     ``check`` is ``"points_below"`` (too few points clearly below the surface inside the rim),
-    ``"slope"`` (the wall's slope is outside [MIN_SLOPE, MAX_SLOPE]: a bore wall or no cone) or
+    ``"slope"`` (the wall's slope is outside [cone_min_slope, cone_max_slope]: a bore wall or no cone) or
     ``"flat_floor"`` (the depth does not grow toward the center as the cone's slope says: a flat
     hole floor, value and limit as fractions of the fitted slope).
     """
@@ -67,7 +70,7 @@ def _hinge(rho, depth, edge):
     return slope, float(residual @ residual)
 
 
-def _best_edge(rho, depth, low, high, steps=64):
+def _best_edge(rho, depth, low, high, steps):
     edges = np.linspace(low, high, steps)
     errors = np.array([_hinge(rho, depth, edge)[1] for edge in edges])
     best = int(np.argmin(errors))
@@ -79,25 +82,25 @@ def _best_edge(rho, depth, low, high, steps=64):
     return edge, _hinge(rho, depth, edge)[0]
 
 
-def _depth_slope(rho, depth):
+def _depth_slope(rho, depth, bins_count, min_bin_points):
     """Slope of depth against radius (positive: deeper toward the center), or None when unmeasurable.
 
-    The Theil-Sen slope (median over pairs) of the median depths of DEPTH_BINS radial bins spanning
+    The Theil-Sen slope (median over pairs) of the median depths of ``bins_count`` radial bins spanning
     the points. Bin medians, and the median over pairs of bins, keep the slope of a floor at zero
     whatever a bore wall adds: the wall stands at one radius, so it moves one bin or two. The bins span
     the points themselves, not the range up to the fitted edge: a cone fitted to a floor claims
     points below the surface out to its edge, where there are none.
     """
-    if len(rho) < 2 * MIN_BIN_POINTS:
+    if len(rho) < 2 * min_bin_points:
         return None
     low, high = (float(v) for v in np.percentile(rho, [1.0, 99.0]))
     if not high > low:
         return None
-    bins = np.clip(np.floor(DEPTH_BINS * (rho - low) / (high - low)), 0, DEPTH_BINS - 1).astype(np.int64)
+    bins = np.clip(np.floor(bins_count * (rho - low) / (high - low)), 0, bins_count - 1).astype(np.int64)
     medians, centers = [], []
     for b in np.unique(bins):
         members = bins == b
-        if np.count_nonzero(members) >= MIN_BIN_POINTS:
+        if np.count_nonzero(members) >= min_bin_points:
             medians.append(float(np.median(depth[members])))
             centers.append(float(np.median(rho[members])))
     if len(medians) < 2:
@@ -107,7 +110,8 @@ def _depth_slope(rho, depth):
     return float(np.median((medians[i] - medians[j]) / (centers[j] - centers[i])))
 
 
-def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOPE_RATIO):
+def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOPE_RATIO, *,
+                  settings=DEFAULT_SETTINGS):
     """Countersink edge from points around a hole, or the reason there is no cone.
 
     Parameters
@@ -125,33 +129,40 @@ def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOP
     depth_slope_ratio : float
         Least slope of depth against radius of the points below the surface inside the edge, as a
         fraction of the cone's slope (the ``"flat_floor"`` check).
+    settings : RobustSettings
+        Source of the cone's other limits: ``cone_inner_widths`` (the window reaches that many
+        ``width`` inside ``radius``), ``cone_below_sigmas``, ``cone_min_points_below``,
+        ``cone_trim_sigmas``, ``cone_trim_rounds``, ``cone_edge_steps``, ``cone_min_slope``,
+        ``cone_max_slope``, ``cone_depth_bins`` and ``cone_min_bin_points``.
 
     Returns
     -------
     Cone or NotACone
     """
-    window = (rho > radius - 2.0 * width) & (rho < radius + width)
+    window = (rho > radius - settings.cone_inner_widths * width) & (rho < radius + width)
     rho, depth = rho[window], depth[window]
-    below = np.count_nonzero((depth > 3.0 * noise) & (rho < radius))
-    if below < MIN_POINTS_BELOW:
-        return NotACone("points_below", float(below), float(MIN_POINTS_BELOW))
+    clearly_below = settings.cone_below_sigmas * noise
+    below = np.count_nonzero((depth > clearly_below) & (rho < radius))
+    if below < settings.cone_min_points_below:
+        return NotACone("points_below", float(below), float(settings.cone_min_points_below))
     keep = np.ones(len(rho), dtype=bool)
-    for _ in range(3):
+    for _ in range(settings.cone_trim_rounds):
         # Bore-wall and bottom points (far below the cone) are trimmed as outliers.
-        edge, slope = _best_edge(rho[keep], depth[keep], radius - width, radius + width)
+        edge, slope = _best_edge(rho[keep], depth[keep], radius - width, radius + width, settings.cone_edge_steps)
         residual = depth - slope * np.maximum(edge - rho, 0.0)
-        scale = max(1.4826 * float(np.median(np.abs(residual[keep]))), noise, 1e-12 * radius)
-        new_keep = np.abs(residual) < 3.0 * scale
+        scale = max(robust_sigma(residual[keep]), noise, 1e-12 * radius)
+        new_keep = np.abs(residual) < settings.cone_trim_sigmas * scale
         if np.array_equal(new_keep, keep):
             break
         keep = new_keep
-    if not MIN_SLOPE <= slope <= MAX_SLOPE:
-        return NotACone("slope", slope, MIN_SLOPE if slope < MIN_SLOPE else MAX_SLOPE)
+    low_slope, high_slope = settings.cone_min_slope, settings.cone_max_slope
+    if not low_slope <= slope <= high_slope:
+        return NotACone("slope", slope, low_slope if slope < low_slope else high_slope)
     # The points below the surface inside the edge must deepen toward the center at about the cone's
     # slope. All of them, not only those the hinge kept: a hinge through a floor keeps the few floor
     # points where its line crosses the floor's depth, and noise gives those any slope.
-    inside = (depth > 3.0 * noise) & (rho < edge)
-    measured = _depth_slope(rho[inside], depth[inside])
+    inside = (depth > clearly_below) & (rho < edge)
+    measured = _depth_slope(rho[inside], depth[inside], settings.cone_depth_bins, settings.cone_min_bin_points)
     ratio = 0.0 if measured is None else measured / slope
     if ratio < depth_slope_ratio:
         return NotACone("flat_floor", ratio, depth_slope_ratio)

@@ -17,13 +17,11 @@ import numpy as np
 from scipy.optimize import linprog
 from scipy.spatial import cKDTree
 
-# Neighbours along a lattice step are taken as present within this fraction of the step.
-_PRESENT = 0.15
-# A lattice position is missing when no point lies within this fraction of the step.
-_MISSING = 0.5
+from holecli.geometry.kernels import largest_angular_gap
+from holecli.settings import DEFAULT_SETTINGS
 
 
-def lattice_steps(xy, axes, spacing):
+def lattice_steps(xy, axes, spacing, *, settings=DEFAULT_SETTINGS):
     """Refine lattice step vectors from the points: the median neighbour vector along each axis.
 
     With two axes (a grid) the two diagonals are added: they bracket the edge where it runs at 45
@@ -35,6 +33,9 @@ def lattice_steps(xy, axes, spacing):
     axes : sequence of (2,) float
         Unit directions along which the sampling is regular.
     spacing : float
+    settings : RobustSettings
+        Source of ``lattice_present_steps`` (a neighbour one step along is present within this
+        fraction of the step) and ``lattice_min_present_fraction``.
 
     Returns
     -------
@@ -46,8 +47,8 @@ def lattice_steps(xy, axes, spacing):
     for axis in axes:
         axis = np.asarray(axis, dtype=np.float64)
         distance, index = tree.query(xy + spacing * axis, k=1)
-        close = distance < _PRESENT * spacing
-        if close.sum() < 0.5 * len(xy):
+        close = distance < settings.lattice_present_steps * spacing
+        if close.sum() < settings.lattice_min_present_fraction * len(xy):
             steps.append(None)
             continue
         steps.append(np.median(xy[index[close]] - xy[close], axis=0))
@@ -56,7 +57,7 @@ def lattice_steps(xy, axes, spacing):
     return steps
 
 
-def separating_circle(local_xy, rim_xy, steps, center, radius):
+def separating_circle(local_xy, rim_xy, steps, center, radius, *, settings=DEFAULT_SETTINGS):
     """Largest-margin circle through every bracket of present and missing lattice positions.
 
     A bracket is a rim point ``p`` whose line is regular behind it (``p - v`` present) and empty ahead
@@ -77,12 +78,15 @@ def separating_circle(local_xy, rim_xy, steps, center, radius):
     center : (2,) float
     radius : float
         Current estimate of the edge circle.
+    settings : RobustSettings
+        Source of ``lattice_present_steps``, ``lattice_missing_steps``, ``lattice_min_brackets``,
+        ``lattice_max_gap_deg`` and ``lattice_others_steps``.
 
     Returns
     -------
     (center, radius, margin) or None
-        None when fewer than eight brackets are found, they leave a quarter of the circle without
-        one, or no circle satisfies them all.
+        None when fewer than ``lattice_min_brackets`` (8) brackets are found, they leave more than
+        ``lattice_max_gap_deg`` (a quarter) of the circle without one, or no circle satisfies them all.
     """
     steps = [np.asarray(s) for s in steps if s is not None]
     if not steps:
@@ -97,19 +101,20 @@ def separating_circle(local_xy, rim_xy, steps, center, radius):
             ahead, _ = tree.query(rim_xy + vector)
             candidate = rim_xy + vector
             inside = np.hypot(*(candidate - center).T) < radius
-            ok = (behind < _PRESENT * length) & (ahead > _MISSING * length) & inside
+            ok = ((behind < settings.lattice_present_steps * length)
+                  & (ahead > settings.lattice_missing_steps * length) & inside)
             inner.append(candidate[ok])
             outer.append(rim_xy[ok])
     inner = np.unique(np.concatenate(inner), axis=0)
     outer = np.unique(np.concatenate(outer), axis=0)
-    if len(inner) < 8:
+    if len(inner) < settings.lattice_min_brackets:
         return None
-    angles = np.sort(np.arctan2(*(inner - center).T[::-1]))
-    if np.max(np.diff(np.concatenate([angles, [angles[0] + 2 * np.pi]]))) > np.pi / 2:
+    if largest_angular_gap(inner, center) > np.radians(settings.lattice_max_gap_deg):
         return None
     # Coordinates centred on the current center and in units of its radius: the programme (and its
     # solver's absolute tolerances) is then the same in millimetres and in metres.
-    others = (local_xy[np.hypot(*(local_xy - center).T) < radius + 2.0 * step_length] - center) / radius
+    others = (local_xy[np.hypot(*(local_xy - center).T) < radius + settings.lattice_others_steps * step_length]
+              - center) / radius
     outer = (outer - center) / radius
     inner = (inner - center) / radius
     unit = radius

@@ -13,7 +13,8 @@ import numpy as np
 from scipy.spatial import QhullError, cKDTree
 
 from holecli.errors import PointsError
-from holecli.geometry.kernels import circumradii, triangulate
+from holecli.geometry.kernels import box_indices, circumradii, triangulate
+from holecli.settings import DEFAULT_SETTINGS
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,18 +47,18 @@ class Sampling:
 
     @property
     def period(self):
-        """Across-line period of a regular pattern (line pitch, or grid spacing), None if irregular."""
+        """Across-line period of a regular pattern (line pitch, or grid spacing), None if irregular.
+
+        Returns
+        -------
+        float or None
+        """
         if self.line_pitch is not None:
             return self.line_pitch
         return self.spacing if self.lattice else None
 
 
-def _window_indices(x, y, center, half):
-    inside = (x >= center[0] - half) & (x <= center[0] + half) & (y >= center[1] - half) & (y <= center[1] + half)
-    return np.flatnonzero(inside)
-
-
-def _line_pitch(window, direction, spacing, neighbours=16):
+def _line_pitch(window, direction, spacing, neighbours):
     """Pitch of the scan lines across ``direction``: the median, over the points, of the across-line
     offset of the nearest neighbour on another line (offset above half a spacing).
 
@@ -78,7 +79,8 @@ def _line_pitch(window, direction, spacing, neighbours=16):
     return float(np.median(across[np.arange(len(window)), nearest][found]))
 
 
-def estimate_sampling(xy, windows=5, window_points=900):
+def estimate_sampling(xy, windows=DEFAULT_SETTINGS.sampling_windows,
+                      window_points=DEFAULT_SETTINGS.sampling_window_points, *, settings=DEFAULT_SETTINGS):
     """Measure spacing, gap scale and scan-line structure of 2D surface points.
 
     Parameters
@@ -89,6 +91,11 @@ def estimate_sampling(xy, windows=5, window_points=900):
         Number of local windows (placed at coordinate quantiles).
     window_points : int
         Target number of points per window.
+    settings : RobustSettings
+        Source of the thresholds ``sampling_gap_percentile``, ``sampling_inner_fraction``,
+        ``sampling_line_coherence``, ``sampling_min_pitch_spacings``, ``sampling_lattice_coherence``
+        and ``sampling_pitch_neighbours``. ``windows`` and ``window_points`` default to its
+        ``sampling_windows`` and ``sampling_window_points`` of :data:`holecli.settings.DEFAULT_SETTINGS`.
 
     Returns
     -------
@@ -97,11 +104,13 @@ def estimate_sampling(xy, windows=5, window_points=900):
     n = len(xy)
     if n < 10:
         raise PointsError(f"too few surface points to measure the sampling: {n}")
-    x = np.ascontiguousarray(xy[:, 0])
-    y = np.ascontiguousarray(xy[:, 1])
+    # Column-major: the window box tests read x and y as contiguous columns, a few times each.
+    columns = np.asfortranarray(xy)
+    x, y = columns[:, 0], columns[:, 1]
     # Window positions from the mean and standard deviation of the coordinates (two cheap passes,
     # where quantiles would partition a million points): on a uniformly covered patch, mean -+ 0.7 sd
-    # are about its 30th and 70th percentiles and mean -+ 1.56 sd its 5th and 95th.
+    # (sampling_window_offset_sd) are about its 30th and 70th percentiles and mean -+ 1.56 sd its 5th
+    # and 95th.
     mean = np.array([x.mean(), y.mean()])
     spread = np.array([x.std(), y.std()])
     area = max(float(np.prod(3.12 * spread)) / 0.81, 1e-300)
@@ -115,7 +124,8 @@ def estimate_sampling(xy, windows=5, window_points=900):
     enough = max(10, min(window_points // 2, n // 2))
     chosen, largest = [], None
     for pair in pairs:
-        indices = [_window_indices(x, y, mean + 0.7 * spread * np.array(offset), half) for offset in pair]
+        centers = [mean + settings.sampling_window_offset_sd * spread * np.array(offset) for offset in pair]
+        indices = [box_indices(columns, center - half, center + half) for center in centers]
         for index in indices:
             if largest is None or len(index) > len(largest):
                 largest = index
@@ -143,10 +153,11 @@ def estimate_sampling(xy, windows=5, window_points=900):
         except QhullError:
             continue
         radius, center_xy = circumradii(window, triangulation.simplices)
-        inner = np.all(np.abs(center_xy - window.mean(axis=0)) <= 0.6 * np.ptp(window, axis=0), axis=1)
+        inner = np.all(np.abs(center_xy - window.mean(axis=0)) <= settings.sampling_inner_fraction
+                       * np.ptp(window, axis=0), axis=1)
         inner &= np.isfinite(radius)
         if inner.sum() >= 5:
-            gaps.append(float(np.percentile(radius[inner], 90)))
+            gaps.append(float(np.percentile(radius[inner], settings.sampling_gap_percentile)))
         windows_used.append(window)
     if not spacings or not gaps:
         raise PointsError("cannot measure the point spacing: the surface points are degenerate")
@@ -157,15 +168,16 @@ def estimate_sampling(xy, windows=5, window_points=900):
     mean = doubled.mean()
     direction = pitch = None
     lattice = False
-    if abs(mean) > 0.6:
+    if abs(mean) > settings.sampling_line_coherence:
         theta = np.angle(mean) / 2.0
         candidate = np.array([np.cos(theta), np.sin(theta)])
-        pitches = [p for p in (_line_pitch(w, candidate, spacing) for w in windows_used) if p]
-        if pitches and np.median(pitches) > 1.3 * spacing:
+        pitches = [p for p in (_line_pitch(w, candidate, spacing, settings.sampling_pitch_neighbours)
+                               for w in windows_used) if p]
+        if pitches and np.median(pitches) > settings.sampling_min_pitch_spacings * spacing:
             direction, pitch = candidate, float(np.median(pitches))
     axes = () if direction is None else (direction,)
     quadrupled = np.mean(doubled**2)
-    if direction is None and abs(quadrupled) > 0.6:
+    if direction is None and abs(quadrupled) > settings.sampling_lattice_coherence:
         # Nearest neighbours along two perpendicular directions: a square grid.
         lattice = True
         theta = np.angle(quadrupled) / 4.0

@@ -36,6 +36,7 @@ from typing import Optional, Union
 import numpy as np
 
 from holecli.errors import SpecError
+from holecli.geometry.kernels import orient_normal
 
 __all__ = [
     "BORE",
@@ -75,8 +76,6 @@ TABLE1_SPACING = 0.0908
 _EDGE_SLACK = 1e-7
 # Angular samples of a hole's circle used to measure the arc that lies inside the patch.
 _ARC_SAMPLES = 7200
-# Unit-normal components smaller than this are zero for the sign convention of the truth normal.
-_ZERO_COMPONENT = 1e-12
 # Fewest points on one ring of a bore wall, so a tiny bore is still a cylinder.
 _MIN_RING_POINTS = 8
 # Refuse scenes that would need more candidate samples than this (memory guard, ~1.6 GB of float64).
@@ -523,18 +522,6 @@ def _rotation_matrix(angles_rad: np.ndarray) -> np.ndarray:
     return rz @ ry @ rx
 
 
-def _orient(normal: np.ndarray) -> np.ndarray:
-    """Apply the package's sign convention: z > 0, else y > 0, else x > 0.
-
-    A component below _ZERO_COMPONENT counts as zero, so that a wall given as a 90 degree rotation
-    (cos 90 deg = 6e-17) is oriented by y, as its author meant.
-    """
-    for k in (2, 1):
-        if abs(normal[k]) > _ZERO_COMPONENT:
-            return normal if normal[k] > 0 else -normal
-    return normal if normal[0] > 0 else -normal
-
-
 def _line_pitch(scene: SceneSpec) -> Optional[float]:
     if scene.pattern == "random":
         return None
@@ -752,7 +739,10 @@ def _arc_inside(hole: HoleSpec, patch: _Patch) -> float:
 def _truth(scene: SceneSpec, patch: _Patch, rot: np.ndarray, shift: np.ndarray,
            n_points: int, n_outliers: int) -> dict:
     f = float(scene.unit_scale)
-    normal = _orient(rot[:, 2])
+    # The package's sign convention (holecli.geometry.kernels.orient_normal): a component below 1e-12
+    # counts as zero, so that a wall given as a 90 degree rotation (cos 90 deg = 6e-17) is oriented
+    # by y, as its author meant.
+    normal = orient_normal(rot[:, 2])
     xmin, xmax, ymin, ymax = scene.extent
     holes = []
     for hole in scene.holes:

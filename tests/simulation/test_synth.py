@@ -377,6 +377,18 @@ def test_normal_sign_convention():
     np.testing.assert_allclose(scan.truth["holes"][0]["normal"], [0.0, 1.0, 0.0], atol=1e-15)
 
 
+def test_truth_normals_follow_the_library_convention():
+    """The simulation orients its truth normals by holecli's own rule (one convention, one code)."""
+    from holecli.geometry.kernels import orient_normal
+    from holecli.simulation.synth import rotation_matrix
+
+    for rotation in ((180.0, 0.0, 0.0), (90.0, 0.0, 0.0), (90.0, 0.0, 90.0), (-90.0, 0.0, 90.0), (32.0, 0.0, 20.0),
+                     (0.0, 90.0, 0.0), (0.0, -90.0, 0.0)):
+        scan = make_scan(SceneSpec(rotation_deg=rotation))
+        expected = orient_normal(rotation_matrix(rotation)[:, 2])
+        np.testing.assert_array_equal(scan.truth["holes"][0]["normal"], expected)
+
+
 def test_million_point_stripes_scene_is_fast():
     scene = SceneSpec(pattern="stripes", spacing=0.04, line_pitch=0.15, scan_angle_deg=20.0,
                       extent=(-40.0, 40.0, -40.0, 40.0), ragged_border=1.0,

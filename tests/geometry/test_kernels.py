@@ -1,0 +1,45 @@
+"""Tests of holecli.geometry.kernels' named helpers: robust sigma, box query, angular gap, normal sign."""
+
+import numpy as np
+import pytest
+
+from holecli.geometry import plane
+from holecli.geometry.kernels import box_indices, largest_angular_gap, orient_normal, robust_sigma
+
+
+def test_robust_sigma_is_the_scaled_median_absolute_value(rng):
+    x = rng.normal(0.0, 2.0, 200_000)
+    assert robust_sigma(x) == 1.4826 * float(np.median(np.abs(x)))
+    assert robust_sigma(x) == pytest.approx(2.0, rel=0.01)
+    # One wild value in a hundred moves it by about a percent, not by the value.
+    x[::100] = 1e9
+    assert robust_sigma(x) == pytest.approx(2.0, rel=0.03)
+
+
+def test_box_indices_are_the_points_in_the_closed_box():
+    xy = np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 0.5], [0.5, -0.1], [1.0, 0.0]])
+    np.testing.assert_array_equal(box_indices(xy, np.array([0.0, 0.0]), np.array([1.0, 1.0])), [0, 1, 4])
+    assert box_indices(xy, np.array([5.0, 5.0]), np.array([6.0, 6.0])).size == 0
+    # The same on a column-major copy (the pipeline's layout).
+    np.testing.assert_array_equal(box_indices(np.asfortranarray(xy), np.array([0.0, 0.0]), np.array([1.0, 1.0])),
+                                  [0, 1, 4])
+
+
+def test_largest_angular_gap_includes_the_wrap_around():
+    center = np.array([1.0, -2.0])
+    angles = np.radians([10.0, 100.0, 200.0, 300.0])
+    xy = center + np.column_stack([np.cos(angles), np.sin(angles)])
+    assert largest_angular_gap(xy, center) == pytest.approx(np.radians(100.0))
+    # From 300 back round to 10 degrees: 70; a quarter circle left empty is the gap.
+    xy = center + 3.0 * np.column_stack([np.cos(np.radians([0.0, 30.0, 60.0, 90.0, 180.0, 270.0])),
+                                         np.sin(np.radians([0.0, 30.0, 60.0, 90.0, 180.0, 270.0]))])
+    assert largest_angular_gap(xy, center) == pytest.approx(np.pi / 2)
+    assert largest_angular_gap(xy[:1], center) == pytest.approx(2 * np.pi)
+
+
+def test_orient_normal_is_the_library_convention_everywhere():
+    # holecli.geometry.plane re-exports the kernel's convention (the robust method imports it there).
+    assert plane.orient_normal is orient_normal
+    np.testing.assert_array_equal(orient_normal([0.0, -1.0, 1e-13]), [0.0, 1.0, -1e-13])
+    # A vector with no component above the tolerance is left as it is.
+    np.testing.assert_array_equal(orient_normal([-1e-13, 0.0, 0.0]), [-1e-13, 0.0, 0.0])
