@@ -218,22 +218,33 @@ def main():
 
 
 def measure_file(path, options):
-    """Read ``path`` and run the pipeline with ``options`` (keyword arguments of ``detect``).
+    """:func:`holecli.detect_file` for the command line: its errors phrased for the user.
 
-    Returns the detection with ``file`` and ``dropped_points`` set; raises :class:`Failure`.
+    Parameters
+    ----------
+    path : str
+        The point-cloud file.
+    options : dict
+        Keyword arguments of :func:`holecli.detect` (see :func:`detection_options`).
+
+    Returns
+    -------
+    Detection
+        The detection, with ``file`` and ``dropped_points`` filled in.
+
+    Raises
+    ------
+    Failure
+        With the input-error code, when the file cannot be read or its points cannot be measured
+        (the message of :func:`holecli.batch.failure_message`, as ``holecli batch`` records it).
     """
-    from dataclasses import replace
-
     from holecli.batch import failure_message
-    from holecli.io import read_cloud
-    from holecli.pipeline import detect as run_detect
+    from holecli.pipeline import detect_file
 
     try:
-        cloud = read_cloud(path)
-        detection = run_detect(cloud.points, **options)
+        return detect_file(path, **options)
     except HoleCliError as error:
         raise Failure(failure_message(path, error), EXIT_INPUT) from None
-    return replace(detection, file=str(path), dropped_points=cloud.dropped)
 
 
 def detection_options(method, view_dir, min_diameter, max_holes, full_only):
