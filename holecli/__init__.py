@@ -2,8 +2,8 @@
 
 Public API::
 
-    from holecli import load_points, detect
-    detection = detect(load_points("scan.ply"))
+    from holecli import detect_file
+    detection = detect_file("scan.ply")  # or detect(load_points("scan.ply"))
     for hole in detection.holes:
         print(hole.center, hole.diameter, hole.normal)
 """
@@ -22,6 +22,7 @@ __all__ = [
     "SpecError",
     "__version__",
     "detect",
+    "detect_file",
     "load_points",
     "read_cloud",
 ]
@@ -39,8 +40,8 @@ def __getattr__(name):
         from holecli import results
 
         return getattr(results, name)
-    if name == "detect":
-        from holecli.pipeline import detect
+    if name in ("detect", "detect_file"):
+        from holecli import pipeline
 
-        return detect
+        return getattr(pipeline, name)
     raise AttributeError(f"module 'holecli' has no attribute {name!r}")

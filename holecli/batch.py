@@ -28,7 +28,7 @@ import re
 import signal
 import stat
 from collections import deque
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 from holecli.errors import HoleCliError, LoadError
 from holecli.io import SUPPORTED_EXTENSIONS
@@ -159,20 +159,18 @@ def measure_record(path, options, spec=None, explain=False) -> dict:
     Returns
     -------
     dict
-        The ``detect`` record (``Detection.to_dict()`` with ``file`` and ``dropped_points``, and the
+        The ``detect`` record (``Detection.to_dict()`` of :func:`holecli.detect_file`, and the
         verdicts of :func:`holecli.tolerance.check` when ``spec`` is given) and ``path``, the file's
         :func:`resolved_path`; for a file that cannot be measured ``{"file": path, "path": ...,
         "error": message}``. An unexpected exception (a bug) becomes such an
         error record too, so that one file cannot stop a batch.
     """
     from holecli import tolerance
-    from holecli.io import read_cloud
-    from holecli.pipeline import detect
+    from holecli.pipeline import detect_file
 
     resolved = resolved_path(path)
     try:
-        cloud = read_cloud(path)
-        detection = detect(cloud.points, **options)
+        detection = detect_file(path, **options)
     except HoleCliError as error:
         return {"file": str(path), "path": resolved, "error": failure_message(path, error)}
     except Exception as error:  # noqa: BLE001 - a bug in one file must not stop the batch
@@ -180,7 +178,7 @@ def measure_record(path, options, spec=None, explain=False) -> dict:
         return {"file": str(path), "path": resolved,
                 "error": f"{path}: internal error (a bug: please report it; holecli detect shows the "
                          f"traceback): {problem}"}
-    record = replace(detection, file=str(path), dropped_points=cloud.dropped).to_dict(explain=explain)
+    record = detection.to_dict(explain=explain)
     record["path"] = resolved
     return tolerance.check(record, spec) if spec is not None else record
 

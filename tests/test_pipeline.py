@@ -245,3 +245,62 @@ def test_flat_points_on_a_line_raise():
     points = np.outer(np.arange(50.0), (1.0, 2.0, 3.0))
     with pytest.raises(PointsError, match="collinear"):
         detect(points, method="paper")
+
+
+# --- detect_file: read, drop non-finite rows, detect, fill in the file (issue 10) ----------------------
+
+
+def _without_timing(detection):
+    return dataclasses.replace(detection, elapsed_ms=0.0)
+
+
+def test_detect_file_is_detect_on_the_files_finite_points(table1_files, tmp_path):
+    from holecli import detect_file
+    from holecli.io import load_points, save_points
+
+    points = load_points(table1_files[".ply"])
+    noisy = np.vstack([points[:10], [[np.nan, 0.0, 0.0], [0.0, np.inf, 1.0]], points[10:]])
+    path = tmp_path / "with_nan.csv"
+    save_points(path, noisy)
+    detection = detect_file(path, method="paper")
+    assert detection.file == str(path)
+    assert detection.dropped_points == 2
+    assert detection.points == len(points)
+    assert detection.elapsed_ms > 0
+    expected = dataclasses.replace(detect(load_points(path), method="paper"), file=str(path), dropped_points=2)
+    assert _without_timing(detection) == _without_timing(expected)
+
+
+def test_detect_file_raises_the_errors_of_reading_and_of_detect(tmp_path, table1_files):
+    from holecli import LoadError, detect_file
+
+    with pytest.raises(LoadError, match="file not found"):
+        detect_file(tmp_path / "missing.ply")
+    with pytest.raises(PointsError, match="max_holes"):
+        detect_file(table1_files[".ply"], max_holes=0)
+    with pytest.raises(TypeError):
+        detect_file(table1_files[".ply"], no_such_option=1)
+
+
+def test_the_command_line_and_the_batch_workers_measure_with_detect_file(table1_files, run, monkeypatch):
+    # The sequence read -> detect -> fill in exists once: both callers go through detect_file.
+    from holecli import batch, pipeline
+
+    calls = []
+    original = pipeline.detect_file
+
+    def counting(path, **options):
+        calls.append((str(path), options))
+        return original(path, **options)
+
+    monkeypatch.setattr(pipeline, "detect_file", counting)
+    path = str(table1_files[".ply"])
+    result = run("detect", path, "--method", "paper")
+    assert result.exit_code == 0, result.stderr
+    record = batch.measure_record(path, {"method": "paper"})
+    assert calls == [(path, {"method": "paper"}), (path, {"method": "paper"})]
+    cli_record = json.loads(result.stdout)
+    for key in ("elapsed_ms", "path"):
+        cli_record.pop(key, None)
+        record.pop(key, None)
+    assert cli_record == record

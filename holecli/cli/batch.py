@@ -1,0 +1,276 @@
+"""``holecli batch``: measure every scan of folders and files, in worker processes (:mod:`holecli.batch`).
+
+The command checks its options and opens the output; :func:`run_batch` is the loop that writes each
+record as it comes and keeps the display (:mod:`holecli.cli.progress`) up to date;
+:class:`StopRequests` turns Ctrl-C and SIGTERM into a stop between records.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import click
+
+from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_FILE_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_NO_HOLE,
+                               EXIT_OK, EXIT_OUT_OF_TOLERANCE, Failure, run_guarded, write_stdout)
+from holecli.cli.options import (detection_option_decorators, detection_options, nominal_from_options, read_spec,
+                                 tolerance_option_decorators)
+from holecli.cli.progress import BatchDisplay, batch_summary
+from holecli.errors import LoadError
+
+
+class StopRequests:
+    """SIGINT and SIGTERM handling of ``holecli batch``.
+
+    Before :meth:`defer`, either signal raises KeyboardInterrupt (nothing is written yet). After it,
+    a signal only sets :attr:`signal`, which the batch loop checks between records: an exception can
+    then never cut a record in the middle of its write.
+
+    Use it as a context manager around the whole command: it installs its handler on entry (in the
+    main thread only) and puts the previous handlers back on exit.
+
+    Attributes
+    ----------
+    signal : int or None
+        The number of the signal received after :meth:`defer`, or None.
+    """
+
+    SIGNALS = ("SIGINT", "SIGTERM")
+
+    def __init__(self):
+        self.signal = None
+        self._deferred = False
+        self._previous = {}
+
+    def __enter__(self):
+        import signal
+
+        for name in self.SIGNALS:
+            number = getattr(signal, name)
+            try:
+                self._previous[number] = signal.signal(number, self._handle)
+            except ValueError:  # not the main thread: leave the signals alone
+                pass
+        return self
+
+    def __exit__(self, *exc_info):
+        import signal
+
+        for number, handler in self._previous.items():
+            signal.signal(number, handler)
+        return False
+
+    def defer(self):
+        """From now on, a signal only sets :attr:`signal` (the loop stops between records)."""
+        self._deferred = True
+
+    def _handle(self, number, frame):
+        if not self._deferred:
+            from holecli import interrupts
+
+            interrupts.record(number)
+            raise KeyboardInterrupt
+        self.signal = number
+
+
+def batch_exit_code(tally):
+    """The exit code of a batch from its counts, by the documented precedence.
+
+    Parameters
+    ----------
+    tally : holecli.batch.Tally
+        The counts of every file of the batch.
+
+    Returns
+    -------
+    int
+        :data:`EXIT_OUT_OF_TOLERANCE`, else :data:`EXIT_FILE_FAILED`, else :data:`EXIT_NO_HOLE`, else
+        :data:`EXIT_OK` (an interrupt, 130, is decided by :func:`run_batch`).
+    """
+    if tally.out_of_tolerance or tally.missing:
+        return EXIT_OUT_OF_TOLERANCE
+    if tally.failed:
+        return EXIT_FILE_FAILED
+    if tally.without_hole:
+        return EXIT_NO_HOLE
+    return EXIT_OK
+
+
+@click.command(epilog=BATCH_EXIT_CODES_HELP)
+@click.argument("paths", metavar="PATH...", nargs=-1, required=True, type=click.Path(path_type=str))
+@click.option("--recursive", "-r", is_flag=True, help="Also take the clouds in the subfolders of each folder.")
+@click.option("--pattern", metavar="GLOB", default=None,
+              help="Take only the clouds in folders whose name matches GLOB (case-insensitive; a GLOB with "
+                   "a / is matched against the path below the folder), e.g. 'part7_*'.")
+@click.option("--format", "fmt", type=click.Choice(["jsonl", "csv"]), default="jsonl", show_default=True,
+              help="JSON Lines (one detect record per file) or CSV (one row per hole).")
+@click.option("--output", "-o", type=click.Path(dir_okay=False, path_type=str), default=None,
+              help="Write the records to this file (each as soon as its file is measured) instead of stdout.")
+@click.option("--jobs", "-j", type=click.IntRange(min=1), default=None, metavar="N",
+              help="Worker processes [default: the number of cores].")
+@click.option("--resume", is_flag=True,
+              help="Keep the records already in --output, skip their files and append the others.")
+@click.option("--explain", is_flag=True,
+              help="Records also list every candidate that is not a hole, with the check that refused it "
+                   "(\"rejected\"; JSON Lines only).")
+@detection_option_decorators
+@tolerance_option_decorators
+def batch(paths, recursive, pattern, fmt, output, jobs, resume, explain, method, view_dir, min_diameter, max_holes,
+          full_only, nominal_diameter, tolerance, nominal_center, position_tolerance, nominal_normal, max_tilt,
+          spec_file):
+    """Measure every point cloud in the folders and files PATH.
+
+    A folder contributes the .ply, .pcd, .csv, .txt and .xyz files directly in it (any case; with
+    --recursive also those below it), in sorted order; a file named on the command line is measured
+    as it is. Each record (the JSON of holecli detect) is written as soon as its file is measured; a
+    file that cannot be measured gives {"file": ..., "error": ...} and the batch goes on. Progress and
+    a summary go to stderr. Ctrl-C or SIGTERM stop cleanly; --resume then finishes the run.
+
+    \b
+    Examples:
+      holecli batch scans/ --output results.jsonl
+      holecli batch scans/ --recursive --pattern 'panel7_*' --format csv -o panel7.csv
+      holecli batch scans/ --spec part.toml --jobs 4 -o shift.jsonl
+      holecli batch scans/ --spec part.toml -o shift.jsonl --resume
+      holecli batch scans/*.ply --nominal-diameter 3 --tolerance 0.02 | jq -c 'select(.verdict.in_tolerance | not)'
+    """
+    options = detection_options(method, view_dir, min_diameter, max_holes, full_only)
+    nominal = nominal_from_options(nominal_diameter, tolerance, nominal_center, position_tolerance,
+                                   nominal_normal, max_tilt, spec_file)
+    if resume and (output is None or output == "-"):
+        raise click.UsageError("--resume needs --output (the file to go on with)")
+    if explain and fmt == "csv":
+        raise click.UsageError("--explain needs --format jsonl (CSV has one row per hole)")
+
+    def body(stop):
+        from holecli import batch as batching
+        from holecli.io import SUPPORTED_EXTENSIONS
+
+        spec = read_spec(spec_file) if spec_file is not None else nominal
+        try:
+            files = batching.find_scans(paths, recursive=recursive, pattern=pattern,
+                                        exclude=[output] if output else ())
+        except LoadError as error:
+            raise Failure(str(error), EXIT_INPUT) from None
+        if not files:
+            raise Failure(f"{', '.join(paths)}: no point-cloud files ({', '.join(SUPPORTED_EXTENSIONS)})"
+                          + (f" matching {pattern!r}" if pattern else "") + " found", EXIT_INPUT)
+        output_file = None
+        try:
+            if output is not None and output != "-":
+                try:
+                    output_file = batching.BatchOutput(output, fmt, resume=resume)
+                except (batching.ResumeError, batching.OutputBusyError) as error:
+                    raise Failure(str(error), EXIT_INPUT) from None
+                except OSError as error:
+                    action = "resume" if resume else "write output"
+                    raise Failure(f"{output}: cannot {action}: {error.strerror or error}", EXIT_INPUT) from None
+                write, earlier, header = output_file.write, output_file.earlier, output_file.needs_header
+            else:
+                write, earlier, header = write_stdout, [], True
+            todo = batching.files_to_do(files, earlier)
+            return run_batch(batching, todo, options, spec, jobs or batching.default_jobs(), write, fmt, header,
+                             earlier, output, stop, explain)
+        finally:
+            if output_file is not None:
+                output_file.close()
+
+    with StopRequests() as stop:
+        sys.exit(run_guarded(body, stop))
+
+
+def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False):
+    """The measuring loop of ``holecli batch``: records out, progress and summary on stderr.
+
+    Parameters
+    ----------
+    batching : module
+        :mod:`holecli.batch` (imported by the caller, inside the guarded body).
+    todo : list of str
+        The files to measure in this run.
+    options : dict
+        Keyword arguments of :func:`holecli.detect`.
+    spec : holecli.tolerance.Spec or None
+        Tolerances to check.
+    jobs : int
+        Worker processes (at most one per file).
+    write : callable
+        Writes the text of one record at once (:meth:`holecli.batch.BatchOutput.write` or
+        :func:`write_stdout`).
+    fmt : {"jsonl", "csv"}
+        The format of the records.
+    header : bool
+        Write the CSV header first.
+    earlier : list of holecli.batch.FileSummary
+        The files of the earlier run (``--resume``), counted in the summary.
+    output : str or None
+        The ``--output`` file, for messages.
+    stop : StopRequests
+        The signal handling of the command; deferred here, checked between records.
+    explain : bool
+        Records with their ``rejected`` list.
+
+    Returns
+    -------
+    int
+        The exit code: :data:`EXIT_INTERRUPTED` when a signal stopped the run before its end, else
+        :func:`batch_exit_code`.
+
+    Raises
+    ------
+    Failure
+        With the input-error code, when a record cannot be written.
+    BrokenPipeError
+        When the reader of stdout went away (handled by :func:`run_guarded`).
+    """
+    from contextlib import closing
+
+    tally = batching.Tally()
+    for summary in earlier:
+        tally.add(summary)
+    def failed_write(error):
+        return Failure(f"{output or 'stdout'}: cannot write output: {error.strerror or error}", EXIT_INPUT)
+
+    try:
+        writer = batching.RecordWriter(write, fmt, header=header)
+    except BrokenPipeError:
+        raise
+    except OSError as error:
+        raise failed_write(error) from None
+    display = BatchDisplay(len(todo), spec is not None)
+    started = time.monotonic()
+    measured_now = 0
+
+    def should_stop():
+        display.update(measured_now, tally, time.monotonic() - started)
+        return stop.signal is not None
+
+    stop.defer()
+    records = batching.measure_all(todo, options, spec, jobs=min(jobs, max(1, len(todo))), should_stop=should_stop,
+                                   explain=explain)
+    with display, closing(records):
+        for record in records:
+            try:
+                try:
+                    writer.write(record)
+                except ValueError as error:  # a NaN in the record: a bug, but the batch goes on
+                    record = {"file": record["file"], "error": f"{record['file']}: internal error (a bug: please "
+                                                              f"report it): the record cannot be written: {error}"}
+                    writer.write(record)
+            except BrokenPipeError:
+                raise
+            except OSError as error:
+                raise failed_write(error) from None
+            measured_now += 1
+            tally.add(record)
+            if "error" in record:
+                display.message(f"holecli: failed: {record['error']}")
+    summary = batch_summary(tally, time.monotonic() - started, spec is not None, len(earlier), output)
+    if stop.signal is not None and measured_now < len(todo):
+        display.message(f"holecli batch: interrupted after {measured_now} of {len(todo)} files ({summary})."
+                        + (f" The finished records are in {output}: run again with --resume to measure the rest."
+                           if output else ""))
+        return EXIT_INTERRUPTED
+    display.message(f"holecli batch: {summary}")
+    return batch_exit_code(tally)

@@ -1,0 +1,228 @@
+"""``holecli detect``: measure the holes of one scan and print the record (JSON, CSV or a table)."""
+
+from __future__ import annotations
+
+import io as _stringio
+import sys
+
+import click
+
+from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, Failure,
+                               run_guarded, write_stdout)
+from holecli.cli.options import (detection_option_decorators, detection_options, nominal_from_options, read_spec,
+                                 tolerance_option_decorators)
+from holecli.errors import HoleCliError
+
+
+def measure_file(path, options):
+    """:func:`holecli.detect_file` for the command line: its errors phrased for the user.
+
+    Parameters
+    ----------
+    path : str
+        The point-cloud file.
+    options : dict
+        Keyword arguments of :func:`holecli.detect` (see :func:`detection_options`).
+
+    Returns
+    -------
+    Detection
+        The detection, with ``file`` and ``dropped_points`` filled in.
+
+    Raises
+    ------
+    Failure
+        With the input-error code, when the file cannot be read or its points cannot be measured
+        (the message of :func:`holecli.batch.failure_message`, as ``holecli batch`` records it).
+    """
+    from holecli.batch import failure_message
+    from holecli.pipeline import detect_file
+
+    try:
+        return detect_file(path, **options)
+    except HoleCliError as error:
+        raise Failure(failure_message(path, error), EXIT_INPUT) from None
+
+
+def render(records, fmt):
+    """The text of ``records`` in the requested format.
+
+    Parameters
+    ----------
+    records : list of dict
+        ``detect`` records (:meth:`holecli.Detection.to_dict`, with verdicts when checked).
+    fmt : {"json", "csv", "table"}
+        ``--format``.
+
+    Returns
+    -------
+    str
+        Whole lines: one JSON object per record, CSV with a header, or the tables of
+        :func:`render_table`.
+    """
+    from holecli import report
+
+    if fmt == "json":
+        return "".join(report.to_json(record) for record in records)
+    if fmt == "csv":
+        buffer = _stringio.StringIO()
+        report.write_csv(records, buffer)
+        return buffer.getvalue()
+    return render_table(records)
+
+
+def render_table(records):
+    """The ``--format table`` text of ``records``: one table per record (and one of its rejected
+    candidates, with ``--explain``).
+
+    Parameters
+    ----------
+    records : list of dict
+        ``detect`` records.
+
+    Returns
+    -------
+    str
+        The tables as rich draws them, 140 columns wide, without colour.
+    """
+    from rich.console import Console
+    from rich.table import Table
+
+    buffer = _stringio.StringIO()
+    console = Console(file=buffer, width=140, force_terminal=False, color_system=None)
+    for record in records:
+        plane = record["plane"]
+        verdict = record.get("verdict")
+        caption = f"plane rms {plane['rms']:.4g}, {record['elapsed_ms']:.1f} ms"
+        if verdict is not None:
+            caption += (f"; {'IN' if verdict['in_tolerance'] else 'OUT OF'} TOLERANCE: {verdict['checked']} "
+                        f"checked, {verdict['out_of_tolerance']} out")
+            if verdict["missing"]:
+                caption += ", missing: " + ", ".join(str(name) for name in verdict["missing"])
+        table = Table(title=f"{record['file']}  ({record['points']} points, method {record['method']})",
+                      caption=caption)
+        columns = ["hole", "center x", "center y", "center z", "diameter", "normal", "rim pts", "fit rms", "partial"]
+        if verdict is not None:
+            columns.append("tolerance")
+        for column in columns:
+            table.add_column(column, justify="right")
+        for hole in record["holes"]:
+            cells = [
+                str(hole["index"]), *(f"{v:.4f}" for v in hole["center"]), f"{hole['diameter']:.4f}",
+                "(" + ", ".join(f"{v:.4f}" for v in hole["normal"]) + ")", str(hole["rim_points"]),
+                f"{hole['fit_rms']:.2g}", "yes" if hole.get("partial") else "no",
+            ]
+            if verdict is not None:
+                name = f"{hole['name']}: " if hole.get("name") else ""
+                if hole["in_tolerance"] is None:
+                    cells.append(name + "not checked")
+                else:
+                    cells.append(name + ("in" if hole["in_tolerance"] else "OUT: " + ", ".join(hole["failed_checks"])))
+            table.add_row(*cells)
+        if not record["holes"]:
+            table.add_row("-", "", "", "", "no hole found", *[""] * (len(columns) - 5))
+        console.print(table)
+        if "rejected" in record:
+            console.print(_rejected_table(record["rejected"]))
+    return buffer.getvalue()
+
+
+def _rejected_table(rejected):
+    from rich.table import Table
+
+    def number(value):
+        return "" if value is None else (str(value) if isinstance(value, int) else f"{value:.4g}")
+
+    table = Table(title=f"{len(rejected)} candidate{'' if len(rejected) == 1 else 's'} not reported as holes")
+    for column in ("check", "center x", "center y", "center z", "size", "value", "limit", "why"):
+        table.add_column(column, justify="left" if column in ("check", "why") else "right")
+    for rejection in rejected:
+        table.add_row(rejection["check"], *(f"{v:.4f}" for v in rejection["center"]), f"{rejection['diameter']:.4f}",
+                      number(rejection["value"]), number(rejection["limit"]), rejection["reason"])
+    return table
+
+
+def emit(text, output):
+    """Write ``text`` to stdout, or to the ``--output`` file.
+
+    Parameters
+    ----------
+    text : str
+        The whole output.
+    output : str or None
+        None or ``-`` for stdout; else a file, written as :func:`holecli.io.outfile.write_text` does:
+        atomically onto a regular file or a new path, directly onto a device or FIFO, through a
+        symbolic link onto its target.
+
+    Raises
+    ------
+    Failure
+        With the input/output code, when the output cannot be written.
+    """
+    if output is None or output == "-":
+        write_stdout(text)
+        return
+    from holecli.io.outfile import write_text
+
+    try:
+        write_text(output, text)
+    except OSError as error:
+        raise Failure(f"{output}: cannot write output: {error.strerror or error}", EXIT_INPUT) from None
+
+
+@click.command(epilog=EXIT_CODES_HELP)
+@click.argument("scan", type=click.Path(path_type=str))
+@click.option("--format", "fmt", type=click.Choice(["json", "csv", "table"]), default="json", show_default=True,
+              help="Output format: JSON record, CSV (one row per hole) or a table for people.")
+@click.option("--output", "-o", type=click.Path(dir_okay=False, path_type=str),
+              help="Write the result to this file (a regular file atomically; - is stdout) instead of stdout.")
+@click.option("--explain", is_flag=True,
+              help="Also list every candidate that is not a hole, with the check that refused it "
+                   "(\"rejected\" in JSON, a second table with --format table).")
+@detection_option_decorators
+@tolerance_option_decorators
+def detect(scan, fmt, output, explain, method, view_dir, min_diameter, max_holes, full_only, nominal_diameter,
+           tolerance, nominal_center, position_tolerance, nominal_normal, max_tilt, spec_file):
+    """Measure the holes in SCAN (.ply, .pcd, .csv, .txt or .xyz).
+
+    Prints center, diameter and normal of every hole as JSON (units those of the file). With
+    tolerance options or --spec, every checked hole also gets its deviations and "in_tolerance",
+    and the record a "verdict".
+
+    \b
+    Examples:
+      holecli detect scan.ply
+      holecli detect scan.csv --format csv --output result.csv
+      holecli detect scan.pcd --view-dir 0,0,1 --full-only --format table
+      holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0
+      holecli detect scan.ply --nominal-center 3.65,5.14,5.53 --position-tolerance 0.1 \\
+          --nominal-normal 0.18,-0.5,0.85 --max-tilt 1
+      holecli detect scan.ply --spec part.toml --format table
+      holecli detect scan.ply --explain --format table
+    """
+    if explain and fmt == "csv":
+        raise click.UsageError("--explain needs --format json or table (CSV has one row per hole)")
+    options = detection_options(method, view_dir, min_diameter, max_holes, full_only)
+    nominal = nominal_from_options(nominal_diameter, tolerance, nominal_center, position_tolerance,
+                                   nominal_normal, max_tilt, spec_file)
+
+    def body():
+        from holecli.tolerance import check
+
+        spec = read_spec(spec_file) if spec_file is not None else nominal
+        record = measure_file(scan, options).to_dict(explain=explain)
+        if spec is not None:
+            record = check(record, spec)
+        emit(render([record], fmt), output)
+        return record
+
+    record = run_guarded(body)
+    if not record["holes"]:
+        click.echo(f"holecli: no hole found in {scan}", err=True)
+    verdict = record.get("verdict")
+    if verdict is not None and not verdict["in_tolerance"]:
+        missing = f", missing: {', '.join(str(name) for name in verdict['missing'])}" if verdict["missing"] else ""
+        click.echo(f"holecli: out of tolerance: {verdict['out_of_tolerance']} of {verdict['checked']} checked "
+                   f"holes{missing} in {scan}", err=True)
+        sys.exit(EXIT_OUT_OF_TOLERANCE)
+    sys.exit(EXIT_OK if record["holes"] else EXIT_NO_HOLE)

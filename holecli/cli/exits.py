@@ -1,0 +1,191 @@
+"""Exit codes, and how a command body ends: :class:`Failure`, :func:`run_guarded`, :func:`write_stdout`.
+
+Every command runs its body in :func:`run_guarded`: an expected failure becomes one line
+``Error: <message>`` on stderr and its exit code, Ctrl-C and SIGTERM the exit with 130 (after the body
+cleaned up), a closed stdout (``| head``) a quiet exit. The codes are documented here, in every
+``--help`` (:data:`EXIT_CODES_HELP`, :data:`BATCH_EXIT_CODES_HELP`) and in the README.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import click
+
+# Exit codes: documented here, in every --help and in the README.
+EXIT_OK = 0
+EXIT_INTERNAL = 1
+EXIT_USAGE = 2  # click's own
+EXIT_INPUT = 3
+EXIT_NO_HOLE = 4
+EXIT_OUT_OF_TOLERANCE = 5
+EXIT_FILE_FAILED = 6
+EXIT_INTERRUPTED = 130
+
+EXIT_CODES_HELP = (
+    "\b\nExit codes:\n"
+    "  0  a hole was measured (and, with tolerance options, every checked hole is in tolerance)\n"
+    "  1  internal error (a bug: please report it)\n"
+    "  2  usage error (bad option or argument)\n"
+    "  3  input error: the file is missing, unreadable, malformed or has too few points; the --spec\n"
+    "     file is unreadable or invalid; or the output file cannot be written\n"
+    "  4  no hole found (the record is still printed, with \"holes\": [])\n"
+    "  5  out of tolerance: a checked hole is out of tolerance or a nominal hole is missing\n"
+    "     (the record is still printed; takes precedence over 4)\n"
+    "  6  holecli batch only: some file could not be measured\n"
+    "  130  interrupted (Ctrl-C or SIGTERM)"
+)
+
+BATCH_EXIT_CODES_HELP = (
+    "\b\nExit codes (the first that applies):\n"
+    "  130  interrupted (Ctrl-C or SIGTERM): the finished records are written, none cut;\n"
+    "       run again with --resume to measure the rest\n"
+    "  2    usage error (bad option or argument)\n"
+    "  3    input error: a PATH is missing or holds no point cloud, the --spec file is unreadable\n"
+    "       or invalid, the output cannot be written or resumed\n"
+    "  5    some checked hole is out of tolerance, or a nominal hole is missing\n"
+    "  6    some file could not be measured (its record has \"error\")\n"
+    "  4    some file has no hole\n"
+    "  0    every file measured, each with a hole (and in tolerance, where tolerances are given)\n"
+    "  1    internal error (a bug: please report it)"
+)
+
+
+class Failure(Exception):
+    """A failure already phrased for the user: ``Error: <message>`` and an exit code."""
+
+    def __init__(self, message, code):
+        super().__init__(message)
+        self.code = code
+
+
+def fail(message, code):
+    """Print ``Error: <message>`` on stderr and exit with ``code``.
+
+    Parameters
+    ----------
+    message : str
+        One line, phrased for the user.
+    code : int
+        The exit code.
+
+    Raises
+    ------
+    SystemExit
+        Always.
+    """
+    click.echo(f"Error: {message}", err=True)
+    sys.exit(code)
+
+
+def run_guarded(function, *args, **kwargs):
+    """Run a command body, turning every expected failure into one line on stderr and an exit code.
+
+    Within it SIGINT and SIGTERM raise KeyboardInterrupt (see :mod:`holecli.interrupts`), so that a
+    write in progress cleans up after itself before the exit with 130.
+
+    Parameters
+    ----------
+    function : callable
+        The command's body.
+    *args, **kwargs
+        Its arguments.
+
+    Returns
+    -------
+    object
+        What ``function`` returns.
+
+    Raises
+    ------
+    SystemExit
+        With the code of a :class:`Failure` (after ``Error: <message>`` on stderr), with
+        :data:`EXIT_INTERRUPTED` after a signal (``Error: interrupted``), or with :data:`EXIT_OK`
+        when stdout's reader went away.
+    Exception
+        Anything else ``function`` raises without a signal: a bug, shown with its traceback.
+    """
+    from holecli import interrupts
+
+    try:
+        with interrupts.raising():
+            return function(*args, **kwargs)
+    except Failure as failure:
+        if interrupts.received() is None:
+            fail(str(failure), failure.code)
+        _interrupted()
+    except KeyboardInterrupt:
+        _interrupted()
+    except BrokenPipeError:
+        # The reader of stdout went away (e.g. `| head`): nothing more to say to it.
+        _detach_stdout()
+        sys.stderr.close()
+        sys.exit(EXIT_OK)
+    except Exception:
+        # A signal's KeyboardInterrupt can come out as another exception (an ImportError, when it hit
+        # a C extension's initialisation inside an import): after a signal, that is the interrupt.
+        if interrupts.received() is None:
+            raise
+        _interrupted()
+
+
+def _interrupted():
+    """Say so and leave with 130 (see :func:`run_guarded`)."""
+    from holecli import interrupts
+
+    click.echo("Error: interrupted", err=True)
+    # The body has cleaned up (its finally blocks ran on the way here). Leave at once: a
+    # KeyboardInterrupt that hit a C extension's initialisation can make CPython end the process by
+    # SIGINT at exit (status -2) instead of with the code asked for.
+    if interrupts.installed():
+        try:
+            sys.stdout.flush()
+        except OSError:
+            pass
+        os._exit(EXIT_INTERRUPTED)
+    sys.exit(EXIT_INTERRUPTED)
+
+
+def write_stdout(text):
+    """Write ``text`` to stdout at once.
+
+    Parameters
+    ----------
+    text : str
+        Whole lines; written as UTF-8 (a file name that is not UTF-8 as its own bytes).
+
+    Raises
+    ------
+    Failure
+        With the input/output code, when stdout cannot be written (a full disk behind a
+        redirection); stdout is then detached, so that the exit does not try again.
+    BrokenPipeError
+        When the reader of stdout went away (handled by :func:`run_guarded`).
+    """
+    try:
+        stream = getattr(sys.stdout, "buffer", None)
+        if stream is None:
+            sys.stdout.write(text)
+        else:
+            # UTF-8 bytes, a file name that is not UTF-8 as its own bytes (as ls prints it)
+            sys.stdout.flush()
+            stream.write(text.encode("utf-8", "surrogateescape"))
+            stream.flush()
+        sys.stdout.flush()
+    except BrokenPipeError:
+        raise
+    except OSError as error:
+        _detach_stdout()
+        raise Failure(f"stdout: cannot write output: {error.strerror or error}", EXIT_INPUT) from None
+
+
+def _detach_stdout():
+    # What stdout still buffers would be flushed again at exit, and fail again, with a traceback
+    # of the interpreter's own: point the descriptor at /dev/null instead.
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass

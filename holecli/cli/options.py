@@ -1,0 +1,279 @@
+"""Parameter types and the options that ``holecli detect`` and ``holecli batch`` share.
+
+* :class:`FloatTuple`, :class:`Decimal` and :class:`ToleranceBand`: the strict number types of every
+  command's options;
+* the detection options (``--method``, ``--view-dir``, ...): :func:`detection_option_decorators` and
+  their ``detect`` keyword arguments, :func:`detection_options`;
+* the tolerance options (``--nominal-diameter``, ``--spec``, ...): :func:`tolerance_option_decorators`,
+  :func:`nominal_from_options` and :func:`read_spec`.
+
+Nothing heavy is imported at module level: ``holecli --help`` builds these options.
+"""
+
+from __future__ import annotations
+
+import os
+
+import click
+
+from holecli.cli.exits import EXIT_INPUT, Failure
+from holecli.errors import SpecError
+
+
+class FloatTuple(click.ParamType):
+    """Comma-separated numbers, e.g. ``0,0,1`` (spaces allowed)."""
+
+    def __init__(self, count, names):
+        self.count = count
+        self.name = names
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        from holecli.io.decimal_text import parse_decimal
+
+        parts = [part.strip() for part in str(value).split(",")]
+        try:
+            numbers = tuple(parse_decimal(part) for part in parts)
+        except ValueError:
+            self.fail(f"expected {self.count} comma-separated numbers ({self.name}), got {value!r}", param, ctx)
+        if len(numbers) != self.count:  # (parse_decimal refuses infinities)
+            self.fail(f"expected {self.count} comma-separated finite numbers ({self.name}), got {value!r}",
+                      param, ctx)
+        return numbers
+
+
+class Decimal(click.FloatRange):
+    """A plain ASCII decimal number, optionally within a range (click's FloatRange, without the
+    leniency of ``float``: no ``1_0``, no non-ASCII digits, no ``inf`` or ``nan``)."""
+
+    name = "decimal"
+
+    def convert(self, value, param, ctx):
+        from holecli.io.decimal_text import is_decimal
+
+        if isinstance(value, str) and not is_decimal(value.strip()):
+            self.fail(f"{value!r} is not a plain decimal number", param, ctx)
+        return super().convert(value.strip() if isinstance(value, str) else value, param, ctx)
+
+
+class ToleranceBand(click.ParamType):
+    """A diameter tolerance: ``T`` (symmetric) or ``+U/-L`` (signed upper/lower deviation)."""
+
+    name = "T|+U/-L"
+
+    def convert(self, value, param, ctx):
+        from holecli.errors import SpecError
+        from holecli.tolerance import Band, parse_band
+
+        if isinstance(value, Band):
+            return value
+        try:
+            return parse_band(value)
+        except SpecError as error:
+            self.fail(str(error), param, ctx)
+
+
+def detection_options(method, view_dir, min_diameter, max_holes, full_only):
+    """The ``detect`` keyword arguments of the command-line detection options.
+
+    Parameters
+    ----------
+    method : {"robust", "paper"}
+        ``--method``.
+    view_dir, min_diameter, max_holes, full_only
+        ``--view-dir``, ``--min-diameter``, ``--max-holes``, ``--full-only`` (None or False when not
+        given).
+
+    Returns
+    -------
+    dict
+        Keyword arguments of :func:`holecli.detect` (and :func:`holecli.detect_file`).
+
+    Raises
+    ------
+    click.UsageError
+        When ``--method paper`` is given with any of the other options.
+    """
+    if method == "paper":
+        given = [name for name, value in (("--view-dir", view_dir), ("--min-diameter", min_diameter),
+                                          ("--max-holes", max_holes), ("--full-only", full_only or None))
+                 if value is not None]
+        if given:
+            raise click.UsageError(f"{', '.join(given)} cannot be used with --method paper")
+        return {"method": "paper"}
+    return {"method": method, "view_dir": view_dir, "min_diameter": min_diameter, "max_holes": max_holes,
+            "full_only": full_only}
+
+
+def detection_option_decorators(function):
+    """The detection options shared by ``detect`` and ``batch``."""
+    options = [
+        click.option("--method", type=click.Choice(["robust", "paper"]), default="robust", show_default=True,
+                     help="robust: every hole, robust to noise and clutter, bias-corrected; "
+                          "paper: the published method (one hole, clean data)."),
+        click.option("--view-dir", type=FloatTuple(3, "X,Y,Z"), default=None,
+                     help="Sensor viewing direction: slide points along it onto the plane instead of "
+                          "projecting orthogonally (e.g. 0,0,1)."),
+        click.option("--min-diameter", type=Decimal(min=0), default=None,
+                     help="Smallest hole diameter reported, file units [default: 6 gap scales of the "
+                          "sampling, see README]."),
+        click.option("--max-holes", type=click.IntRange(min=1), default=None,
+                     help="Report at most N holes (the largest)."),
+        click.option("--full-only", is_flag=True, help="Leave out holes cut by the border of the scan."),
+    ]
+    for option in reversed(options):
+        function = option(function)
+    return function
+
+
+# What messages call the values of holecli.tolerance.nominal_spec on the command line.
+TOLERANCE_OPTION_NAMES = {
+    "diameter": "--nominal-diameter", "tolerance": "--tolerance", "center": "--nominal-center",
+    "position_tolerance": "--position-tolerance", "normal": "--nominal-normal", "max_tilt": "--max-tilt",
+}
+
+
+def tolerance_option_decorators(function):
+    """The tolerance options shared by ``detect`` and ``batch``."""
+    options = [
+        click.option("--nominal-diameter", type=Decimal(min=0, min_open=True), default=None,
+                     metavar="D", help="Nominal hole diameter, checked with --tolerance."),
+        click.option("--tolerance", type=ToleranceBand(), default=None,
+                     help="Diameter tolerance: T for +-T, or the upper/lower deviation as on a drawing, "
+                          "e.g. +0.036/-0 (an H9 fit), 0.036/-0.010."),
+        click.option("--nominal-center", type=FloatTuple(3, "X,Y,Z"), default=None,
+                     help="Nominal hole center: the checks apply to the hole nearest to it (other holes "
+                          "are not checked) and it gets position_deviation."),
+        click.option("--position-tolerance", type=Decimal(min=0), default=None, metavar="R",
+                     help="Largest distance of the measured center from --nominal-center in the plane "
+                          "of the hole."),
+        click.option("--nominal-normal", type=FloatTuple(3, "X,Y,Z"), default=None,
+                     help="Nominal surface normal (either sign): tilt_deg is reported."),
+        click.option("--max-tilt", type=Decimal(min=0, max=90), default=None, metavar="DEG",
+                     help="Largest angle between the hole's normal and --nominal-normal, degrees."),
+        click.option("--spec", "spec_file", type=click.Path(path_type=str), default=None, metavar="FILE",
+                     help="TOML file of the part's nominal holes ([[hole]] tables, see README); "
+                          "not with the options above."),
+    ]
+    for option in reversed(options):
+        function = option(function)
+    return function
+
+
+def nominal_from_options(nominal_diameter, tolerance, nominal_center, position_tolerance, nominal_normal,
+                         max_tilt, spec_file):
+    """The :class:`holecli.tolerance.Spec` of the nominal options.
+
+    Parameters
+    ----------
+    nominal_diameter, tolerance, nominal_center, position_tolerance, nominal_normal, max_tilt
+        The tolerance options' values (None when not given).
+    spec_file : str or None
+        ``--spec`` (read later, by :func:`read_spec`, inside the guarded body).
+
+    Returns
+    -------
+    holecli.tolerance.Spec or None
+        None when no tolerance option is given, or ``--spec`` is.
+
+    Raises
+    ------
+    click.UsageError
+        For combinations that do not make sense (``--spec`` with the other options, ``--tolerance``
+        without ``--nominal-diameter``, ...).
+    """
+    from holecli.tolerance import nominal_spec
+
+    values = {"diameter": nominal_diameter, "tolerance": tolerance, "center": nominal_center,
+              "position_tolerance": position_tolerance, "normal": nominal_normal, "max_tilt": max_tilt}
+    given = [TOLERANCE_OPTION_NAMES[key] for key, value in values.items() if value is not None]
+    if spec_file is not None:
+        if given:
+            raise click.UsageError(f"--spec cannot be combined with {', '.join(given)}")
+        return None
+    if not given:
+        return None
+    try:
+        return nominal_spec(**values, names=TOLERANCE_OPTION_NAMES)
+    except SpecError as error:
+        raise click.UsageError(str(error)) from None
+
+
+# A spec file lists a part's holes, a panel spec a part's features: a few kB. Anything much larger is
+# not one of them.
+MAX_SPEC_BYTES = 16 << 20
+
+
+def read_spec(path):
+    """The :class:`holecli.tolerance.Spec` of a spec file.
+
+    Parameters
+    ----------
+    path : str
+        The ``--spec`` TOML file.
+
+    Returns
+    -------
+    holecli.tolerance.Spec
+
+    Raises
+    ------
+    Failure
+        With the input-error code, when the file cannot be read (see :func:`read_small_text`) or is
+        not a valid spec.
+    """
+    from holecli.tolerance import parse_spec
+
+    text = read_small_text(path, "a spec")
+    try:
+        return parse_spec(text, source=path)
+    except SpecError as error:
+        raise Failure(f"{path}: {error}", EXIT_INPUT) from None
+
+
+def read_small_text(path, what):
+    """The UTF-8 text of ``path``, a small TOML file.
+
+    Only a regular file of at most :data:`MAX_SPEC_BYTES` is read (never a device such as
+    ``/dev/zero``, a FIFO, which would block, or a folder).
+
+    Parameters
+    ----------
+    path : str
+        The file.
+    what : str
+        What it should be, for messages: ``"a spec"``, ``"a panel spec"``.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    Failure
+        With the input-error code, when the file is not a regular file, is too large, cannot be
+        read or is not UTF-8.
+    """
+    import stat
+
+    from holecli.io import file_kind
+
+    try:
+        status = os.stat(path)
+        if not stat.S_ISREG(status.st_mode):
+            raise Failure(f"{path}: not a regular file ({file_kind(status.st_mode)}): {what} must be a TOML file",
+                          EXIT_INPUT)
+        if status.st_size > MAX_SPEC_BYTES:
+            raise Failure(f"{path}: {status.st_size} bytes is too large for {what} file "
+                          f"(at most {MAX_SPEC_BYTES} bytes)", EXIT_INPUT)
+        with open(path, "rb") as stream:
+            data = stream.read(MAX_SPEC_BYTES + 1)
+    except OSError as error:
+        raise Failure(f"{path}: cannot read: {error.strerror or error}", EXIT_INPUT) from None
+    if len(data) > MAX_SPEC_BYTES:
+        raise Failure(f"{path}: too large for {what} file (more than {MAX_SPEC_BYTES} bytes)", EXIT_INPUT)
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise Failure(f"{path}: not a UTF-8 text file", EXIT_INPUT) from None

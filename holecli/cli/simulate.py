@@ -1,0 +1,290 @@
+"""``holecli simulate``: write a synthetic scan (the paper's scene, or a laser profiler's scan of a
+panel or a mesh) and its ground truth."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from holecli.cli.exits import EXIT_INPUT, EXIT_OK, Failure, run_guarded
+from holecli.cli.options import Decimal, FloatTuple, read_small_text
+
+
+@click.command(epilog="\b\nExit codes: 0 written, 2 usage error, 3 the scene or the output is invalid.")
+@click.argument("output", type=click.Path(dir_okay=False, path_type=str))
+@click.option("--diameter", type=Decimal(min=0, min_open=True), default=3.0, show_default=True,
+              help="Hole diameter (ignored when --hole is given).")
+@click.option("--center", type=FloatTuple(2, "X,Y"), default="1,1", show_default=True,
+              help="Hole center in the surface frame (ignored when --hole is given).")
+@click.option("--hole", "holes", type=FloatTuple(3, "X,Y,DIAMETER"), multiple=True,
+              help="A hole X,Y,DIAMETER in the surface frame; repeat for several holes.")
+@click.option("--no-hole", is_flag=True, help="Scan a plain surface without any hole.")
+@click.option("--spacing", type=Decimal(min=0, min_open=True), default=0.0908, show_default=True,
+              help="Point spacing h (along a scan line).")
+@click.option("--extent", type=FloatTuple(4, "XMIN,XMAX,YMIN,YMAX"), default="-3,5,-3,5", show_default=True,
+              help="Scanned patch in the surface frame.")
+@click.option("--pattern", type=click.Choice(["grid", "stripes", "jittered", "random"]), default="grid",
+              show_default=True, help="Sampling pattern.")
+@click.option("--line-pitch", type=Decimal(min=0, min_open=True), default=None,
+              help="Distance between scan lines for --pattern stripes [default: 3 x spacing].")
+@click.option("--scan-angle", type=Decimal(), default=0.0, show_default=True,
+              help="Direction of the scan lines in the surface frame, degrees.")
+@click.option("--rotation", type=FloatTuple(3, "AX,AY,AZ"), default=None,
+              help="Rotation in degrees about x, then y, then z (world axes) [default: 32,0,20; with --panel "
+                   "or --mesh: none, the part's frame].")
+@click.option("--translation", type=FloatTuple(3, "X,Y,Z"), default=None,
+              help="Translation after the rotation [default: 3,4,5; with --panel or --mesh: none] (with "
+                   "--panel/--mesh: into a robot base frame, e.g. 1200,-300,800).")
+@click.option("--noise-z", type=Decimal(min=0), default=0.0, show_default=True,
+              help="Gaussian noise sigma on the world z coordinate (the paper's noise).")
+@click.option("--noise-normal", type=Decimal(min=0), default=0.0, show_default=True,
+              help="Gaussian noise sigma along the surface normal.")
+@click.option("--inside-points", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Random points inside each hole (reflections; the paper's Fig. 5 uses 10 and 100).")
+@click.option("--countersink", type=Decimal(min=0, min_open=True), default=None,
+              help="Countersink diameter at the surface (100-degree cone) for every hole.")
+@click.option("--bore-depth", type=Decimal(min=0), default=0.0, show_default=True,
+              help="Depth of bore-wall points below the surface (0: none).")
+@click.option("--bottom-depth", type=Decimal(min=0), default=0.0, show_default=True,
+              help="Blind holes: the flat floor at this depth below the surface is scanned (0: a through "
+                   "hole); at least --bore-depth.")
+@click.option("--outliers", type=Decimal(min=0, max=1), default=0.0, show_default=True,
+              help="Fraction of gross outliers.")
+@click.option("--ragged", type=Decimal(min=0), default=0.0, show_default=True,
+              help="Amplitude of a ragged outer border (0: straight).")
+@click.option("--nan-points", type=click.IntRange(min=0), default=0, show_default=True,
+              help="NaN rows to append, as a profiler writes for missed points.")
+@click.option("--panel", "panel_file", type=click.Path(dir_okay=False, path_type=str), default=None, metavar="SPEC",
+              help="Scan a panel built from the TOML spec SPEC (sheets with holes, see README) with the laser "
+                   "profiler.")
+@click.option("--mesh", "mesh_file", type=click.Path(dir_okay=False, path_type=str), default=None, metavar="PART",
+              help="Scan the triangle mesh PART (.stl, .ply, .obj, .off) with the laser profiler.")
+@click.option("--target", type=FloatTuple(3, "X,Y,Z"), default=None,
+              help="Profiler: the point the sensor aims at [default: the middle of the part, on its side "
+                   "facing the sensor].")
+@click.option("--standoff", type=Decimal(min=0, min_open=True), default=100.0, show_default=True,
+              help="Profiler: distance from the sensor to --target along --view.")
+@click.option("--view", type=FloatTuple(3, "X,Y,Z"), default="0,0,-1", show_default=True,
+              help="Profiler: viewing direction, from the sensor toward the part.")
+@click.option("--line", type=FloatTuple(3, "X,Y,Z"), default="1,0,0", show_default=True,
+              help="Profiler: direction of the laser line (perpendicular to --view); the robot moves along "
+                   "line x view.")
+@click.option("--line-length", type=Decimal(min=0, min_open=True), default=None,
+              help="Profiler: field of view along the line [default: the part's extent].")
+@click.option("--scan-length", type=Decimal(min=0, min_open=True), default=None,
+              help="Profiler: length of the robot's travel [default: the part's extent].")
+@click.option("--parallel-rays", is_flag=True,
+              help="Profiler: parallel rays (a profiler's uniform-X output) instead of a fan from the laser.")
+@click.option("--triangulation-deg", type=Decimal(min=0, max=80), default=25.0, show_default=True,
+              help="Profiler: angle between the laser and the camera; points the camera cannot see are lost.")
+@click.option("--max-incidence-deg", type=Decimal(min=0, max=90), default=75.0, show_default=True,
+              help="Profiler: points on faces steeper than this to the ray are lost.")
+@click.option("--range-noise", type=Decimal(min=0), default=0.0, show_default=True,
+              help="Profiler: Gaussian noise sigma along each ray.")
+@click.option("--range-quantum", type=Decimal(min=0), default=0.0, show_default=True,
+              help="Profiler: ranges rounded to multiples of this (0: none), e.g. 0.001.")
+@click.option("--dropout", type=Decimal(min=0, max=1, max_open=True), default=0.0, show_default=True,
+              help="Profiler: fraction of points lost at random.")
+@click.option("--jitter", type=Decimal(min=0), default=0.0, show_default=True,
+              help="Profiler: sigma of the robot's position error, per profile.")
+@click.option("--keep-nan", is_flag=True, help="Profiler: a NaN row for every lost point, as profilers write.")
+@click.option("--metres", is_flag=True, help="Profiler: write the points in metres (the part is in mm).")
+@click.option("--float64", is_flag=True,
+              help="Profiler: write double precision [default: float32, as sensors write].")
+@click.option("--seed", type=int, default=0, show_default=True, help="Random seed.")
+@click.option("--truth", "truth_path", type=click.Path(dir_okay=False, path_type=str), default=None,
+              help="Where to write the ground truth [default: OUTPUT with .truth.json].")
+@click.pass_context
+def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pattern, line_pitch, scan_angle, rotation,
+             translation, noise_z, noise_normal, inside_points, countersink, bore_depth, bottom_depth, outliers, ragged,
+             nan_points, panel_file, mesh_file, target, standoff, view, line, line_length, scan_length, parallel_rays,
+             triangulation_deg, max_incidence_deg, range_noise, range_quantum, dropout, jitter, keep_nan, metres,
+             float64, seed, truth_path):
+    """Write a synthetic scan to OUTPUT (.ply, .pcd, .csv, .txt or .xyz) and its ground truth.
+
+    The defaults reproduce the paper's Table I scene: a 3 mm hole at (1, 1) on a 0.0908 mm grid
+    over [-3, 5]^2, rotated (32, 0, 20) degrees and translated by (3, 4, 5). With --panel or
+    --mesh, a laser line profiler on a robot scans a CAD part instead (ray-cast, with occlusion):
+    --spacing is then its point pitch and --line-pitch its profile pitch.
+
+    \b
+    Examples:
+      holecli simulate table1.ply
+      holecli simulate noisy.csv --noise-z 0.0272 --seed 3
+      holecli simulate stripes.pcd --pattern stripes --spacing 0.05 --line-pitch 0.15 \\
+          --hole 0,0,3 --hole 5,0,4 --extent -3,8,-3,3
+      holecli simulate panel.ply --panel sample_clouds/panel.toml --spacing 0.1 --range-noise 0.005
+      holecli simulate part.ply --mesh part.stl --view 0,-0.42,-0.91 --translation 1200,-300,800
+    """
+    if panel_file is not None or mesh_file is not None:
+        sys.exit(run_guarded(_simulate_part, ctx, output, panel_file, mesh_file, truth_path, seed))
+    profiler_only = [name for name in _PROFILER_OPTIONS if _given(ctx, name)]
+    if profiler_only:
+        raise click.UsageError(f"{', '.join(_option_name(name) for name in profiler_only)} need --panel or --mesh")
+    rotation = rotation if rotation is not None else (32.0, 0.0, 20.0)
+    translation = translation if translation is not None else (3.0, 4.0, 5.0)
+
+    def body():
+        import json
+        from pathlib import Path
+
+        from holecli.io import SUPPORTED_EXTENSIONS, save_points
+        from holecli.io.outfile import write_text
+        from holecli.simulation import synth
+
+        if Path(output).suffix.lower() not in SUPPORTED_EXTENSIONS:
+            raise Failure(f"{output}: unsupported extension (expected {', '.join(SUPPORTED_EXTENSIONS)})",
+                          EXIT_INPUT)
+        specs = () if no_hole else holes or ((center[0], center[1], diameter),)
+        try:
+            scene = synth.SceneSpec(
+                holes=tuple(synth.HoleSpec(center=(x, y), diameter=d, countersink_diameter=countersink,
+                                           bore_depth=bore_depth, bottom_depth=bottom_depth,
+                                           inside_points=inside_points)
+                            for x, y, d in specs),
+                extent=extent, spacing=spacing, pattern=pattern, line_pitch=line_pitch,
+                scan_angle_deg=scan_angle, rotation_deg=rotation, translation=translation,
+                noise_world_z=noise_z, noise_normal=noise_normal, outlier_fraction=outliers,
+                ragged_border=ragged, nan_points=nan_points)
+            scan = synth.make_scan(scene, seed)
+        except ValueError as error:
+            raise Failure(f"{output}: invalid scene: {error}", EXIT_INPUT) from None
+        truth = dict(scan.truth, seed=seed, file=Path(output).name)
+        target = truth_path or str(Path(output).with_suffix(".truth.json"))
+        try:
+            save_points(output, scan.points)
+            write_text(target, json.dumps(truth, indent=2) + "\n")
+        except OSError as error:
+            raise Failure(f"{output}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
+        click.echo(f"wrote {len(scan.points)} points to {output} and the ground truth to {target}", err=True)
+        return EXIT_OK
+
+    sys.exit(run_guarded(body))
+
+
+# The options of simulate that only a profiler scan of a part uses, and those only a synthetic scene uses.
+_PROFILER_OPTIONS = ("target", "standoff", "view", "line", "line_length", "scan_length", "parallel_rays",
+                     "triangulation_deg", "max_incidence_deg", "range_noise", "range_quantum", "dropout", "jitter",
+                     "keep_nan", "metres", "float64")
+_SYNTHETIC_OPTIONS = ("diameter", "center", "holes", "no_hole", "extent", "pattern", "scan_angle", "noise_z",
+                      "noise_normal", "inside_points", "countersink", "bore_depth", "bottom_depth", "outliers",
+                      "ragged", "nan_points")
+
+
+def _given(ctx, name):
+    from click.core import ParameterSource
+
+    return ctx.get_parameter_source(name) not in (ParameterSource.DEFAULT, None)
+
+
+def _option_name(name):
+    return "--hole" if name == "holes" else "--" + name.replace("_", "-")
+
+
+def _simulate_part(ctx, output, panel_file, mesh_file, truth_path, seed):
+    """``holecli simulate --panel/--mesh``: the profiler's scan of a part, and its truth."""
+    import json
+    from pathlib import Path
+
+    import numpy as np
+
+    from holecli.errors import SpecError
+    from holecli.io import SUPPORTED_EXTENSIONS, save_points
+    from holecli.io.outfile import write_text
+
+    p = ctx.params
+    if panel_file is not None and mesh_file is not None:
+        raise click.UsageError("give --panel or --mesh, not both")
+    synthetic = [name for name in _SYNTHETIC_OPTIONS if _given(ctx, name)]
+    if synthetic:
+        raise click.UsageError(f"{', '.join(_option_name(name) for name in synthetic)} cannot be used with "
+                               f"{'--panel' if panel_file else '--mesh'} (they describe a synthetic scene)")
+    if Path(output).suffix.lower() not in SUPPORTED_EXTENSIONS:
+        raise Failure(f"{output}: unsupported extension (expected {', '.join(SUPPORTED_EXTENSIONS)})", EXIT_INPUT)
+    source = panel_file or mesh_file
+    try:
+        vertices, triangles, features, part = _load_part(panel_file, mesh_file, p["view"])
+        spec = _profiler_spec(p, vertices)
+        from holecli.simulation.scan_part import scan_part
+
+        scanned = scan_part(vertices, triangles, features, spec, rng=seed)
+    except (SpecError, ValueError) as error:
+        raise Failure(f"{source}: {error}", EXIT_INPUT) from None
+    truth = dict(scanned.truth, part=part, seed=seed, file=Path(output).name,
+                 units="m" if p["metres"] else "mm")
+    target = truth_path or str(Path(output).with_suffix(".truth.json"))
+    points = scanned.scan.points
+    try:
+        save_points(output, points, float32=not p["float64"])
+        write_text(target, json.dumps(truth, indent=2) + "\n")
+    except OSError as error:
+        raise Failure(f"{output}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
+    finite = int(np.isfinite(points).all(axis=1).sum())
+    click.echo(f"wrote {len(points)} points ({finite} measured) to {output} and the ground truth "
+               f"({len(truth['holes'])} holes) to {target}", err=True)
+    return EXIT_OK
+
+
+def _load_part(panel_file, mesh_file, view):
+    """(vertices, triangles, features in the part's frame, a description of the part) of --panel or --mesh."""
+    if panel_file is not None:
+        from holecli.simulation.panel import build_panel, panel_truth, parse_panel_toml
+
+        panel = build_panel(parse_panel_toml(read_small_text(panel_file, "a panel spec")))
+        truth = panel_truth(panel)
+        return panel.vertices, panel.triangles, truth["features"], {"panel": truth["panel"], "source": panel_file}
+    from holecli.errors import LoadError
+    from holecli.simulation.mesh_truth import mesh_truth
+    from holecli.simulation.profiler import load_mesh
+
+    try:
+        vertices, triangles = load_mesh(mesh_file)
+    except LoadError as error:
+        raise Failure(str(error), EXIT_INPUT) from None
+    truth = mesh_truth(vertices, triangles, view=view)
+    # The diameter of a hole is the edge at the surface: the circle through the edge polygon's vertices.
+    features = [dict(feature, diameter=feature.get("edge_diameter")) for feature in truth["features"]]
+    return vertices, triangles, features, {"mesh": mesh_file, "vertices": len(vertices), "triangles": len(triangles)}
+
+
+def _profiler_spec(p, vertices):
+    """The :class:`holecli.simulation.profiler.ProfilerSpec` of simulate's options; lengths and target default
+    to the part's extent and its middle, on its side facing the sensor."""
+    import numpy as np
+
+    from holecli.simulation.profiler import ProfilerSpec
+
+    view = np.asarray(p["view"], dtype=np.float64)
+    line = np.asarray(p["line"], dtype=np.float64)
+    if np.linalg.norm(view) == 0 or np.linalg.norm(line) == 0:
+        raise ValueError("--view and --line must not be zero")
+    view, line = view / np.linalg.norm(view), line / np.linalg.norm(line)
+    motion = np.cross(line, view)
+    if np.linalg.norm(motion) < 1e-6:
+        raise ValueError("--line must not be along --view")
+    motion /= np.linalg.norm(motion)
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    if p["target"] is not None:
+        target = np.asarray(p["target"], dtype=np.float64)
+    else:
+        middle = 0.5 * (low + high)
+        # on the part's side facing the sensor: as far against the view as its nearest vertex
+        target = middle + (float(np.min(vertices @ view)) - float(middle @ view)) * view
+    line_length = p["line_length"] or float(np.ptp(vertices @ line))
+    scan_length = p["scan_length"] or float(np.ptp(vertices @ motion))
+    frame = None
+    if p["rotation"] is not None or p["translation"] is not None:
+        from holecli.simulation.synth import rotation_matrix
+
+        matrix = np.eye(4)
+        matrix[:3, :3] = rotation_matrix(p["rotation"] or (0.0, 0.0, 0.0))
+        matrix[:3, 3] = p["translation"] or (0.0, 0.0, 0.0)
+        frame = tuple(map(tuple, matrix))
+    return ProfilerSpec(target=tuple(target), standoff=p["standoff"], view=tuple(view), line=tuple(line),
+                        line_length=line_length, scan_length=scan_length, point_pitch=p["spacing"],
+                        line_pitch=p["line_pitch"] or p["spacing"], fan=not p["parallel_rays"],
+                        triangulation_deg=p["triangulation_deg"], max_incidence_deg=p["max_incidence_deg"],
+                        range_noise=p["range_noise"], range_quantum=p["range_quantum"], dropout=p["dropout"],
+                        jitter=p["jitter"], keep_nan=p["keep_nan"], frame=frame,
+                        unit_scale=1e-3 if p["metres"] else 1.0, float32=not p["float64"])

@@ -1,0 +1,37 @@
+"""The Examples sections of the public API's docstrings run as printed (from the repository's root,
+where ``sample_clouds/`` is)."""
+
+import doctest
+import importlib
+import re
+
+import pytest
+
+# Modules whose docstrings hold examples, and the least number of examples each must hold (so that
+# a docstring that loses its Examples section fails here rather than passing as "0 of 0").
+MODULES = {"holecli.pipeline": 2}
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_docstring_examples_run_as_printed(name, repo_root, monkeypatch):
+    monkeypatch.chdir(repo_root)
+    module = importlib.import_module(name)
+    finder = doctest.DocTestFinder()
+    tests = [test for test in finder.find(module) if test.examples]
+    assert len(tests) >= MODULES[name], [test.name for test in tests]
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS)
+    for test in tests:
+        runner.run(test)
+    results = runner.summarize(verbose=False)
+    assert results.failed == 0, f"{results.failed} of {results.attempted} examples of {name} failed (see above)"
+
+
+def test_readme_detect_file_example_prints_what_the_readme_says(repo_root, monkeypatch, capsys):
+    # The Python API section's first example, and the output printed under it.
+    text = (repo_root / "README.md").read_text(encoding="utf-8")
+    section = text[text.index("## Python API"):]
+    match = re.search(r"```python\n(.*?)```\n\nprints\n\n```\n(.*?)```\n", section, re.DOTALL)
+    assert match is not None and "detect_file(" in match.group(1)
+    monkeypatch.chdir(repo_root)
+    exec(compile(match.group(1), "README.md", "exec"), {})
+    assert capsys.readouterr().out == match.group(2)
