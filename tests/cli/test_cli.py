@@ -130,7 +130,7 @@ def test_detect_default_method(run, table1_files, table1_truth):
     assert result.exit_code == cli.EXIT_OK, result.stderr
     record = json.loads(result.stdout)
     assert set(record) == RECORD_KEYS
-    assert record["method"] in ("paper", "robust")
+    assert record["method"] == "robust"
     assert len(record["holes"]) == 1
     assert abs(record["holes"][0]["diameter"] - table1_truth["diameter"]) < 0.070
 

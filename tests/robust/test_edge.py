@@ -70,7 +70,7 @@ def test_degenerate_rims_give_no_fit(rim):
 STRIPES_PITCH = 0.3
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def stripes_rim(seed):
     """Rim points of a 3 mm hole in a striped scan (h = 0.1, pitch 0.3 mm), as the robust pipeline
     extracts them (the alpha-shape rim of the surface points around the hole), after a rigid motion in
