@@ -38,6 +38,8 @@ from test_io import REALDATA
 from holecli.errors import LoadError
 from holecli.io import load_points, read_cloud, save_points
 
+pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"
+
 SAMPLES = Path(__file__).resolve().parents[2] / "sample_clouds"
 SEED = 8  # issue 8
 REAL_FILE_MAX_BYTES = 64_000

@@ -7,6 +7,8 @@ from holecli.robust.bias import sampling_bias, synthetic_rim_fit
 from holecli.robust.boundary import hole_rim
 from holecli.robust.edge import fit_edge
 
+pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"
+
 H = 0.1
 CENTER = np.array([0.37, -0.21])
 RADIUS = 1.5

@@ -39,14 +39,22 @@ def test_points_deeper_in_the_hole_are_dropped():
     assert used[:60].all() and not used[60:].any()
 
 
-def test_noisy_rim_with_gross_outliers(rng):
-    edge = circle_points(120) + rng.normal(0.0, 0.01, (120, 2))
-    outliers = CENTER + rng.uniform(1.3, 1.6, (6, 1)) * np.array([[2.0, 0.0]])
-    fit, used = fit_edge(np.concatenate([edge, outliers]), DEPTH, FLOOR, CLIP)
-    assert fit.radius == pytest.approx(RADIUS, abs=0.005)
-    assert np.linalg.norm(fit.center - CENTER) < 0.005
-    assert not used[120:].any()
-    assert used[:120].mean() > 0.95
+def test_noisy_rim_with_gross_outliers():
+    # Over 100 draws: the circle within 0.005 and the outliers dropped every time; the outliers'
+    # sector loses a few edge points to the envelope, more than 5 % of them in under one draw in ten.
+    few_kept = []
+    for seed in range(100):
+        rng = np.random.default_rng(seed)
+        edge = circle_points(120) + rng.normal(0.0, 0.01, (120, 2))
+        outliers = CENTER + rng.uniform(1.3, 1.6, (6, 1)) * np.array([[2.0, 0.0]])
+        fit, used = fit_edge(np.concatenate([edge, outliers]), DEPTH, FLOOR, CLIP)
+        assert fit.radius == pytest.approx(RADIUS, abs=0.005), seed
+        assert np.linalg.norm(fit.center - CENTER) < 0.005, seed
+        assert not used[120:].any(), seed
+        assert used[:120].mean() > 0.9, seed
+        if used[:120].mean() <= 0.95:
+            few_kept.append(seed)
+    assert len(few_kept) < 10, few_kept
 
 
 def test_start_gives_the_same_circle():
