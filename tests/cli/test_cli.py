@@ -422,6 +422,7 @@ def test_detect_output_dash_is_stdout(run, table1_files, tmp_path, monkeypatch):
     assert os.listdir(tmp_path) == []
 
 
+@pytest.mark.slow
 def test_detect_output_removes_temporaries_left_by_a_killed_run(holecli_process, table1_files, tmp_path):
     output = tmp_path / "result.json"
     writer = holecli_process("detect", table1_files[".ply"], "-o", output, start=True)

@@ -1013,6 +1013,7 @@ def test_real_file(name, expected):
     assert np.isfinite(cloud.points).all()
 
 
+@pytest.mark.slow
 @needs_realdata
 def test_real_files_match_open3d_where_it_is_right():
     o3d = pytest.importorskip("open3d")
