@@ -28,8 +28,20 @@ class LoadError(HoleCliError):
 
 
 class PointsError(HoleCliError, ValueError):
-    """The points handed to the detection pipeline are unusable (wrong shape, too few, degenerate)."""
+    """The points handed to the detection pipeline are unusable (wrong shape, too few, degenerate).
+
+    Parameters
+    ----------
+    message : str
+        What is wrong, as one line.
+    """
 
 
 class SpecError(HoleCliError, ValueError):
-    """A tolerance specification (command-line values or a spec file) is invalid."""
+    """A tolerance specification (command-line values or a spec file) is invalid.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong and where (the key, the hole), as one line.
+    """

@@ -36,7 +36,17 @@ def _handle(number, frame):
 
 
 def install():
-    """Handle SIGINT and SIGTERM as described in the module's docstring (main thread only)."""
+    """Handle SIGINT and SIGTERM as described in the module's docstring (main thread only).
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    ValueError
+        When called from a thread other than the main thread (from :func:`signal.signal`).
+    """
     global _installed
     for name in SIGNALS:
         signal.signal(getattr(signal, name), _handle)
@@ -44,7 +54,17 @@ def install():
 
 
 def record(number):
-    """Note that signal ``number`` is raising KeyboardInterrupt (see :func:`received`)."""
+    """Note that signal ``number`` is raising KeyboardInterrupt (see :func:`received`).
+
+    Parameters
+    ----------
+    number : int
+        The signal's number.
+
+    Returns
+    -------
+    None
+    """
     global _received
     _received = number
 
@@ -55,19 +75,42 @@ def received():
     The exception does not always arrive as itself: raised while a C extension initialises (an import
     inside the block), it comes out as that import's ``ImportError``. Whatever a body raised after a
     signal was received is the interrupt's doing.
+
+    Returns
+    -------
+    int or None
+        The signal's number, or None when none came in the current (or last) block.
     """
     return _received
 
 
 def installed() -> bool:
-    """Whether :func:`install` ran: this is the ``holecli`` program, not a library user or a test."""
+    """Whether :func:`install` ran: this is the ``holecli`` program, not a library user or a test.
+
+    Returns
+    -------
+    bool
+    """
     return _installed
 
 
 @contextmanager
 def raising():
     """Within this block, SIGINT and SIGTERM raise :class:`KeyboardInterrupt` (and :func:`received`
-    says which came; it starts as None)."""
+    says which came; it starts as None).
+
+    Only after :func:`install`; the previous behaviour comes back when the block ends (blocks nest).
+
+    Returns
+    -------
+    context manager
+        Yields None.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        When SIGINT or SIGTERM arrives inside the block (with the handlers of :func:`install`).
+    """
     global _raise, _received
     previous, _raise = _raise, True
     _received = None

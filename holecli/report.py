@@ -21,12 +21,44 @@ BATCH_CSV_COLUMNS = CSV_COLUMNS + ("error", "path")
 
 
 def to_json(record):
-    """One record (a dict) as indented JSON text with a trailing newline; floats at full precision."""
+    """One record (a dict) as indented JSON text with a trailing newline; floats at full precision.
+
+    Parameters
+    ----------
+    record : dict
+        A JSON-ready record (:meth:`holecli.results.Detection.to_dict`, possibly with verdicts).
+
+    Returns
+    -------
+    str
+        The JSON text, indented by 2, ending in a newline.
+
+    Raises
+    ------
+    ValueError
+        When the record holds a NaN or an infinity (JSON has neither).
+    """
     return json.dumps(record, indent=2, allow_nan=False) + "\n"
 
 
 def to_json_line(record):
-    """One record as a single line of JSON (for JSON Lines output)."""
+    """One record as a single line of JSON (for JSON Lines output).
+
+    Parameters
+    ----------
+    record : dict
+        A JSON-ready record.
+
+    Returns
+    -------
+    str
+        Compact JSON on one line, ending in a newline.
+
+    Raises
+    ------
+    ValueError
+        When the record holds a NaN or an infinity (JSON has neither).
+    """
     return json.dumps(record, separators=(",", ":"), allow_nan=False) + "\n"
 
 
@@ -49,6 +81,19 @@ def csv_rows(record, columns=CSV_COLUMNS):
     One row per hole; with tolerance verdicts also one row per missing nominal hole (empty ``hole``,
     ``in_tolerance`` false); one row with only ``file`` (and ``error`` for a failed file of a batch)
     when the record has neither.
+
+    Parameters
+    ----------
+    record : dict
+        A detection record (with tolerance verdicts, a batch's ``error`` and ``path`` when present).
+    columns : sequence of str
+        The columns to write, in order (:data:`CSV_COLUMNS` or :data:`BATCH_CSV_COLUMNS`).
+
+    Returns
+    -------
+    list of list of str
+        One list of cells per row, in ``columns`` order: empty for None, ``true``/``false`` for
+        booleans, floats by ``repr``, lists joined with ``;``.
     """
     file, path = record.get("file"), record.get("path")
     rows = []
@@ -69,7 +114,22 @@ def csv_rows(record, columns=CSV_COLUMNS):
 
 
 def csv_text(records, columns=CSV_COLUMNS, header=True):
-    """The CSV text of ``records``: the header (optionally) and their rows."""
+    """The CSV text of ``records``: the header (optionally) and their rows.
+
+    Parameters
+    ----------
+    records : iterable of dict
+        Detection records, see :func:`csv_rows`.
+    columns : sequence of str
+        The columns to write, in order.
+    header : bool
+        Whether the first line names the columns.
+
+    Returns
+    -------
+    str
+        The CSV text, lines ending in ``\\n``.
+    """
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     if header:
@@ -80,5 +140,21 @@ def csv_text(records, columns=CSV_COLUMNS, header=True):
 
 
 def write_csv(records, stream, header=True, columns=CSV_COLUMNS):
-    """Write the CSV header (optionally) and the rows of every record to ``stream``."""
+    """Write the CSV header (optionally) and the rows of every record to ``stream``.
+
+    Parameters
+    ----------
+    records : iterable of dict
+        Detection records, see :func:`csv_rows`.
+    stream : text file
+        Where to write (anything with ``write(str)``).
+    header : bool
+        Whether the first line names the columns.
+    columns : sequence of str
+        The columns to write, in order.
+
+    Returns
+    -------
+    None
+    """
     stream.write(csv_text(records, columns, header))

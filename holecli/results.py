@@ -89,9 +89,22 @@ class Hole:
 
     @property
     def radius(self) -> float:
+        """Half the diameter, file units.
+
+        Returns
+        -------
+        float
+        """
         return self.diameter / 2.0
 
     def to_dict(self) -> dict:
+        """The hole as one entry of a record's ``holes``.
+
+        Returns
+        -------
+        dict
+            Every field by name; ``center`` and ``normal`` as lists.
+        """
         out = asdict(self)
         out["center"] = list(self.center)
         out["normal"] = list(self.normal)
@@ -132,6 +145,13 @@ class Rejection:
     shape: Optional[dict] = None
 
     def to_dict(self) -> dict:
+        """The rejection as one entry of a record's ``rejected`` (``--explain``).
+
+        Returns
+        -------
+        dict
+            Every field by name; ``center`` as a list.
+        """
         out = asdict(self)
         out["center"] = list(self.center)
         return out
@@ -172,8 +192,20 @@ class Detection:
     rejected: tuple[Rejection, ...] = ()
 
     def to_dict(self, explain=False) -> dict:
-        """The JSON record of the command line (see the README for the contract); with ``explain``
-        also ``rejected``, the list of :class:`Rejection`."""
+        """The JSON record of the command line (see the README for the contract).
+
+        Parameters
+        ----------
+        explain : bool
+            Also give ``rejected``, the list of :class:`Rejection` (as dicts).
+
+        Returns
+        -------
+        dict
+            ``file``, ``points``, ``dropped_points``, ``method``, ``plane`` (``point``, ``normal``,
+            ``rms``, ``inliers``), ``holes`` (:meth:`Hole.to_dict`) and ``elapsed_ms``, in that order,
+            then ``rejected`` with ``explain``.
+        """
         record = {
             "file": self.file,
             "points": self.points,

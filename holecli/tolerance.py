@@ -139,6 +139,16 @@ def parse_band(value) -> Band:
     ``"+0.036/0"``, ``"0.036/-0.010"``, ``"-0.014/-0.035"`` (a P7 hole). The lower deviation needs
     its sign unless it is zero, so that ``"0.05/0.05"`` is refused rather than read as ``+0.05/+0.05``.
 
+    Parameters
+    ----------
+    value : float, int or str
+        The tolerance as a number or as text in one of the forms above.
+
+    Returns
+    -------
+    Band
+        The lower and upper deviations (``lower <= upper``; ``-T`` and ``+T`` for a symmetric one).
+
     Raises
     ------
     SpecError
@@ -188,6 +198,11 @@ def nominal_spec(*, diameter=None, tolerance=None, center=None, position_toleran
     names : dict, optional
         How messages call each parameter (the CLI passes its option names).
 
+    Returns
+    -------
+    Spec
+        A spec of the one nominal hole, not named (``named`` False).
+
     Raises
     ------
     SpecError
@@ -218,6 +233,11 @@ def parse_spec(text, source="spec") -> Spec:
         The TOML text.
     source : str
         The file's name, for :attr:`Spec.source`.
+
+    Returns
+    -------
+    Spec
+        The named nominal holes, in the file's order (``named`` True).
 
     Raises
     ------

@@ -179,9 +179,11 @@ def test_measure_all_stops_when_asked(scans):
         calls.append(1)
         return True
 
-    records = list(batch.measure_all(scans * 4, OPTIONS, jobs=1, should_stop=should_stop))
+    # A poll long enough that should_stop is asked only once a file has finished, not because the
+    # first file took longer than a poll on a loaded machine (then nothing would have been yielded).
+    records = list(batch.measure_all(scans * 4, OPTIONS, jobs=1, should_stop=should_stop, poll_seconds=60.0))
     assert 1 <= len(records) < 12
-    assert calls
+    assert calls == [1]
 
 
 def _report_worker_signals(path, options, spec=None, explain=False):

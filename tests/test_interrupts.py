@@ -9,6 +9,8 @@ import pytest
 
 from holecli import interrupts
 
+pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"
+
 # From the moment holecli's handlers are installed (its first step) to the end of a small detect, in
 # steps that hit the imports, the reading and the measuring. A signal before that moment meets the
 # interpreter's own start-up, which no program can handle; on a loaded machine that start-up takes

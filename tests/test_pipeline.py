@@ -1,6 +1,5 @@
 """Tests of holecli.pipeline: detect() on the paper's Table I scene, the result contract, validation."""
 
-import dataclasses
 import json
 
 import numpy as np
@@ -72,13 +71,7 @@ def test_center_lies_on_the_fitted_plane(table1_paper):
 # --- result types and the JSON contract ------------------------------------------------------------
 
 
-def test_results_are_frozen(table1_paper):
-    with pytest.raises(dataclasses.FrozenInstanceError):
-        table1_paper.points = 1
-    with pytest.raises(dataclasses.FrozenInstanceError):
-        table1_paper.holes[0].diameter = 1.0
-    with pytest.raises(dataclasses.FrozenInstanceError):
-        table1_paper.plane.rms = 0.0
+def test_result_types(table1_paper):
     assert isinstance(table1_paper, Detection)
     assert isinstance(table1_paper.holes, tuple)
     assert isinstance(table1_paper.holes[0], Hole)
@@ -94,7 +87,6 @@ def test_to_dict_has_exactly_the_contract_keys(table1_paper):
     assert record["file"] is None
     assert record["dropped_points"] == 0
     assert record["method"] == "paper"
-    assert record["elapsed_ms"] >= 0.0
 
 
 def test_to_dict_is_json_ready_with_plain_types(table1_paper):

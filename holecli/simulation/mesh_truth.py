@@ -196,7 +196,14 @@ class MeshHole:
     edge_axial_offset: tuple = ()
 
     def to_dict(self) -> dict:
-        """JSON-ready dict: vectors as lists, floats as Python floats, no loop object."""
+        """JSON-ready dict: vectors as lists, floats as Python floats, no loop object.
+
+        Returns
+        -------
+        dict
+            The hole's fields by name (``kind``, ``is_hole``, ``center``, ``axis``, ``normal``, the
+            edge's diameters, ...), None where a field does not apply.
+        """
         out = {}
         for name in ("kind", "is_hole", "center", "axis", "normal", "edge_diameter",
                      "edge_circumdiameter", "edge_indiameter", "bore_diameter", "depth", "through",
@@ -781,6 +788,11 @@ def mesh_truth(vertices, triangles, view=(0.0, 0.0, -1.0), region=None, *, angle
         (features = holes then cut-outs, as in :func:`holecli.simulation.panel.panel_truth`); each entry is
         :meth:`MeshHole.to_dict`, plus ``"inside_region"`` (whether the whole edge, its polygon
         vertices and 64 points of its circle, lies in the region) when a region is given.
+
+    Raises
+    ------
+    MeshError
+        As for :func:`mesh_holes`, and for a ``region`` that is neither a callable nor a box.
     """
     inside = _region_test(region)
     found = mesh_holes(vertices, triangles, view, angle_deg=angle_deg)

@@ -168,7 +168,13 @@ class FeatureSpec:
 
     @property
     def outer_radius(self) -> float:
-        """Radius of the outer contour at the surface (nominal, tangent plane), mm; slot: width / 2."""
+        """Radius of the outer contour at the surface (nominal, tangent plane), mm; slot: width / 2.
+
+        Returns
+        -------
+        float
+            The countersink's or counterbore's radius, half a slot's width, else half the diameter.
+        """
         if self.kind == "countersunk":
             return self.countersink_diameter / 2.0
         if self.kind == "counterbored":
@@ -882,6 +888,11 @@ def _build(spec, label):
 def panel_truth(panel: Panel) -> dict:
     """JSON-ready truth of a panel: the panel's description and its features.
 
+    Parameters
+    ----------
+    panel : Panel
+        From :func:`build_panel`.
+
     Returns
     -------
     dict
@@ -930,6 +941,16 @@ def parse_panel_toml(text) -> PanelSpec:
     ``countersink_diameter``, ``countersink_angle_deg`` (default 100); ``counterbore_diameter``,
     ``counterbore_depth``; ``depth``; ``height`` (boss); for a slot ``width``, ``length``, ``direction_deg``
     (default 0)).
+
+    Parameters
+    ----------
+    text : str
+        The TOML text.
+
+    Returns
+    -------
+    PanelSpec
+        The panel and its features, in the file's order.
 
     Raises
     ------

@@ -57,7 +57,7 @@ def scan_part(vertices, triangles, features, spec: ProfilerSpec, rng=0) -> PartS
         Mesh faces.
     features : sequence of dict
         The part's features in the part's frame, as :func:`holecli.simulation.panel.panel_truth` or
-        :func:`holecli.mesh_truth.mesh_truth` give them: ``center``, ``normal`` (and ``axis``),
+        :func:`holecli.simulation.mesh_truth.mesh_truth` give them: ``center``, ``normal`` (and ``axis``),
         ``is_hole``, and ``diameter`` (the edge at the surface) or, for a slot, ``length``.
     spec : ProfilerSpec
         The sensor and its path.
@@ -67,6 +67,12 @@ def scan_part(vertices, triangles, features, spec: ProfilerSpec, rng=0) -> PartS
     Returns
     -------
     PartScan
+        The scan's points and the features' truth in the scan's frame.
+
+    Raises
+    ------
+    holecli.errors.SpecError
+        As for :func:`holecli.simulation.profiler.scan_mesh`: an invalid mesh or ``spec``.
     """
     scan = scan_mesh(vertices, triangles, spec, rng=rng)
     target = np.asarray(spec.target, dtype=np.float64)

@@ -505,6 +505,7 @@ def _wait_for_a_line(path, process, timeout=30.0):
     pytest.fail("no record within the time limit")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("signal_number", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 def test_interrupt_a_real_batch_then_resume(repo_root, many_scans, tmp_path, signal_number):
     target = tmp_path / "out.jsonl"
@@ -564,6 +565,7 @@ def test_batch_stdout_on_a_full_disk_is_one_line_error(holecli_process, good_sca
     assert "Traceback" not in result.stderr
 
 
+@pytest.mark.slow
 def test_batch_csv_with_a_file_name_that_is_not_utf8(good_scans, tmp_path, repo_root, holecli_process):
     folder = tmp_path / "scans"
     folder.mkdir()

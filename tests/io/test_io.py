@@ -1,6 +1,5 @@
 """Tests of holecli.io: round trips, every format variant, every bad input, and real files."""
 
-import dataclasses
 import os
 import re
 import stat
@@ -8,7 +7,6 @@ import struct
 import subprocess
 import sys
 import threading
-import time
 import tracemalloc
 import warnings
 from pathlib import Path
@@ -820,22 +818,19 @@ _HUGE_HEADERS = [
 @pytest.mark.parametrize(
     "name, content, problem", _HUGE_HEADERS, ids=[f"{i}-{row[0]}" for i, row in enumerate(_HUGE_HEADERS)]
 )
-def test_header_asking_for_more_than_the_file_holds_is_refused_fast(tmp_path, name, content, problem):
+def test_header_asking_for_more_than_the_file_holds_is_refused_before_allocating(tmp_path, name, content, problem):
     if b"binary_compressed" in (content if isinstance(content, bytes) else content.encode()):
         pytest.importorskip("open3d")
     path = _write(tmp_path / name, content)
     tracemalloc.start()
-    started = time.perf_counter()
     try:
         with pytest.raises(LoadError) as info:
             read_cloud(path)
-        elapsed = time.perf_counter() - started
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
-    # Time and Python-side memory first: they are the point (open3d's own allocations are not traced,
-    # which is why the compressed case is refused before open3d is called).
-    assert elapsed < 1.0
+    # Python-side memory first: it is the point (open3d's own allocations are not traced, which is
+    # why the compressed case is refused before open3d is called).
     assert peak < 5_000_000
     assert re.search(problem, info.value.problem)
 
@@ -929,13 +924,6 @@ def test_character_device_is_refused():
         read_cloud("/dev/null")
 
 
-def test_cloud_is_frozen(tmp_path):
-    save_points(tmp_path / "a.ply", _points(3))
-    cloud = read_cloud(tmp_path / "a.ply")
-    with pytest.raises(dataclasses.FrozenInstanceError):
-        cloud.dropped = 4
-
-
 # --- real files -------------------------------------------------------------------------------
 
 # From the README of the real-data folder: the number of finite points to load, or None to refuse.
@@ -1025,6 +1013,7 @@ def test_real_file(name, expected):
     assert np.isfinite(cloud.points).all()
 
 
+@pytest.mark.slow
 @needs_realdata
 def test_real_files_match_open3d_where_it_is_right():
     o3d = pytest.importorskip("open3d")

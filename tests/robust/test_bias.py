@@ -8,6 +8,8 @@ from holecli.robust.boundary import hole_rim
 from holecli.robust.edge import fit_edge
 from holecli.settings import DEFAULT_SETTINGS
 
+pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"
+
 H = 0.1
 CENTER = np.array([0.37, -0.21])
 RADIUS = 1.5

@@ -1,9 +1,14 @@
 """Tests of holecli.robust.edge.fit_edge: outer envelope of the rim points, then a clipped circle fit."""
 
+import functools
+
 import numpy as np
 import pytest
 
+from holecli.robust.boundary import hole_rim
 from holecli.robust.edge import fit_edge
+from holecli.robust.sampling import estimate_sampling
+from holecli.simulation.synth import MATERIAL, HoleSpec, SceneSpec, make_scan
 
 CENTER = np.array([3.21, -1.7])
 RADIUS = 1.5
@@ -34,14 +39,22 @@ def test_points_deeper_in_the_hole_are_dropped():
     assert used[:60].all() and not used[60:].any()
 
 
-def test_noisy_rim_with_gross_outliers(rng):
-    edge = circle_points(120) + rng.normal(0.0, 0.01, (120, 2))
-    outliers = CENTER + rng.uniform(1.3, 1.6, (6, 1)) * np.array([[2.0, 0.0]])
-    fit, used = fit_edge(np.concatenate([edge, outliers]), DEPTH, FLOOR, CLIP)
-    assert fit.radius == pytest.approx(RADIUS, abs=0.005)
-    assert np.linalg.norm(fit.center - CENTER) < 0.005
-    assert not used[120:].any()
-    assert used[:120].mean() > 0.95
+def test_noisy_rim_with_gross_outliers():
+    # Over 100 draws: the circle within 0.005 and the outliers dropped every time; the outliers'
+    # sector loses a few edge points to the envelope, more than 5 % of them in under one draw in ten.
+    few_kept = []
+    for seed in range(100):
+        rng = np.random.default_rng(seed)
+        edge = circle_points(120) + rng.normal(0.0, 0.01, (120, 2))
+        outliers = CENTER + rng.uniform(1.3, 1.6, (6, 1)) * np.array([[2.0, 0.0]])
+        fit, used = fit_edge(np.concatenate([edge, outliers]), DEPTH, FLOOR, CLIP)
+        assert fit.radius == pytest.approx(RADIUS, abs=0.005), seed
+        assert np.linalg.norm(fit.center - CENTER) < 0.005, seed
+        assert not used[120:].any(), seed
+        assert used[:120].mean() > 0.9, seed
+        if used[:120].mean() <= 0.95:
+            few_kept.append(seed)
+    assert len(few_kept) < 10, few_kept
 
 
 def test_start_gives_the_same_circle():
@@ -62,38 +75,46 @@ def test_degenerate_rims_give_no_fit(rim):
     assert used.shape == (len(rim),)
 
 
-# Rim points of a 3 mm hole in a striped scan (h = 0.1, pitch 0.3 mm) after a rigid motion of the
-# cloud, as the robust pipeline extracted them (test_robust_properties, stripes, motion 3):
-# a round rim (algebraic fit: radius 1.543, residuals within 0.062) with runs of points along the
-# scan lines that are collinear up to round-off.
-STRIPES_RIM = np.array([
-    [0.038029904422945494, 1.182707930892903], [-1.1058127991663849, -0.89373707667302],
-    [0.8378536040438277, 1.1659136007555118], [0.5749189411234175, -1.8292266902884624],
-    [0.6748969035760259, -1.8313259815556364], [0.13800786687555622, 1.1806086396257252],
-    [-0.06194805802966306, 1.1848072221600767], [1.587294313252543, -1.2503518282445334],
-    [1.718761644712794, 0.24721831727743676], [-0.7184966969590092, -1.5020020164573662],
-    [0.6378976791386087, 1.1701121832898567], [-1.1994928878174875, -0.5917038980480057],
-    [-1.0121327105153326, -1.1957702552980098], [1.6935701495067095, -0.9525172321538885],
-    [0.8748528284812491, -1.8355245640899887], [0.23798582932816656, 1.1785093483585543],
-    [1.7998459857608302, -0.6546826360632265], [-0.16192602048227556, 1.1869065134272516],
-    [0.3379637917807791, 1.1764100570913794], [-0.32488272095007725, -1.8103330688838966],
-    [0.4379417542333855, 1.1743107658242091], [1.812441733363848, -0.05481486134755023],
-    [-1.0806213039603003, 0.30599847275830516], [-0.024948833592243695, -1.8166309426854201],
-    [-0.5681357440942276, 0.8953697911381093], [-0.1249267960448541, -1.8145316514182492],
-    [0.5379197166860001, 1.1722114745570307], [-1.1931950140159773, -0.29177001069017267],
-    [-0.22490475849746872, -1.8124323601510706], [1.5251035936090829, 0.551350787169625],
-    [0.7378756415912191, 1.1680128920226858], [1.281062552093199, -1.5439878418008428],
-    [1.906121822014951, -0.3568480399725646], [1.2314675800527595, 0.8575825483289815],
-    [0.7748748660286364, -1.8334252728228075], [-1.186897140214465, 0.008163876667663173],
-    [-0.8743675052535693, 0.601733777581796],
-])
+STRIPES_PITCH = 0.3
 
 
-def test_a_rim_with_collinear_runs_gives_the_hole_in_any_order():
-    depth, floor = 0.3953, 0.005
-    radii = []
-    for seed in range(-1, 40):
-        order = np.arange(len(STRIPES_RIM)) if seed < 0 else np.random.default_rng(seed).permutation(len(STRIPES_RIM))
-        fit, _ = fit_edge(STRIPES_RIM[order], depth, floor, CLIP)
-        radii.append(np.inf if fit is None else fit.radius)
-    assert np.all(np.abs(np.array(radii) - 1.543) < 0.01), radii
+@functools.cache
+def stripes_rim(seed):
+    """Rim points of a 3 mm hole in a striped scan (h = 0.1, pitch 0.3 mm), as the robust pipeline
+    extracts them (the alpha-shape rim of the surface points around the hole), after a rigid motion in
+    the plane: a round rim with runs of points along the scan lines that are collinear up to round-off.
+
+    Returns the rim, the hole's center after the motion and the sampling's gap.
+    """
+    rng = np.random.default_rng(seed)
+    center = rng.uniform(-0.5, 0.5, 2)
+    scene = SceneSpec(holes=(HoleSpec(center=tuple(center), diameter=2.0 * RADIUS),), extent=(-2.5, 2.5, -2.5, 2.5),
+                      spacing=0.1, pattern="stripes", line_pitch=STRIPES_PITCH,
+                      scan_angle_deg=float(rng.uniform(0.0, 180.0)), rotation_deg=(0.0, 0.0, 0.0),
+                      translation=(0.0, 0.0, 0.0))
+    scan = make_scan(scene, seed)
+    xy = scan.points[scan.labels == MATERIAL][:, :2]
+    gap = estimate_sampling(xy).gap
+    rim = hole_rim(xy, lambda positions: np.hypot(*(positions - center).T) < RADIUS, 2.5 * gap)
+    angle = rng.uniform(0.0, 2.0 * np.pi)
+    turn = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    shift = rng.uniform(-500.0, 500.0, 2)
+    return xy[rim.index] @ turn.T + shift, turn @ center + shift, gap
+
+
+@pytest.mark.parametrize("depth_gaps", [1.0, 2.5], ids=["envelope", "alpha"])
+def test_a_rim_with_collinear_runs_gives_the_hole_in_any_order(depth_gaps):
+    # Over 12 scans (hole position, scan angle, motion) and 6 orders of the rim points each: a fit
+    # every time, the same circle in every order, and the hole's edge: the rim lies outside the
+    # edge by less than half a line pitch, its center on the hole's within h / 2.
+    for seed in range(12):
+        rim, center, gap = stripes_rim(seed)
+        radii = []
+        for order_seed in range(-1, 5):
+            order = np.arange(len(rim)) if order_seed < 0 else np.random.default_rng(order_seed).permutation(len(rim))
+            fit, _ = fit_edge(rim[order], depth_gaps * gap, 0.005, CLIP)
+            assert fit is not None, (seed, order_seed)
+            assert np.hypot(*(fit.center - center)) < 0.05, (seed, order_seed, fit.center, center)
+            radii.append(fit.radius)
+        assert np.ptp(radii) < 1e-9, (seed, radii)
+        assert RADIUS < radii[0] < RADIUS + 0.5 * STRIPES_PITCH, (seed, radii[0])

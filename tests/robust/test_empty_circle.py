@@ -51,6 +51,7 @@ def test_an_open_region_has_no_empty_circle():
     assert largest_empty_circle(xy[:2], (0.0, 0.0), RADIUS, 0.3) is None
 
 
+@pytest.mark.slow
 def test_corrected_empty_circle_is_unbiased_and_tight_over_many_holes():
     """Over 200 random holes in Poisson points, the raw empty circle overshoots (mean about +0.03 h in
     radius), the overshoot measured on synthetic holes removes it (|mean| < 0.01 h), and at most 2 of 200

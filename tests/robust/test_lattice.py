@@ -40,9 +40,13 @@ def test_lattice_steps_refine_a_rough_axis():
     np.testing.assert_allclose(step, H * AXES[0], atol=1e-12)
 
 
-def test_lattice_steps_none_without_a_regular_step(rng):
-    xy = lattice() + rng.uniform(-0.25 * H, 0.25 * H, (91 * 91, 2))
-    assert lattice_steps(xy, AXES, H) == [None, None]
+def jittered(seed):
+    return lattice() + np.random.default_rng(seed).uniform(-0.25 * H, 0.25 * H, (91 * 91, 2))
+
+
+def test_lattice_steps_none_without_a_regular_step():
+    for seed in range(10):
+        assert lattice_steps(jittered(seed), AXES, H) == [None, None], seed
 
 
 @pytest.mark.parametrize("pitch", [H, 3 * H])
@@ -68,11 +72,14 @@ def test_separating_circle_pins_the_edge(pitch, radius):
     assert np.hypot(*(material - center).T).min() >= fitted
 
 
-def test_separating_circle_none_on_jittered_points(rng):
-    xy = lattice() + rng.uniform(-0.25 * H, 0.25 * H, (91 * 91, 2))
-    material, rim = with_hole(xy)
+def test_separating_circle_none_on_jittered_points():
     steps = [H * AXES[0], H * AXES[1]]  # even given the nominal steps, the brackets contradict
-    assert separating_circle(material, rim, steps, CENTER, RADIUS + 0.05) is None
+    found = []
+    for seed in range(20):
+        material, rim = with_hole(jittered(seed))
+        if separating_circle(material, rim, steps, CENTER, RADIUS + 0.05) is not None:
+            found.append(seed)
+    assert len(found) <= 2, found  # one of these 20 draws (seed 7) brackets a circle
 
 
 def test_separating_circle_needs_steps():

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"
+
 _PATH = Path(__file__).resolve().parents[2] / "benchmarks" / "realistic.py"
 _SPEC = importlib.util.spec_from_file_location("realistic", _PATH)
 realistic = importlib.util.module_from_spec(_SPEC)

@@ -5,11 +5,14 @@ top, so the rim of the surface points is off-center; the cone's own points say w
 import math
 
 import numpy as np
+import pytest
 
 from holecli.pipeline import detect
 from holecli.simulation.panel import FeatureSpec, PanelSpec, build_panel, panel_truth
 from holecli.simulation.profiler import ProfilerSpec
 from holecli.simulation.scan_part import scan_part
+
+pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"
 
 
 def _tilted_countersink(seed):

@@ -10,6 +10,8 @@ from holecli.geometry.plane import fit_plane_scatter
 from holecli.pipeline import detect
 from holecli.robust.method import _tangent_of_quadric
 
+pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"
+
 
 def curved_panel(radius, hole_radius, center_x, convex, spacing=0.05, half=8.0, noise=0.0, seed=0, tilt_deg=25.0):
     """Grid points on a cylinder (axis along y) with a hole drilled along the local normal at

@@ -25,6 +25,8 @@ from holecli.robust.countersink import DEPTH_SLOPE_RATIO, Cone, NotACone, fit_co
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.simulation.synth import BORE, COUNTERSINK, HoleSpec, SceneSpec, make_scan
 
+pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"
+
 H = 0.1
 FAR = (769.0, -83.6, 218.8)
 # Failures: a stray point moves the diameter by more than this (units of h) or changes the hole

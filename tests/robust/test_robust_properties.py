@@ -16,6 +16,8 @@ import pytest
 from holecli.pipeline import detect
 from holecli.simulation.synth import HoleSpec, SceneSpec, make_scan, random_rotation
 
+pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"
+
 H = 0.1
 RIGID = 1e-3  # units of h: centers and diameters under a rigid motion
 ROUND_OFF = 1e-6  # units of h: permutations and scalings

@@ -25,6 +25,8 @@ from holecli.settings import DEFAULT_SETTINGS
 from holecli.simulation import synth
 from holecli.simulation.synth import HoleSpec, SceneSpec, make_scan, rotation_matrix
 
+pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"
+
 H = 0.1  # point spacing of most scenes, mm
 FAR = (769.0, -83.6, 218.8)  # a robot base frame: the cloud ~1000 mm from the origin
 

@@ -3,9 +3,12 @@ profiler's dropouts, a decimated export) still gives exactly its one hole, at ab
 sparser sampling allows. Scenes are drawn, not picked."""
 
 import numpy as np
+import pytest
 
 from holecli.pipeline import detect
 from holecli.simulation import synth
+
+pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"
 
 
 def test_randomly_thinned_scans_keep_their_hole():

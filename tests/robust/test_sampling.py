@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from holecli.errors import PointsError
-from holecli.robust.sampling import Sampling, estimate_sampling
+from holecli.robust.sampling import estimate_sampling
 
 H = 0.1
 
@@ -55,16 +55,17 @@ def test_stripes(pitch, angle):
     assert sampling.gap == pytest.approx(np.hypot(pitch / 2, H / 2), rel=1e-6)
 
 
-def test_random_sampling_has_no_lattice(rng):
-    xy = rng.uniform(0.0, 6.0, (3600, 2))  # density 1 / h^2
-    sampling = estimate_sampling(xy)
-    assert not sampling.lattice
-    assert sampling.line_direction is None and sampling.line_pitch is None
-    assert sampling.lattice_axes == ()
-    assert sampling.period is None
-    # Median nearest-neighbour distance of a Poisson process: sqrt(ln 2 / (pi density)) = 0.47 h.
-    assert sampling.spacing == pytest.approx(np.sqrt(np.log(2) / np.pi) * H, rel=0.1)
-    assert sampling.gap > sampling.spacing
+def test_random_sampling_has_no_lattice():
+    for seed in range(10):  # 40 draws were within 6 % of the spacing below
+        xy = np.random.default_rng(seed).uniform(0.0, 6.0, (3600, 2))  # density 1 / h^2
+        sampling = estimate_sampling(xy)
+        assert not sampling.lattice
+        assert sampling.line_direction is None and sampling.line_pitch is None
+        assert sampling.lattice_axes == ()
+        assert sampling.period is None
+        # Median nearest-neighbour distance of a Poisson process: sqrt(ln 2 / (pi density)) = 0.47 h.
+        assert sampling.spacing == pytest.approx(np.sqrt(np.log(2) / np.pi) * H, rel=0.1), seed
+        assert sampling.gap > sampling.spacing
 
 
 def test_jittered_grid_keeps_its_axes_but_no_lines(rng):
@@ -100,13 +101,6 @@ def test_a_hole_in_the_middle_does_not_change_the_spacing():
     sampling = estimate_sampling(holed)
     assert sampling.spacing == pytest.approx(H, rel=1e-9)
     assert sampling.lattice
-
-
-def test_sampling_result_is_frozen():
-    sampling = estimate_sampling(lattice(H, H, 0.0, along=20))
-    assert isinstance(sampling, Sampling)
-    with pytest.raises(AttributeError):
-        sampling.spacing = 1.0
 
 
 @pytest.mark.parametrize("xy, match", [

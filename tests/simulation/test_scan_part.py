@@ -64,6 +64,7 @@ def test_simulate_panel_writes_a_float32_scan_and_its_truth(run, tmp_path):
     assert truth["profiler"]["point_pitch"] == 0.2 and truth["units"] == "mm"
 
 
+@pytest.mark.slow
 def test_detect_finds_the_holes_of_a_scanned_panel_and_nothing_on_its_slot_and_boss(run, tmp_path):
     scan = tmp_path / "panel.ply"
     assert run("simulate", scan, "--panel", SAMPLE_PANEL, "--spacing", "0.1", "--range-noise", "0.002",
