@@ -1,5 +1,6 @@
 """Tests of holecli.pipeline: detect() on the paper's Table I scene, the result contract, validation."""
 
+import dataclasses
 import json
 
 import numpy as np
