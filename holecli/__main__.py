@@ -11,6 +11,13 @@ from holecli import interrupts
 
 
 def main():
+    """Run the ``holecli`` program: signal handlers first, then the command line.
+
+    Returns
+    -------
+    None
+        Exits the process with the command's exit code.
+    """
     interrupts.install()
     if not sys.warnoptions:
         import warnings

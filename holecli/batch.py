@@ -124,7 +124,13 @@ def _scan_folder(folder, recursive, pattern):
 
 
 def default_jobs() -> int:
-    """The number of cores this process may run on."""
+    """The number of cores this process may run on.
+
+    Returns
+    -------
+    int
+        At least 1.
+    """
     try:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # not on Linux
@@ -137,7 +143,19 @@ def default_jobs() -> int:
 
 def failure_message(path, error) -> str:
     """The one-line message of ``error`` raised while measuring ``path`` (what ``detect`` prints after
-    ``Error: ``)."""
+    ``Error: ``).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    error : Exception
+        A :class:`holecli.errors.LoadError` already names its file; any other is prefixed with it.
+
+    Returns
+    -------
+    str
+        One line.
+    """
     message = str(error) if isinstance(error, LoadError) else f"{path}: {error}"
     return " ".join(message.splitlines())
 
@@ -185,7 +203,16 @@ def measure_record(path, options, spec=None, explain=False) -> dict:
 
 def resolved_path(path) -> str:
     """The absolute path of ``path`` with every symbolic link resolved: what ``--resume`` matches
-    files on, wherever the batch is run from."""
+    files on, wherever the batch is run from.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    str
+    """
     return os.path.realpath(os.fspath(path))
 
 
@@ -618,6 +645,19 @@ class Tally:
 def files_to_do(files, earlier) -> list:
     """The ``files`` that the ``earlier`` records (:class:`FileSummary`) do not hold, matched by
     :func:`resolved_path`, so that a resumed batch may run from another folder than the first. (A
-    record of holecli 0.1 has no ``path``: its ``file`` is resolved from the current folder.)"""
+    record of holecli 0.1 has no ``path``: its ``file`` is resolved from the current folder.)
+
+    Parameters
+    ----------
+    files : sequence of str
+        The files of this run, in order.
+    earlier : iterable of FileSummary
+        The records already in the output.
+
+    Returns
+    -------
+    list of str
+        ``files`` without those already measured, in their order.
+    """
     done = {summary.path or resolved_path(summary.file) for summary in earlier}
     return [path for path in files if resolved_path(path) not in done]

@@ -28,7 +28,24 @@ MAX_COORDINATE = 1e12
 
 
 def validate_points(points):
-    """Return ``points`` as a C-contiguous (n, 3) float64 array, or raise :class:`PointsError`."""
+    """``points`` as a C-contiguous (n, 3) float64 array the pipeline can use.
+
+    Parameters
+    ----------
+    points : array_like
+        Any (n, 3) numeric array.
+
+    Returns
+    -------
+    (n, 3) float64 ndarray
+        C-contiguous; ``points`` itself when it already is.
+
+    Raises
+    ------
+    PointsError
+        Not (n, 3), not numeric, not finite, beyond ``MAX_COORDINATE`` or fewer than ``MIN_POINTS``
+        rows.
+    """
     array = np.asarray(points)
     if array.ndim != 2 or array.shape[1] != 3:
         raise PointsError(f"points must be an (n, 3) array, got shape {array.shape}")

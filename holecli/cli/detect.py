@@ -154,6 +154,10 @@ def emit(text, output):
         atomically onto a regular file or a new path, directly onto a device or FIFO, through a
         symbolic link onto its target.
 
+    Returns
+    -------
+    None
+
     Raises
     ------
     Failure

@@ -70,6 +70,10 @@ def fail(message, code):
     code : int
         The exit code.
 
+    Returns
+    -------
+    None
+
     Raises
     ------
     SystemExit
@@ -154,6 +158,10 @@ def write_stdout(text):
     ----------
     text : str
         Whole lines; written as UTF-8 (a file name that is not UTF-8 as its own bytes).
+
+    Returns
+    -------
+    None
 
     Raises
     ------

@@ -107,7 +107,18 @@ def detection_options(method, view_dir, min_diameter, max_holes, full_only):
 
 
 def detection_option_decorators(function):
-    """The detection options shared by ``detect`` and ``batch``."""
+    """The detection options shared by ``detect`` and ``batch``.
+
+    Parameters
+    ----------
+    function : callable
+        A click command's function.
+
+    Returns
+    -------
+    callable
+        ``function`` with the options applied.
+    """
     options = [
         click.option("--method", type=click.Choice(["robust", "paper"]), default="robust", show_default=True,
                      help="robust: every hole, robust to noise and clutter, bias-corrected; "
@@ -135,7 +146,18 @@ TOLERANCE_OPTION_NAMES = {
 
 
 def tolerance_option_decorators(function):
-    """The tolerance options shared by ``detect`` and ``batch``."""
+    """The tolerance options shared by ``detect`` and ``batch``.
+
+    Parameters
+    ----------
+    function : callable
+        A click command's function.
+
+    Returns
+    -------
+    callable
+        ``function`` with the options applied.
+    """
     options = [
         click.option("--nominal-diameter", type=Decimal(min=0, min_open=True), default=None,
                      metavar="D", help="Nominal hole diameter, checked with --tolerance."),

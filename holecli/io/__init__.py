@@ -177,6 +177,10 @@ def save_points(path, points, float32=False) -> None:
         Write single-precision values, as laser profilers do (binary PLY ``property float``, PCD
         ``SIZE 4``; text with each value rounded to float32, written so that it reads back exactly).
 
+    Returns
+    -------
+    None
+
     Raises
     ------
     ValueError
