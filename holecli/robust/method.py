@@ -83,7 +83,7 @@ REJECTION_REASONS = {
     "too_few_rim_points": "too few rim points for a circle fit",
     "no_circle_fit": "the rim points do not give a circle",
     "below_min_diameter": "smaller than the minimum diameter",
-    "circle_off_void": "the fitted circle does not cover the void it came from",
+    "material_inside": "surface material fills the inside of the fitted circle (the island of a groove, not a hole)",
     "not_round": "the rim is not round (robust scatter of the radial residuals above the limit)",
     "partial_rim_arc": "a partial hole whose rim covers too little of its circle",
     "boss": "material stands above the surface inside it (a pin or boss, not a hole)",
@@ -212,6 +212,38 @@ def _scan_lines(scene, rim_xy, center, radius):
     return int(len(np.unique(np.round((across - across.min()) / sampling.line_pitch))))
 
 
+# Surface material inside the inner half of a fitted circle, as a fraction of the surface points its
+# area would hold, above which the circle is not a hole (check "material_inside").
+_MAX_MATERIAL_INSIDE = 0.5
+
+
+def _material_inside(scene, center, radius):
+    """Surface material points within half the radius of a fitted circle, and how many it may hold.
+
+    A groove around a standing island (an O-ring groove, a C-shaped slot) is a void whose outer rim is
+    a good circle: the fit takes it and the island stands inside. A hole's inner half holds at most a
+    few reflections (specks, not material); an island fills it.
+
+    Parameters
+    ----------
+    scene : _Scene
+    center : (2,) float
+        The fitted circle's center, plane frame.
+    radius : float
+        Its radius.
+
+    Returns
+    -------
+    inside : int
+        Material points of the surface within ``radius / 2`` of ``center``.
+    allowed : float
+        ``_MAX_MATERIAL_INSIDE`` times the surface points that area would hold.
+    """
+    inside = len(_within(scene.material_xy, center, 0.0, 0.5 * radius))
+    allowed = _MAX_MATERIAL_INSIDE * scene.surface_density * np.pi * (0.5 * radius) ** 2
+    return inside, float(allowed)
+
+
 def _boss_points(scene, center, radius, settings):
     """Points standing above the surface inside the void, and how many a hole may have: more is
     material (a pin or boss), not a hole."""
@@ -308,24 +340,6 @@ def _surface_height(scene, center, radius, settings, xy):
     return quadric.height(xy - center)
 
 
-def _near_void(grid, void, cells):
-    """A test ``near(xy) -> bool``: within ``cells`` grid cells (8-connected) of the void."""
-    lower = void.lower - cells
-    shape = void.upper - void.lower + 1 + 2 * cells
-    mask = np.zeros(shape, dtype=bool)
-    mask[void.cells[:, 0] - lower[0], void.cells[:, 1] - lower[1]] = True
-    mask = ndimage.binary_dilation(mask, structure=np.ones((3, 3), dtype=bool), iterations=cells)
-
-    def near(xy):
-        ij = grid.cell_of(xy) - lower
-        inside = np.all((ij >= 0) & (ij < shape), axis=1)
-        out = np.zeros(len(xy), dtype=bool)
-        out[inside] = mask[ij[inside, 0], ij[inside, 1]]
-        return out
-
-    return near
-
-
 def _void_neighbourhood(scene, grid, void, void_mask, margin):
     """Material points around a void, and which of them lie near the line they were cut along.
 
@@ -386,9 +400,6 @@ def _measure_void(scene, grid, void, settings):
     if rim is None:
         return reject("no_rim")
     rim_xy = local[rim.index]
-    # Keep rim points next to the void: an open region also runs along the scan's outer edge.
-    near = _near_void(grid, void, 2)
-    rim_xy = rim_xy[near(rim_xy)]
     # A void open to the scan's outside (a bay) needs the stronger evidence of a partial hole even
     # when its rim closes: dents of a ragged border are bays too.
     fewest = settings.min_partial_rim_points if not void.enclosed else settings.min_rim_points
@@ -408,7 +419,6 @@ def _measure_void(scene, grid, void, settings):
         if rim is None:
             return reject("no_rim", center=fit.center, radius=fit.radius)
         rim_xy = local[rim.index]
-        rim_xy = rim_xy[near(rim_xy)]
         if len(rim_xy) < fewest:
             return reject("too_few_rim_points", len(rim_xy), fewest, fit.center, fit.radius)
         fit, used = fit_edge(rim_xy, scene.envelope, floor, settings.clip_sigmas)
@@ -416,10 +426,10 @@ def _measure_void(scene, grid, void, settings):
         if refused is not None:
             return refused
     center, radius = fit.center, fit.radius
-    # The circle must sit on the void it came from, and the rim must be round.
-    off_void = float(np.min(np.hypot(*(void_xy - center).T)))
-    if off_void > radius:
-        return reject("circle_off_void", off_void, float(radius), center, radius)
+    # The circle must be empty inside (a hole, not the island of a groove), and the rim must be round.
+    inside, allowed_inside = _material_inside(scene, center, radius)
+    if inside > allowed_inside:
+        return reject("material_inside", inside, allowed_inside, center, radius)
     scatter = 1.4826 * float(np.median(np.abs(fit.residuals)))
     allowed = settings.max_relative_scatter * radius + scene.gap_scatter
     if scatter > allowed:
