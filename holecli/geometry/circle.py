@@ -157,6 +157,20 @@ def _least_quantile_circle(xy, hypotheses=200, quantile=75):
     circle through one side of the hole). The triples are drawn with a fixed seed from the points
     sorted by their coordinates: the result depends neither on global random state nor on the order
     of the points.
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+        At least three points, not collinear.
+    hypotheses : int
+        Point triples tried.
+    quantile : float
+        Percentile of the absolute radial residuals that scores a circle.
+
+    Returns
+    -------
+    center : (2,) float
+    radius : float
     """
     center, radius = fit_circle_algebraic(xy)
     best = float(np.percentile(np.abs(np.hypot(*(xy - center).T) - radius), quantile))
@@ -202,8 +216,9 @@ def fit_circle_robust(xy, *, clip=CLIP_SIGMAS, floor=0.0, max_rounds=10, start=N
         Smallest residual scale, in the units of ``xy`` (keeps noise-free data from clipping
         round-off).
     start : ((2,) float, float), optional
-        Initial center and radius; by default the better (by median absolute residual) of the
-        algebraic fit of all points and a least-quantile-of-squares circle through three of them.
+        Initial center and radius; by default the better (by the 75th percentile of the absolute
+        residuals) of the algebraic fit of all points and a least-quantile-of-squares circle through
+        three of them (:func:`_least_quantile_circle`).
 
     Returns
     -------

@@ -368,8 +368,30 @@ def _void_neighbourhood(scene, grid, void, void_mask, margin):
 
 
 def _measure_void(scene, grid, void, settings):
-    """Measure one void; returns a :class:`_Measured`, or a :class:`_Rejected` naming the check that
-    refused it."""
+    """Measure one void: its rim, the edge circle, and the checks that make it a hole.
+
+    The checks, in order, each a :class:`_Rejected` with its value and limit when it fails (names in
+    :data:`REJECTION_REASONS`; every one is held by a counter-example in
+    ``tests/robust/test_acceptance.py`` or ``tests/robust/test_rejections.py``): ``no_rim``,
+    ``too_few_rim_points``, ``no_circle_fit``, ``below_min_diameter``, ``material_inside`` (the island
+    of a groove inside the circle), ``not_round``, ``partial_rim_arc`` (with ``full_arc_deg`` deciding
+    what is partial), ``boss``, and ``below_min_diameter`` again after the bias correction.
+
+    Parameters
+    ----------
+    scene : _Scene
+        What the measurement needs to know of the whole scan.
+    grid : holecli.robust.candidates.Grid
+        The occupancy grid the void was found on.
+    void : holecli.robust.candidates.Void
+        The candidate.
+    settings : holecli.settings.RobustSettings
+
+    Returns
+    -------
+    _Measured or _Rejected
+        The hole, or the check that refused the void.
+    """
     cell, alpha = scene.cell, scene.alpha
     void_xy = grid.center_of(void.cells)
     void_center = void_xy.mean(axis=0)

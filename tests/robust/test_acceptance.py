@@ -14,6 +14,7 @@ import pytest
 
 from holecli.geometry.circle import fit_circle_robust
 from holecli.pipeline import detect
+from holecli.simulation.synth import HoleSpec, SceneSpec, make_scan
 
 H = 0.08  # grid step, mm
 
@@ -167,3 +168,25 @@ def test_the_robust_fit_starts_from_the_least_quantile_circle(at):
         if error > 0.01 or abs(fit.radius - 1.0) > 0.01:
             failures[seed] = (round(error, 3), round(fit.radius, 3))
     assert not failures, failures
+
+
+# --- surveyed failures (issue 10), not fixed ---------------------------------------------------------
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "tilt 70 deg, stripes, 10 % noise: 2 of seeds 0-29 break the contract, seed 13 (center 0.302 h, in "
+    "test_robust_scenes) and seed 15 (diameter -0.392 h against 0.35 h; center 0.058 h); cause not found"))
+def test_tilt_70_stripes_noise_seed_15():
+    """The survey's failing tilt-70 scene (``panel("stripes", rotation_deg=(70, 0, 0), noise=0.1)`` of
+    ``test_robust_scenes``), measured and not fixed: the contract is center within 0.25 h, diameter
+    within 0.35 h."""
+    h = 0.1
+    hole = HoleSpec(center=(0.37, -0.21), diameter=3.0)
+    scene = SceneSpec(holes=(hole,), extent=(-4.5, 4.5, -4.5, 4.5), spacing=h, pattern="stripes", line_pitch=3 * h,
+                      scan_angle_deg=17.0, rotation_deg=(70.0, 0.0, 0.0), translation=(3.0, 4.0, 5.0),
+                      noise_world_z=0.1 * h)
+    scan = make_scan(scene, 15)
+    (true,) = scan.truth["holes"]
+    (found,) = detect(scan.points[np.all(np.isfinite(scan.points), axis=1)]).holes
+    assert np.linalg.norm(np.subtract(found.center, true["center"])) < 0.25 * h
+    assert abs(found.diameter - true["diameter"]) < 0.35 * h
