@@ -151,7 +151,7 @@ def _least_quantile_circle(xy, hypotheses=200, quantile=75):
     """Initial circle by least quantile of squares over circles through point triples.
 
     The algebraic fit of every point is the start when the points are clean; a circle through three
-    points that minimises the 75th percentile of the absolute residuals (when it is below that of the
+    points that minimises the 75th percentile of the absolute residuals (and halves that of the
     algebraic fit) replaces it, which survives up to a quarter of
     the points being outliers (the median would survive half, but on a sparse rim it also prefers a
     circle through one side of the hole). The triples are drawn with a fixed seed from the points
@@ -192,10 +192,12 @@ def _least_quantile_circle(xy, hypotheses=200, quantile=75):
                        - radii[:, None])
     medians = np.percentile(residuals, quantile, axis=1)
     index = int(np.argmin(medians))
-    # The better of the two by that quantile. (A triple had to halve it until issue 10: then a cluster
-    # of a quarter of the points off the circle kept the algebraic start, which leans toward it, and
-    # the clipping kept the cluster; no rim, sparse or dense, needed the margin.)
-    if medians[index] < best:
+    # Only a clearly better circle replaces the fit of every point: on a sparse, structured rim (a few
+    # scan lines) some triple always fits three quarters of the points a little better by chance
+    # (taking any better triple puts the stripes-pitch-4h scene of tests/robust/test_robust_scenes.py
+    # 1.02 h small; without the triples, a cluster of reflections keeps the algebraic start:
+    # tests/robust/test_acceptance.py).
+    if medians[index] < 0.5 * best:
         return centers[index], float(radii[index])
     return center, radius
 
@@ -216,9 +218,9 @@ def fit_circle_robust(xy, *, clip=CLIP_SIGMAS, floor=0.0, max_rounds=10, start=N
         Smallest residual scale, in the units of ``xy`` (keeps noise-free data from clipping
         round-off).
     start : ((2,) float, float), optional
-        Initial center and radius; by default the better (by the 75th percentile of the absolute
-        residuals) of the algebraic fit of all points and a least-quantile-of-squares circle through
-        three of them (:func:`_least_quantile_circle`).
+        Initial center and radius; by default the algebraic fit of all points, or a
+        least-quantile-of-squares circle through three of them when it halves the 75th percentile of
+        the absolute residuals (:func:`_least_quantile_circle`).
 
     Returns
     -------
