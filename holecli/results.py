@@ -119,7 +119,7 @@ class Rejection:
     ----------
     check : str
         The check that refused it: ``no_rim``, ``too_few_rim_points``, ``no_circle_fit``,
-        ``below_min_diameter``, ``circle_off_void``, ``not_round``, ``partial_rim_arc``, ``boss``,
+        ``below_min_diameter``, ``material_inside``, ``not_round``, ``partial_rim_arc``, ``boss``,
         ``duplicate``, ``partial_left_out`` or ``beyond_max_holes`` (see the README).
     reason : str
         That check in a sentence.

@@ -166,6 +166,20 @@ def _least_quantile_circle(xy, hypotheses=200, quantile=75):
     circle through one side of the hole). The triples are drawn with a fixed seed from the points
     sorted by their coordinates: the result depends neither on global random state nor on the order
     of the points.
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+        At least three points, not collinear.
+    hypotheses : int
+        Point triples tried.
+    quantile : float
+        Percentile of the absolute radial residuals that scores a circle.
+
+    Returns
+    -------
+    center : (2,) float
+    radius : float
     """
     center, radius = fit_circle_algebraic(xy)
     best = float(np.percentile(np.abs(np.hypot(*(xy - center).T) - radius), quantile))
@@ -188,7 +202,10 @@ def _least_quantile_circle(xy, hypotheses=200, quantile=75):
     medians = np.percentile(residuals, quantile, axis=1)
     index = int(np.argmin(medians))
     # Only a clearly better circle replaces the fit of every point: on a sparse, structured rim (a few
-    # scan lines) some triple always fits three quarters of the points a little better by chance.
+    # scan lines) some triple always fits three quarters of the points a little better by chance
+    # (taking any better triple puts the stripes-pitch-4h scene of tests/robust/test_robust_scenes.py
+    # 1.02 h small; without the triples, a cluster of reflections keeps the algebraic start:
+    # tests/robust/test_acceptance.py).
     if medians[index] < 0.5 * best:
         return centers[index], float(radii[index])
     return center, radius
@@ -214,8 +231,9 @@ def fit_circle_robust(xy, *, clip=CLIP_SIGMAS, floor=0.0, max_rounds=10, start=N
     max_rounds : int
         Most clipping rounds.
     start : ((2,) float, float), optional
-        Initial center and radius; by default the better (by median absolute residual) of the
-        algebraic fit of all points and a least-quantile-of-squares circle through three of them.
+        Initial center and radius; by default the algebraic fit of all points, or a
+        least-quantile-of-squares circle through three of them when it halves the 75th percentile of
+        the absolute residuals (:func:`_least_quantile_circle`).
 
     Returns
     -------
