@@ -67,6 +67,11 @@ class RobustSettings:
     # hole. On random sampling at 0.25 of it the empty circle came out 0.17 h small (the rim fit
     # 0.08 h); at 0.085 the empty circle is the better (sd 0.045 h against the fit's 0.12 h).
     empty_circle_max_noise: float = 0.15
+    # A fitted circle is no hole when the inner half of it holds more than this fraction of the surface
+    # points that area would hold at the scan's density: a groove around a standing island (an O-ring
+    # groove, a C-shaped slot), whose outer rim is a good circle (check "material_inside"). A hole's
+    # inner half holds at most a few reflections; 0.7 let a 0.8 mm island through.
+    max_material_inside: float = 0.5
     # Default smallest reported diameter, in gaps (natural gaps of random sampling reach ~4 g).
     min_diameter_gaps: float = 6.0
     # Rim circle fit: sigma clipping threshold, and a floor of the residual scale (in spacings).
@@ -82,6 +87,7 @@ class RobustSettings:
     boss_fraction: float = 0.25
     # Sampling-bias correction: synthetic holes cut at r + k * period for these k (the pattern's
     # period: line pitch or grid spacing; half an alpha on irregular sampling), in this many passes.
+    # The largest empty circle's overshoot is measured on synthetic holes at r + k * gap, same k.
     bias_offsets: tuple = (1, 2, 3, 4)
     bias_passes: int = 2
     # As many of those synthetic holes as give about this many rim points in all.
@@ -242,7 +248,8 @@ _RANGES = (
     ("ransac_sample", 3, 10 ** 9), ("ransac_hypotheses", 1, 10 ** 6), ("ransac_quantile", 0.0, 1.0),
     ("plane_clip", 0.0, _INF), ("sampling_windows", 1, 1000), ("sampling_window_points", 10, 10 ** 9),
     ("cell_gaps", 0.0, _INF), ("alpha_gaps", 0.0, _INF), ("margin_alphas", 0.0, _INF),
-    ("envelope_gaps", 0.0, _INF), ("empty_circle_max_noise", 0.0, _INF), ("min_diameter_gaps", 0.0, _INF), ("clip_sigmas", 0.0, _INF),
+    ("envelope_gaps", 0.0, _INF), ("empty_circle_max_noise", 0.0, _INF), ("max_material_inside", 0.0, 1.0),
+    ("min_diameter_gaps", 0.0, _INF), ("clip_sigmas", 0.0, _INF),
     ("clip_floor_spacings", 0.0, _INF), ("max_relative_scatter", 0.0, _INF),
     ("min_partial_arc_deg", 0.0, 360.0), ("full_arc_deg", 0.0, 360.0), ("boss_fraction", 0.0, 1.0),
     ("bias_passes", 1, 100), ("bias_rim_points", 1, 10 ** 9), ("curvature_sigmas", 0.0, _INF),

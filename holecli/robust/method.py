@@ -25,9 +25,10 @@ from scipy import ndimage
 
 from holecli.errors import PointsError
 from holecli.geometry.frame import canonical_rotation, from_plane_frame, slide_in_plane_frame
-from holecli.geometry.plane import PlaneFit, fit_plane_robust, fit_plane_scatter, orient_normal
+from holecli.geometry.kernels import box_indices, largest_angular_gap, orient_normal, robust_sigma
+from holecli.geometry.plane import PlaneFit, fit_plane_robust, fit_plane_scatter
 from holecli.results import Hole, Plane, Rejection
-from holecli.robust.bias import sampling_bias
+from holecli.robust.bias import RimScales, sampling_bias
 from holecli.robust.boundary import hole_rim, near_box_edge
 from holecli.robust.candidates import find_voids, occupancy_grid
 from holecli.robust.countersink import MIN_SLOPE as MIN_CONE_SLOPE
@@ -105,16 +106,9 @@ class _Measured:
     surface_plane: object = None  # PlaneFit of the surface around the hole (None: the global plane)
 
 
-def _box_indices(xy, low, high):
-    inside = (xy[:, 0] >= low[0]) & (xy[:, 0] <= high[0]) & (xy[:, 1] >= low[1]) & (xy[:, 1] <= high[1])
-    return np.flatnonzero(inside)
-
-
 def _rim_arc(rim_xy, center):
     """Degrees of the circle not in the largest angular gap between rim points."""
-    angles = np.sort(np.arctan2(rim_xy[:, 1] - center[1], rim_xy[:, 0] - center[0]))
-    gaps = np.diff(np.concatenate([angles, [angles[0] + 2 * np.pi]]))
-    return float(np.degrees(2 * np.pi - gaps.max()))
+    return float(np.degrees(2 * np.pi - largest_angular_gap(rim_xy, center)))
 
 
 def _material_arc(grid, center, radius, samples=720):
@@ -133,7 +127,7 @@ def _within(xy, center, inner, outer):
 
     A box test first: on a million points it is several times cheaper than the distances.
     """
-    index = _box_indices(xy, center - outer, center + outer)
+    index = box_indices(xy, center - outer, center + outer)
     distance = np.hypot(xy[index, 0] - center[0], xy[index, 1] - center[1])
     return index[(distance >= inner) & (distance < outer)]
 
@@ -214,10 +208,9 @@ def _scan_lines(scene, rim_xy, center, radius):
 
 # Surface material inside the inner half of a fitted circle, as a fraction of the surface points its
 # area would hold, above which the circle is not a hole (check "material_inside").
-_MAX_MATERIAL_INSIDE = 0.5
 
 
-def _material_inside(scene, center, radius):
+def _material_inside(scene, center, radius, settings):
     """Surface material points within half the radius of a fitted circle, and how many it may hold.
 
     A groove around a standing island (an O-ring groove, a C-shaped slot) is a void whose outer rim is
@@ -230,6 +223,7 @@ def _material_inside(scene, center, radius):
     center : (2,) float
         The fitted circle's center, plane frame.
     radius : float
+    settings : RobustSettings
         Its radius.
 
     Returns
@@ -237,10 +231,10 @@ def _material_inside(scene, center, radius):
     inside : int
         Material points of the surface within ``radius / 2`` of ``center``.
     allowed : float
-        ``_MAX_MATERIAL_INSIDE`` times the surface points that area would hold.
+        ``max_material_inside`` (setting) times the surface points that area would hold.
     """
     inside = len(_within(scene.material_xy, center, 0.0, 0.5 * radius))
-    allowed = _MAX_MATERIAL_INSIDE * scene.surface_density * np.pi * (0.5 * radius) ** 2
+    allowed = settings.max_material_inside * scene.surface_density * np.pi * (0.5 * radius) ** 2
     return inside, float(allowed)
 
 
@@ -268,7 +262,7 @@ def _countersink(scene, center, radius, settings):
         xy, depth = _points_around_edge(scene, center, radius, width, settings)
         rho = np.hypot(xy[:, 0] - center[0], xy[:, 1] - center[1])
         found = fit_cone_edge(rho, depth, radius, width, scene.height_noise,
-                              depth_slope_ratio=settings.cone_depth_slope_ratio)
+                              depth_slope_ratio=settings.cone_depth_slope_ratio, settings=settings)
         if not isinstance(found, Cone):
             return found if cone is None else cone
         cone = found
@@ -281,7 +275,7 @@ def _countersink(scene, center, radius, settings):
 def _points_around_edge(scene, center, radius, width, settings):
     """The points within [r - 2 width, r + width] of ``center`` that may lie on a countersink's cone
     (plane frame xy, (k, 2)), and their depth below the surface around the hole (k,)."""
-    index = _within(scene.xy, center, max(radius - 2.0 * width, 0.0), radius + width)
+    index = _within(scene.xy, center, max(radius - settings.cone_inner_widths * width, 0.0), radius + width)
     # Points above the surface band (outliers, a stray point 1e8 off along the normal) are on no
     # cone, and one of them would outweigh every other point in the hinge's least squares.
     index = index[scene.heights[index] <= scene.band]
@@ -304,7 +298,7 @@ def _cone_in_the_plane(scene, center, cone, settings):
 
     width = 2.0 * scene.alpha
     xy, depth = _points_around_edge(scene, center, cone.radius, width, settings)
-    if len(xy) < 12:
+    if len(xy) < settings.cone_min_points_below:
         return center, cone.radius
     scale = max(scene.height_noise, 1e-12 * cone.radius)
 
@@ -371,7 +365,7 @@ def _near_void(grid, void, cells):
     return near
 
 
-def _void_neighbourhood(scene, grid, void, void_mask, margin):
+def _void_neighbourhood(scene, grid, void, void_mask, margin, settings):
     """Material points around a void, and which of them lie near the line they were cut along.
 
     An enclosed void takes a ring: from just inside its largest empty disk (the inside of a hole
@@ -386,16 +380,16 @@ def _void_neighbourhood(scene, grid, void, void_mask, margin):
         lower, upper = void.lower, void.upper + 1
         eroded = ndimage.binary_erosion(void_mask[lower[0]:upper[0], lower[1]:upper[1]])
         border = void.cells[~eroded[void.cells[:, 0] - lower[0], void.cells[:, 1] - lower[1]]]
-        inner = max(0.0, float(np.min(np.hypot(*(grid.center_of(border) - center).T))) - cell - 2.0 * alpha)
+        inner = max(0.0, float(np.min(np.hypot(*(grid.center_of(border) - center).T))) - cell - settings.cut_alphas * alpha)
         outer = float(distance.max()) + cell + margin
         if np.all(np.hypot(*(centers - center).T) < outer - margin):
             index = _within(scene.material_xy, center, inner, outer)
             local = scene.material_xy[index]
-            return local, np.hypot(*(local - center).T) > outer - 2.0 * alpha
+            return local, np.hypot(*(local - center).T) > outer - settings.cut_alphas * alpha
     low = centers.min(axis=0) - 0.5 * cell - margin
     high = centers.max(axis=0) + 0.5 * cell + margin
-    local = scene.material_xy[_box_indices(scene.material_xy, low, high)]
-    return local, near_box_edge(local, low, high, 2.0 * alpha)
+    local = scene.material_xy[box_indices(scene.material_xy, low, high)]
+    return local, near_box_edge(local, low, high, settings.cut_alphas * alpha)
 
 
 def _measure_void(scene, grid, void, settings):
@@ -448,7 +442,7 @@ def _measure_void(scene, grid, void, settings):
     def in_void(positions):
         return grid.lookup(void_mask, positions)
 
-    local, cut = _void_neighbourhood(scene, grid, void, void_mask, margin)
+    local, cut = _void_neighbourhood(scene, grid, void, void_mask, margin, settings)
     rim = hole_rim(local, in_void, alpha, cut=cut)
     if rim is None:
         return reject("no_rim")
@@ -484,10 +478,10 @@ def _measure_void(scene, grid, void, settings):
             return refused
     center, radius = fit.center, fit.radius
     # The circle must be empty inside (a hole, not the island of a groove), and the rim must be round.
-    inside, allowed_inside = _material_inside(scene, center, radius)
+    inside, allowed_inside = _material_inside(scene, center, radius, settings)
     if inside > allowed_inside:
         return reject("material_inside", inside, allowed_inside, center, radius)
-    scatter = 1.4826 * float(np.median(np.abs(fit.residuals)))
+    scatter = robust_sigma(fit.residuals)
     allowed = settings.max_relative_scatter * radius + scene.gap_scatter
     if scatter > allowed:
         return reject("not_round", scatter, float(allowed), center, radius, shape=_outline_shape(rim_xy))
@@ -516,13 +510,13 @@ def _measure_void(scene, grid, void, settings):
                          rim_xy=rim_xy[used], partial=partial, arc_deg=arc)
     edge = None
     if scene.sampling.lattice_axes and not partial:
-        edge = separating_circle(local, rim_xy[used], lattice_steps(local, scene.sampling.lattice_axes,
-                                                                    scene.sampling.spacing), center, radius)
+        steps = lattice_steps(local, scene.sampling.lattice_axes, scene.sampling.spacing, settings=settings)
+        edge = separating_circle(local, rim_xy[used], steps, center, radius, settings=settings)
     # The largest empty circle on irregular sampling whose in-plane scatter is small: on a noisy
     # surface the noise carries points into the hole and the empty circle shrinks with it.
     quiet = scene.height_noise * np.sqrt(scene.surface_density) <= settings.empty_circle_max_noise
     if edge is None and not partial and scene.sampling.period is None and quiet:
-        edge = _empty_circle(scene, local, center, radius)
+        edge = _empty_circle(scene, local, center, radius, settings)
     if edge is not None:
         center, corrected, _ = edge
         bias = radius - corrected
@@ -575,18 +569,20 @@ def _sampling_bias(scene, center, radius, settings, floor, partial):
     margin = settings.margin_alphas * scene.alpha + scene.cell
     ring = scene.material_xy[_within(scene.material_xy, center, radius - period,
                                      radius + offsets[-1] + margin + period)]
+    scales = RimScales(alpha=scene.alpha, reach=reach, margin=margin, clip=settings.clip_sigmas, floor=floor,
+                       depth=scene.envelope)
     bias = 0.0
     for _ in range(settings.bias_passes):
         # Cut the synthetic holes in phase with the current estimate of the true edge.
-        estimate = sampling_bias(ring, center, radius - bias, scene.alpha, offsets, reach, margin,
-                                 settings.clip_sigmas, floor, allow_open=partial, depth=scene.envelope)
+        estimate = sampling_bias(ring, center, radius - bias, offsets, scales, allow_open=partial,
+                                 settings=settings)
         if estimate is None:
             break
         bias = estimate
     return bias
 
 
-def _empty_circle(scene, local, center, radius):
+def _empty_circle(scene, local, center, radius, settings):
     """The edge of a hole in irregular sampling: the largest circle empty of its surface points,
     less that circle's overshoot on synthetic holes cut into the same points (see
     :mod:`holecli.robust.empty_circle`). ``(center, radius, overshoot)`` or None."""
@@ -595,7 +591,7 @@ def _empty_circle(scene, local, center, radius):
     if found is None:
         return None
     empty_center, empty_radius = found
-    offsets = [k * scene.sampling.gap for k in (1, 2, 3, 4)]
+    offsets = [k * scene.sampling.gap for k in settings.bias_offsets]
     ring = scene.surface_xy[_within(scene.surface_xy, empty_center, empty_radius,
                                     empty_radius + offsets[-1] + 3.0 * reach)]
     overshoot = empty_circle_bias(ring, empty_center, empty_radius, offsets, reach)
@@ -674,7 +670,8 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     """
     plane = fit_plane_robust(points, rng=rng, sample=settings.ransac_sample,
                              hypotheses=settings.ransac_hypotheses, quantile=settings.ransac_quantile,
-                             clip=settings.plane_clip)
+                             clip=settings.plane_clip, max_rounds=settings.plane_refine_rounds,
+                             refine_sample=settings.plane_refine_sample, max_faces=settings.plane_max_faces)
     normal, origin = plane.normal, plane.point
     # In-plane axes from the surface points themselves (centroid, principal axes), so that the grid
     # and the windows below move with the cloud under any rigid motion.
@@ -692,23 +689,23 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         # ray. A point of a cone, a bore wall or a floor is really below the surface; sliding it would
         # move it sideways by its depth times the tilt and bend the cone the countersink fit reads.
         surface_local = local[surface]
-        slide_in_plane_frame(surface_local, rotation @ direction)
+        slide_in_plane_frame(surface_local, rotation @ direction, min_sine=settings.view_min_sine)
         local[surface] = surface_local
     # Column-major: the box tests below read x and y as contiguous columns.
     xy = np.asfortranarray(local[:, :2])
     del local
     band = float(np.max(np.abs(heights[surface])))
     sampling = estimate_sampling(xy[surface], windows=settings.sampling_windows,
-                                 window_points=settings.sampling_window_points)
+                                 window_points=settings.sampling_window_points, settings=settings)
     gap = sampling.gap
     min_radius = 0.5 * (min_diameter if min_diameter is not None else settings.min_diameter_gaps * gap)
     surface_xy = np.asfortranarray(xy[surface])
     cell = settings.cell_gaps * gap
-    grid = occupancy_grid(surface_xy, cell)
+    grid = occupancy_grid(surface_xy, cell, max_speck_cells=settings.max_speck_cells)
     material_xy = np.asfortranarray(surface_xy[grid.lookup(grid.material, surface_xy)])
     above_xy = np.asfortranarray(xy[(heights > band) & ~surface])
     surface_density = len(surface_xy) / max(float(np.count_nonzero(grid.material)) * cell * cell, 1e-300)
-    height_noise = 1.4826 * float(np.median(np.abs(heights[surface])))
+    height_noise = robust_sigma(heights[surface])
     scene = _Scene(xy=xy, surface_xy=surface_xy, material_xy=material_xy, above_xy=above_xy,
                    surface_density=surface_density, height_noise=height_noise, band=band, heights=heights,
                    points=points, surface_index=np.flatnonzero(surface), origin=origin, rotation=rotation,

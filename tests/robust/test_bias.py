@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from holecli.robust.bias import sampling_bias, synthetic_rim_fit
+from holecli.robust.bias import RimScales, sampling_bias, synthetic_rim_fit
 from holecli.robust.boundary import hole_rim
 from holecli.robust.edge import fit_edge
 from holecli.settings import DEFAULT_SETTINGS
@@ -33,6 +33,11 @@ def scales(pitch):
     return alpha, alpha + 2.0 * cell, 3.0 * alpha + cell
 
 
+def rim_scales(pitch):
+    alpha, reach, margin = scales(pitch)
+    return RimScales(alpha=alpha, reach=reach, margin=margin, clip=CLIP, floor=FLOOR)
+
+
 def rim_fit(material, alpha):
     rim = hole_rim(material, lambda p: np.hypot(*(p - CENTER).T) < RADIUS, alpha)
     fit, _ = fit_edge(material[rim.index], alpha, FLOOR, CLIP)
@@ -49,8 +54,7 @@ def test_bias_is_positive_and_removes_most_of_the_excess(pitch):
     fit = rim_fit(material, alpha)
     excess = fit.radius - RADIUS
     assert excess > 0.3 * H
-    bias = sampling_bias(material, fit.center, fit.radius, alpha, [k * pitch for k in (1, 2, 3, 4)], reach, margin,
-                         CLIP, FLOOR)
+    bias = sampling_bias(material, fit.center, fit.radius, [k * pitch for k in (1, 2, 3, 4)], rim_scales(pitch))
     assert bias > 0.0
     assert abs(excess - bias) < 0.1 * H
 
@@ -59,18 +63,17 @@ def test_synthetic_hole_fit_is_too_large_on_a_grid():
     material = lattice(H)
     alpha, reach, margin = scales(H)
     for radius in (1.0, 1.3, 1.7):
-        fitted = synthetic_rim_fit(material, CENTER, radius, alpha, reach, margin, CLIP, FLOOR)
+        fitted = synthetic_rim_fit(material, CENTER, radius, rim_scales(H))
         assert radius < fitted < radius + alpha
 
 
 def test_no_material_no_bias():
     alpha, reach, margin = scales(H)
-    assert sampling_bias(np.zeros((0, 2)), CENTER, RADIUS, alpha, [H], reach, margin, CLIP, FLOOR) is None
+    assert sampling_bias(np.zeros((0, 2)), CENTER, RADIUS, [H], rim_scales(H)) is None
     # Material only far beyond the synthetic holes' ring.
     xy = lattice(H)
     far = xy[np.hypot(*(xy - CENTER).T) > RADIUS + 4 * H + margin + 1.0]
-    assert sampling_bias(far, CENTER, RADIUS, alpha, [k * H for k in (1, 2, 3, 4)], reach, margin, CLIP,
-                         FLOOR) is None
+    assert sampling_bias(far, CENTER, RADIUS, [k * H for k in (1, 2, 3, 4)], rim_scales(H)) is None
 
 
 def test_bias_does_not_depend_on_the_point_order(rng):
@@ -78,7 +81,7 @@ def test_bias_does_not_depend_on_the_point_order(rng):
     material = xy[np.hypot(*(xy - CENTER).T) >= RADIUS]
     alpha, reach, margin = scales(3 * H)
     offsets = [k * 3 * H for k in (1, 2)]
-    reference = sampling_bias(material, CENTER, RADIUS + 0.05, alpha, offsets, reach, margin, CLIP, FLOOR)
-    shuffled = sampling_bias(material[rng.permutation(len(material))], CENTER, RADIUS + 0.05, alpha, offsets, reach,
-                             margin, CLIP, FLOOR)
+    reference = sampling_bias(material, CENTER, RADIUS + 0.05, offsets, rim_scales(3 * H))
+    shuffled = sampling_bias(material[rng.permutation(len(material))], CENTER, RADIUS + 0.05, offsets,
+                             rim_scales(3 * H))
     assert shuffled == pytest.approx(reference, abs=1e-9 * H)
