@@ -18,6 +18,7 @@ from holecli.errors import PointsError
 from holecli.io import read_cloud
 from holecli.paper.method import detect_paper
 from holecli.results import Detection
+from holecli.threads import single_blas_thread
 
 METHODS = ("paper", "robust")
 # Fewer points than this cannot hold a plane with a hole and a rim around it.
@@ -143,18 +144,20 @@ def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_hol
     started = time.perf_counter()
     points = validate_points(points)
     view_dir = _check_options(view_dir, min_diameter, max_holes)
-    if method == "paper":
-        if view_dir is not None or min_diameter is not None or max_holes is not None or full_only:
-            raise PointsError("the paper method takes no options (view_dir, min_diameter, max_holes, full_only)")
-        plane, holes = detect_paper(points)
-        rejected = ()
-    else:
+    if method == "robust":
+        # Before the limit: importing it loads scipy's own BLAS, which the limit must see.
         from holecli.robust.method import detect_robust
         from holecli.settings import DEFAULT_SETTINGS
-
-        plane, holes, rejected = detect_robust(points, view_dir=view_dir, min_diameter=min_diameter,
-                                               max_holes=max_holes, full_only=full_only,
-                                               settings=settings or DEFAULT_SETTINGS, rng=rng)
+    with single_blas_thread():
+        if method == "paper":
+            if view_dir is not None or min_diameter is not None or max_holes is not None or full_only:
+                raise PointsError("the paper method takes no options (view_dir, min_diameter, max_holes, full_only)")
+            plane, holes = detect_paper(points)
+            rejected = ()
+        else:
+            plane, holes, rejected = detect_robust(points, view_dir=view_dir, min_diameter=min_diameter,
+                                                   max_holes=max_holes, full_only=full_only,
+                                                   settings=settings or DEFAULT_SETTINGS, rng=rng)
     elapsed_ms = (time.perf_counter() - started) * 1000.0
     return Detection(holes=holes, plane=plane, points=len(points), method=method, elapsed_ms=elapsed_ms,
                      rejected=rejected)

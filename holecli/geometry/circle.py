@@ -9,7 +9,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from holecli.errors import PointsError
 from holecli.geometry.kernels import circles_through
@@ -121,7 +120,7 @@ def _radial_jacobian(params, u):
 
 
 def fit_circle_geometric(xy, start=None):
-    """Geometric least-squares circle fit, refined with ``scipy.optimize.least_squares``.
+    """Geometric least-squares circle fit (Levenberg-Marquardt on the radial residuals).
 
     Parameters
     ----------
@@ -136,12 +135,60 @@ def fit_circle_geometric(xy, start=None):
     """
     xy = _check(xy)
     mean, scale, u, x0 = _normalised(xy, start if start is not None else fit_circle_algebraic(xy))
-    solution = least_squares(_radial, x0, jac=_radial_jacobian, args=(u,), method="lm", xtol=1e-14,
-                             ftol=1e-14, gtol=1e-14)
-    center = solution.x[:2] * scale + mean
-    radius = float(abs(solution.x[2]) * scale)
+    solution = _levenberg_marquardt(u, x0)
+    center = solution[:2] * scale + mean
+    radius = float(abs(solution[2]) * scale)
     residuals = np.hypot(*(xy - center).T) - radius
     return CircleFit(center=center, radius=radius, residuals=residuals, kept=np.ones(len(xy), bool))
+
+
+def _levenberg_marquardt(u, params, iterations=200, tolerance=1e-14):
+    """Minimise the squared radial residuals of the centred, scaled points ``u`` from ``params``.
+
+    Levenberg-Marquardt with Marquardt's diagonal scaling, as MINPACK's ``lmder`` (scipy's
+    ``least_squares(method="lm")``) does, on a 3 x 3 system: it stops when the step falls below
+    ``tolerance`` (relative) or no step lowers the cost (the flat valley of a short arc is followed to
+    its bottom, not left where the decrease first gets small). Numpy only: importing scipy.optimize costs the
+    command line about half a second.
+
+    Parameters
+    ----------
+    u : (n, 2) float
+    params : (3,) float
+        Start ``(cx, cy, r)`` in the units of ``u``.
+
+    Returns
+    -------
+    (3,) float
+    """
+    params = np.asarray(params, dtype=np.float64)
+    residual = _radial(params, u)
+    cost = float(residual @ residual)
+    damping = 1e-3
+    for _ in range(iterations):
+        jacobian = _radial_jacobian(params, u)
+        normal = jacobian.T @ jacobian
+        gradient = jacobian.T @ residual
+        diagonal = np.maximum(np.diag(normal), 1e-300)
+        while True:
+            try:
+                step = np.linalg.solve(normal + damping * np.diag(diagonal), -gradient)
+            except np.linalg.LinAlgError:
+                step = np.zeros(3)
+            trial = params + step
+            trial_residual = _radial(trial, u)
+            trial_cost = float(trial_residual @ trial_residual)
+            if trial_cost <= cost:
+                break
+            damping *= 10.0
+            if damping > 1e16:
+                return params
+        decrease = cost - trial_cost
+        params, residual, cost = trial, trial_residual, trial_cost
+        damping = max(damping / 10.0, 1e-16)
+        if np.max(np.abs(step)) <= tolerance * (1.0 + np.max(np.abs(params))) or (decrease == 0.0 and damping < 1e-12):
+            break
+    return params
 
 
 def _gauss_newton(u, params, iterations=50):

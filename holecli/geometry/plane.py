@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from statistics import NormalDist
 
 import numpy as np
 
@@ -144,10 +145,8 @@ def _faces(sample, rng, hypotheses, quantile, clip, origin, max_faces):
     ``clip`` sigma). Taking faces one by one lets a noisy main surface win over a flatter but smaller
     side face, which a single threshold would favour.
     """
-    from scipy.special import ndtri
-
     # |r| at quantile q of a normal distribution is sigma * z((1 + q) / 2): 0.385 sigma for q = 0.3.
-    z = float(ndtri((1.0 + quantile) / 2.0))
+    z = NormalDist().inv_cdf((1.0 + quantile) / 2.0)
     faces = []
     remaining = sample
     for _ in range(max_faces):

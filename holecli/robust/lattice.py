@@ -14,7 +14,6 @@ pattern) there is no such circle and the caller keeps its rim fit.
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import linprog
 from scipy.spatial import cKDTree
 
 from holecli.geometry.kernels import largest_angular_gap
@@ -128,6 +127,8 @@ def separating_circle(local_xy, rim_xy, steps, center, radius, *, settings=DEFAU
         np.column_stack([2 * others, -np.ones(len(others)), np.zeros(len(others))]),
     ]
     bounds = np.concatenate([np.sum(outer**2, axis=1), -np.sum(inner**2, axis=1), np.sum(others**2, axis=1)])
+    from scipy.optimize import linprog  # here: its import costs the command line about half a second
+
     result = linprog(
         c=[0.0, 0.0, 0.0, -1.0],
         A_ub=np.vstack(rows),
