@@ -105,6 +105,10 @@ class RobustSettings:
     # panel the band hides the top of the cone; it rarely hides more than one window).
     cone_window_limit: float = 0.02
     cone_window_moves: int = 3
+    # With at least this many candidate holes the neighbourhood queries go through a cell index of the
+    # points (one sort, 12 bytes a point) instead of a pass over all of them each (random sampling's
+    # natural gaps grow with the points: quadratic work without it).
+    cell_index_from_candidates: int = 16
     # Holes are measured in this many threads when the cloud has at least this many points.
     threads: int = 2
     threads_from_points: int = 200_000
@@ -254,7 +258,8 @@ _RANGES = (
     ("min_partial_arc_deg", 0.0, 360.0), ("full_arc_deg", 0.0, 360.0), ("boss_fraction", 0.0, 1.0),
     ("bias_passes", 1, 100), ("bias_rim_points", 1, 10 ** 9), ("curvature_sigmas", 0.0, _INF),
     ("crop_radii", 1.0, _INF), ("crop_ring_radii", 1.0, _INF), ("cone_window_limit", 0.0, 1.0),
-    ("cone_window_moves", 0, 100), ("threads", 1, 1024), ("threads_from_points", 0, 10 ** 12),
+    ("cone_window_moves", 0, 100), ("threads", 1, 1024), ("cell_index_from_candidates", 1, 10 ** 12),
+    ("threads_from_points", 0, 10 ** 12),
     # below 1: a cone's points must deepen at some fraction of its slope; -inf turns the check off
     ("cone_depth_slope_ratio", -_INF, 1.0),
     ("min_rim_points", 3, 10 ** 9), ("min_partial_rim_points", 3, 10 ** 9),
@@ -273,7 +278,8 @@ _RANGES = (
     ("cone_trim_rounds", 1, 1000), ("cone_edge_steps", 2, 10 ** 6), ("cone_depth_bins", 2, 10 ** 6),
     ("cone_min_bin_points", 1, 10 ** 9),
 )
-_COUNTS = {"ransac_sample", "ransac_hypotheses", "sampling_windows", "sampling_window_points", "bias_passes",
+_COUNTS = {"cell_index_from_candidates",
+           "ransac_sample", "ransac_hypotheses", "sampling_windows", "sampling_window_points", "bias_passes",
            "bias_rim_points", "cone_window_moves", "threads", "threads_from_points", "min_rim_points",
            "min_partial_rim_points", "plane_refine_rounds", "plane_refine_sample", "plane_max_faces",
            "sampling_pitch_neighbours", "max_speck_cells", "bias_min_rim_points", "lattice_min_brackets",

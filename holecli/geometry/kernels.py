@@ -169,3 +169,73 @@ def circumradii(xy, simplices):
         radius[degenerate] = np.inf
         center[degenerate] = (a[degenerate] + b[degenerate] + c[degenerate]) / 3.0
     return radius, center
+
+
+class CellIndex:
+    """Points sorted by the square cell they fall in: a box query reads only the cells it covers.
+
+    :func:`box_indices` reads every point, which is what a query costs once; a scan with many
+    candidate holes (random sampling has natural gaps in proportion to its points) asks hundreds of
+    them, and the work grows as points times candidates. The index costs one sort, and two integers
+    per point.
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+    cell : float
+        Side of the cells, > 0. Made coarser when the points span more than 2^30 cells along an axis
+        (a stray point far away), so that cell keys fit 64 bits.
+    """
+
+    def __init__(self, xy, cell):
+        self.xy = xy
+        n = len(xy)
+        if n == 0:
+            self.low, self.cell, self.rows = np.zeros(2), float(cell), 1
+            self.keys = np.zeros(0, dtype=np.int64)
+            self.order = np.zeros(0, dtype=np.int64)
+            return
+        self.low = xy.min(axis=0)
+        extent = float(np.max(xy.max(axis=0) - self.low))
+        self.cell = max(float(cell), extent / 2.0**30)
+        cells = np.floor((xy - self.low) / self.cell).astype(np.int64)
+        self.rows = int(cells[:, 1].max()) + 1
+        keys = cells[:, 0] * self.rows + cells[:, 1]
+        self.order = np.argsort(keys, kind="stable").astype(np.int32 if n < 2**31 else np.int64)
+        self.keys = keys[self.order]
+
+    def box(self, low, high):
+        """Indices of the points inside the closed box ``[low, high]``, ascending (as
+        :func:`box_indices` gives them).
+
+        Parameters
+        ----------
+        low, high : (2,) float
+
+        Returns
+        -------
+        (k,) int64
+        """
+        if len(self.keys) == 0:
+            return np.zeros(0, dtype=np.int64)
+        first = np.floor((np.asarray(low, dtype=np.float64) - self.low) / self.cell)
+        last = np.floor((np.asarray(high, dtype=np.float64) - self.low) / self.cell)
+        top = np.array([self.keys[-1] // self.rows, self.rows - 1], dtype=np.float64)
+        if np.any(last < 0) or np.any(first > top) or np.any(first > last):
+            return np.zeros(0, dtype=np.int64)
+        first = np.maximum(first, 0).astype(np.int64)
+        last = np.minimum(last, top).astype(np.int64)
+        columns = np.arange(first[0], last[0] + 1, dtype=np.int64) * self.rows
+        starts = np.searchsorted(self.keys, columns + first[1], side="left")
+        ends = np.searchsorted(self.keys, columns + last[1], side="right")
+        lengths = ends - starts
+        total = int(lengths.sum())
+        if total == 0:
+            return np.zeros(0, dtype=np.int64)
+        # positions starts[c] .. ends[c] - 1 of every column c, in one vector
+        offsets = np.repeat(starts - np.concatenate([[0], np.cumsum(lengths)[:-1]]), lengths)
+        candidates = self.order[offsets + np.arange(total)].astype(np.int64)
+        points = self.xy[candidates]
+        inside = ((points[:, 0] >= low[0]) & (points[:, 0] <= high[0])
+                  & (points[:, 1] >= low[1]) & (points[:, 1] <= high[1]))
+        return np.sort(candidates[inside])

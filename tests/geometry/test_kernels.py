@@ -43,3 +43,23 @@ def test_orient_normal_is_the_library_convention_everywhere():
     np.testing.assert_array_equal(orient_normal([0.0, -1.0, 1e-13]), [0.0, 1.0, -1e-13])
     # A vector with no component above the tolerance is left as it is.
     np.testing.assert_array_equal(orient_normal([-1e-13, 0.0, 0.0]), [-1e-13, 0.0, 0.0])
+
+
+def test_cell_index_answers_box_queries_as_a_pass_over_the_points():
+    """Random clouds (empty, far from the origin, with a stray point 1e9 away), random cells and boxes
+    (reversed, beyond the points, covering everything): the same indices, in the same order."""
+    from holecli.geometry.kernels import CellIndex, box_indices
+
+    rng = np.random.default_rng(0)
+    for trial in range(150):
+        n = int(rng.integers(0, 2000))
+        xy = rng.uniform(-5, 5, (n, 2)) * rng.uniform(0.001, 100) + rng.uniform(-1e6, 1e6, 2)
+        if n and rng.random() < 0.2:
+            xy[0] = [1e9, -1e9]
+        xy = np.asfortranarray(xy)
+        index = CellIndex(xy, rng.uniform(0.01, 2.0))
+        for _ in range(20):
+            center = xy[rng.integers(n)] if n else np.zeros(2)
+            half = rng.uniform(0, 30, 2)
+            low, high = center - half, center + half * rng.uniform(-0.5, 2.0)
+            np.testing.assert_array_equal(index.box(low, high), box_indices(xy, low, high), err_msg=str(trial))

@@ -131,3 +131,22 @@ def test_a_concave_border_makes_a_bay_not_a_void():
     xy = xy[~((xy[:, 0] > 1.0) & (xy[:, 1] > 1.0))]
     voids = find_voids(occupancy_grid(xy, CELL))
     assert voids and not any(void.enclosed for void in voids)
+
+
+def test_the_cell_index_of_many_candidates_changes_no_result():
+    """Random sampling with natural gaps: the same holes, rejections and numbers whether the
+    neighbourhood queries go through the cell index or a pass over the points."""
+    from dataclasses import replace
+
+    from holecli.pipeline import detect
+    from holecli.settings import DEFAULT_SETTINGS
+    from holecli.simulation.synth import HoleSpec, SceneSpec, make_scan
+
+    scene = SceneSpec(holes=(HoleSpec(center=(0.3, -0.2), diameter=3.0), HoleSpec(center=(-4.0, 3.0), diameter=2.0)),
+                      extent=(-8.0, 8.0, -8.0, 8.0), spacing=0.1, pattern="random")
+    points = make_scan(scene, 3).points
+    indexed = detect(points, settings=replace(DEFAULT_SETTINGS, cell_index_from_candidates=1), min_diameter=0.05)
+    passes = detect(points, settings=replace(DEFAULT_SETTINGS, cell_index_from_candidates=10 ** 12), min_diameter=0.05)
+    assert len(indexed.rejected) >= 5  # natural gaps measured (and refused) through the index
+    assert indexed.holes == passes.holes
+    assert indexed.rejected == passes.rejected
