@@ -374,6 +374,27 @@ def _near_void(grid, void, cells):
     return near
 
 
+def _largest_empty_radius(scene, void_xy, reach):
+    """An upper bound of the radius of any disk empty of material points whose center lies in the void
+    (its cells' centers ``void_xy``).
+
+    The distance to the nearest material point is 1-Lipschitz, and every point of the void lies within
+    half a cell's diagonal of a cell center: the bound is the largest nearest-point distance at the
+    centers plus that half diagonal. Only the material within ``reach`` of the void's cells is looked
+    at (a farther point would give a larger distance: the bound stays an upper bound), and a bound
+    beyond ``reach`` is not refined. Returns the bound and the cell center it was found at.
+    """
+    from scipy.spatial import cKDTree
+
+    low, high = void_xy.min(axis=0) - reach, void_xy.max(axis=0) + reach
+    near = scene.material_xy[_box(scene, scene.material_xy, low, high)]
+    if len(near) == 0:
+        return np.inf, void_xy.mean(axis=0)
+    distance, _ = cKDTree(near).query(void_xy, distance_upper_bound=reach)
+    best = int(np.argmax(distance))
+    return float(distance[best]) + scene.cell / np.sqrt(2.0), void_xy[best]
+
+
 def _void_neighbourhood(scene, grid, void, void_mask, margin, settings):
     """Material points around a void, and which of them lie near the line they were cut along.
 
@@ -444,6 +465,11 @@ def _measure_void(scene, grid, void, settings):
         if fit.radius < scene.min_radius:
             return reject("below_min_diameter", 2.0 * fit.radius, 2.0 * scene.min_radius, fit.center, fit.radius)
         return None
+    # Before any triangulation: no disk empty of material that is centred in the void may reach the
+    # smallest reported radius (the natural gaps of random sampling, which grow with the points).
+    largest, where = _largest_empty_radius(scene, void_xy, scene.min_radius + cell)
+    if largest < scene.min_radius:
+        return reject("below_min_diameter", 2.0 * largest, 2.0 * scene.min_radius, where, largest)
     margin = settings.margin_alphas * alpha + cell
     void_mask = np.zeros_like(grid.material)
     void_mask[void.cells[:, 0], void.cells[:, 1]] = True

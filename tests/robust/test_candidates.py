@@ -150,3 +150,28 @@ def test_the_cell_index_of_many_candidates_changes_no_result():
     assert len(indexed.rejected) >= 5  # natural gaps measured (and refused) through the index
     assert indexed.holes == passes.holes
     assert indexed.rejected == passes.rejected
+
+
+def test_natural_gaps_are_refused_before_their_rim_is_extracted(monkeypatch):
+    """Random sampling's natural gaps (no empty disk of the smallest reported radius fits in them) are
+    refused as ``below_min_diameter`` without a triangulation: the rim is extracted for the holes and
+    a few gaps only, not for each of the hundreds of gaps."""
+    import holecli.robust.method as method
+    from holecli.pipeline import detect
+    from holecli.simulation.synth import HoleSpec, SceneSpec, make_scan
+
+    calls = []
+    real_hole_rim = method.hole_rim
+
+    def counting_hole_rim(*args, **kwargs):
+        calls.append(1)
+        return real_hole_rim(*args, **kwargs)
+
+    monkeypatch.setattr(method, "hole_rim", counting_hole_rim)
+    scene = SceneSpec(holes=(HoleSpec(center=(0.3, -0.2), diameter=3.0),), extent=(-10.0, 10.0, -10.0, 10.0),
+                      spacing=0.05, pattern="random")
+    detection = detect(make_scan(scene, 1).points)
+    assert len(detection.holes) == 1
+    early = [r for r in detection.rejected if r.check == "below_min_diameter"]
+    assert len(early) > 50
+    assert len(calls) < len(detection.rejected) / 4

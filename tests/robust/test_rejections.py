@@ -32,7 +32,8 @@ def test_a_hole_below_the_minimum_diameter_says_so_with_its_size():
     assert detection.holes == ()
     (rejection,) = detection.rejected
     assert rejection.check == "below_min_diameter"
-    # the rim circle before the sampling-bias correction: a little larger than the hole
+    # refused before its rim is extracted: the largest disk empty of material centred in it (an upper
+    # bound: a little larger than the hole)
     assert rejection.value == pytest.approx(3.0, abs=0.1) and rejection.limit == pytest.approx(4.0)
     assert rejection.diameter == pytest.approx(rejection.value)
     assert rejection.reason == REJECTION_REASONS["below_min_diameter"]
