@@ -17,34 +17,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import Delaunay, QhullError
 
-
-def circumcircles(points, simplices):
-    """Centers and radii of the circumcircles of triangles.
-
-    Parameters
-    ----------
-    points : (n, 2) float
-    simplices : (k, 3) int
-        Rows of ``points``, one triangle each.
-
-    Returns
-    -------
-    centers : (k, 2) float
-        NaN for degenerate (collinear) triangles.
-    radii : (k,) float
-        NaN for degenerate triangles.
-    """
-    a, b, c = (points[simplices[:, k]] for k in range(3))
-    # Relative to the first vertex: no cancellation between large absolute coordinates.
-    b, c = b - a, c - a
-    d = 2.0 * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0])
-    b2, c2 = np.einsum("ij,ij->i", b, b), np.einsum("ij,ij->i", c, c)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ux = (c[:, 1] * b2 - b[:, 1] * c2) / d
-        uy = (b[:, 0] * c2 - c[:, 0] * b2) / d
-    bad = ~np.isfinite(ux) | ~np.isfinite(uy)
-    ux[bad], uy[bad] = np.nan, np.nan
-    return np.column_stack([ux, uy]) + a, np.hypot(ux, uy)
+from holecli.geometry.kernels import circumradii
 
 
 def _holds_its_circumcenter(points, simplices):
@@ -93,7 +66,7 @@ def largest_empty_circle(xy, center, radius, reach):
         simplices = Delaunay(unit).simplices
     except (QhullError, ValueError):
         return None
-    centers, radii = circumcircles(unit, simplices)
+    radii, centers = circumradii(unit, simplices)
     candidate = np.hypot(centers[:, 0], centers[:, 1]) < reach / radius
     candidate &= np.isfinite(radii) & _holds_its_circumcenter(unit, simplices)
     if not np.any(candidate):

@@ -63,3 +63,15 @@ def test_cell_index_answers_box_queries_as_a_pass_over_the_points():
             half = rng.uniform(0, 30, 2)
             low, high = center - half, center + half * rng.uniform(-0.5, 2.0)
             np.testing.assert_array_equal(index.box(low, high), box_indices(xy, low, high), err_msg=str(trial))
+
+
+def test_circumradii_of_a_right_triangle_and_a_degenerate_one():
+    from holecli.geometry.kernels import circumradii
+
+    points = np.array([[0.0, 0.0], [2.0, 0.0], [0.0, 2.0], [1.0, 0.0], [3.0, 0.0]])
+    radii, centers = circumradii(points, np.array([[0, 1, 2], [0, 3, 4]]))
+    np.testing.assert_allclose(centers[0], [1.0, 1.0])
+    assert radii[0] == pytest.approx(np.sqrt(2.0))
+    # collinear: no circle; the radius is infinite and the centroid stands in for the center
+    assert radii[1] == np.inf
+    np.testing.assert_allclose(centers[1], [4.0 / 3.0, 0.0])
