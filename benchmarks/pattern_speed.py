@@ -1,15 +1,16 @@
 """CPU time of ``holecli.detect`` per sampling pattern and size, against a baseline revision in the same run.
 
 For each pattern (square grid, laser stripes 4 spacings apart, uniform random sampling) and size
-(10^4, 10^5, 10^6 points by default) it builds an 80 x 20 mm patch with five holes of 3 to 9 mm, 1 m
-from the origin (``holecli.simulation.synth``), and times ``detect`` in a fresh child process: the
+(10^4, 10^5, 10^6 points by default) it builds ``benchmarks/speed.py``'s stripes scene (an 80 x 20 mm
+patch with five holes of 3 to 9 mm, 1 m from the origin, 10 % noise), or the same patch and pose
+sampled as a grid or at random, and times ``detect`` in a fresh child process: the
 median CPU time (``time.process_time``, which the machine's other load disturbs less than wall time)
 of ``--repeats`` calls after one warm-up call, and the wall time beside it. Between consecutive sizes
 it prints the scaling exponent ``log(t2 / t1) / log(n2 / n1)`` (1: linear).
 
 With ``--baseline REV`` the same is measured on that git revision of holecli (checked out into a
-temporary worktree), each case right after the current code's, and the ratio baseline / current is
-printed: a same-run comparison on a shared machine.
+temporary worktree; it needs that revision's ``benchmarks/speed.py``), each case right after the
+current code's, and the ratio baseline / current is printed: a same-run comparison on a shared machine.
 
 Run:  python benchmarks/pattern_speed.py [--sizes 10000,100000,1000000] [--patterns grid,stripes,random]
                                          [--repeats 3] [--baseline REV]
@@ -30,22 +31,24 @@ ROOT = Path(__file__).resolve().parents[1]
 
 CHILD = r"""
 import json, sys, time
-import numpy as np
 from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+# The scene is benchmarks/speed.py's (of the holecli measured: it puts that checkout first on the path).
+sys.path.insert(0, str(Path.cwd() / "benchmarks"))
+from speed import stripes_scan
+
 from holecli import detect
-from holecli.simulation.synth import HoleSpec, SceneSpec, make_scan
+from holecli.simulation.synth import make_scan
 
 pattern, points, repeats = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
-holes = tuple(HoleSpec((x, 0.0), d) for x, d in [(-30, 3.0), (-15, 4.5), (0, 6.0), (15, 7.5), (30, 9.0)])
-area = 80.0 * 20.0
-if pattern == "stripes":
-    spacing = float(np.sqrt(area / points / 4.0))
-    scene = SceneSpec(holes=holes, extent=(-40.0, 40.0, -10.0, 10.0), spacing=spacing, pattern="stripes",
-                      line_pitch=4.0 * spacing, translation=(1000.0, 200.0, 50.0), noise_world_z=0.1 * spacing)
-else:
-    spacing = float(np.sqrt(area / points))
-    scene = SceneSpec(holes=holes, extent=(-40.0, 40.0, -10.0, 10.0), spacing=spacing, pattern=pattern,
-                      translation=(1000.0, 200.0, 50.0), noise_world_z=0.1 * spacing)
+scene = stripes_scan(points)
+if pattern != "stripes":
+    area = (scene.extent[1] - scene.extent[0]) * (scene.extent[3] - scene.extent[2])
+    scene = replace(scene, pattern=pattern, line_pitch=None, spacing=float(np.sqrt(area / points)),
+                    noise_world_z=0.1 * float(np.sqrt(area / points)))
 cloud = make_scan(scene, 0).points
 cloud = cloud[np.isfinite(cloud).all(axis=1)]
 detection = detect(cloud)
