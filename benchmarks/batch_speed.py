@@ -103,6 +103,8 @@ def main():
     print(f"{args.scans} scans of ~10^4 points, {cores} cores available")
     print(f"--jobs 1: {serial:.2f} s (runs: {', '.join(f'{t:.2f}' for t in times[1])})")
     print(f"--jobs {args.jobs}: {parallel:.2f} s (runs: {', '.join(f'{t:.2f}' for t in times[args.jobs])})")
+    print(f"files per second per core: --jobs 1 {args.scans / serial:.1f}, "
+          f"--jobs {args.jobs} {args.scans / parallel / min(args.jobs, cores):.1f}")
     print(f"ratio: {ratio:.2f} (target >= {TARGET_RATIO} with --jobs 2 on 2 cores)")
     if args.check and ratio < TARGET_RATIO:
         sys.exit(1)

@@ -11,8 +11,17 @@ that give those counts) and for laser-stripe scans of 10^5, 10^6 and 10^7 points
 * reports its peak resident memory (``ru_maxrss``, which includes the Python interpreter and the
   libraries: about 100 MB before any data).
 
+The table's "cpu s" is the pipeline's median CPU time (``time.process_time``: the machine's other load
+disturbs it less than the wall time beside it), and "exponent" the scaling exponent
+``log(t2 / t1) / log(n2 / n1)`` of that CPU time against the previous size of the same scan (1: linear).
+Its last row ("cad") is a ray-cast CAD scan: ``holecli simulate --panel sample_clouds/panel.toml`` at
+0.05 mm pitch, noise-free, float32 (about 915,000 points, 4 holes). ``benchmarks/pattern_speed.py``
+has grid, stripes and random sampling per size against a baseline revision.
+
 Also prints the load time of a 10^6-point binary PCD and a 10^6-row CSV, the time of
-``import holecli`` and of ``holecli --help``, and whether either imports open3d or matplotlib.
+``import holecli`` and of ``holecli --help``, whether either imports open3d or matplotlib, and the
+CPU time of a whole ``holecli detect sample_clouds/table1.ply`` process split into the interpreter's
+start, the imports, the load, ``detect`` and the rest (output, exit).
 
 Run:  python benchmarks/speed.py [--max-points 10000000]
 """
@@ -21,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import resource
 import subprocess
@@ -62,6 +72,15 @@ def stripes_scan(points):
                      noise_world_z=0.1 * spacing)
 
 
+def cad_scan(path):
+    """``holecli simulate --panel``: the laser profiler's ray-cast scan of ``sample_clouds/panel.toml``
+    (through, countersunk, counterbored and blind holes, a slot, a boss) at 0.05 mm pitch and profile
+    pitch, noise-free, in float32 and in a robot base frame 1.2 m out: about 915,000 points, 4 holes."""
+    command = [sys.executable, "-m", "holecli", "simulate", path, "--panel", str(ROOT / "sample_clouds" / "panel.toml"),
+               "--spacing", "0.05", "--line-pitch", "0.05", "--translation", "1200,-300,800"]
+    subprocess.run(command, check=True, capture_output=True, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+
+
 def child(size, kind, repeats, delaunay):
     """Measure one size in this (fresh) process and print a JSON line."""
     from scipy.spatial import Delaunay
@@ -71,20 +90,22 @@ def child(size, kind, repeats, delaunay):
     from holecli.io import save_points
     from holecli.simulation.synth import make_scan
 
-    scene = table1_like(size) if kind == "table1" else stripes_scan(size)
-    points = make_scan(scene, 0).points
     with tempfile.TemporaryDirectory() as folder:
         path = os.path.join(folder, "scan.ply")
-        save_points(path, points)
-        del points
+        if kind == "cad":
+            cad_scan(path)
+        else:
+            scene = table1_like(size) if kind == "table1" else stripes_scan(size)
+            save_points(path, make_scan(scene, 0).points)
         started = time.perf_counter()
         cloud = read_cloud(path)
         load = time.perf_counter() - started
-    times = []
+    times, cpu = [], []
     for _ in range(repeats):
-        started = time.perf_counter()
+        started, started_cpu = time.perf_counter(), time.process_time()
         detection = detect(cloud.points)
         times.append(time.perf_counter() - started)
+        cpu.append(time.process_time() - started_cpu)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     baseline = None
     if delaunay:
@@ -94,7 +115,8 @@ def child(size, kind, repeats, delaunay):
         Delaunay(xy)
         baseline = time.perf_counter() - started
     print(json.dumps({"points": len(cloud.points), "holes": len(detection.holes), "load": load,
-                      "pipeline": float(np.median(times)), "delaunay": baseline, "peak_mb": peak}))
+                      "pipeline": float(np.median(times)), "cpu": float(np.median(cpu)), "delaunay": baseline,
+                      "peak_mb": peak}))
 
 
 def run_child(size, kind, repeats, delaunay):
@@ -141,6 +163,50 @@ def startup():
     return float(import_time), o3d == "True" or mpl == "True", help_time, heavy[-2:] != ["False", "False"]
 
 
+SPLIT = r"""
+import json, sys, time
+started = time.process_time()  # what the interpreter's start cost this process
+sys.path.insert(0, sys.argv[1])
+from holecli import threads
+threads.start_blas_single_threaded()  # as the holecli program does first
+import holecli.cli, holecli.cli.detect, holecli.pipeline, holecli.robust.method  # what detect imports
+imported = time.process_time()
+from holecli import detect, read_cloud
+cloud = read_cloud(sys.argv[2])
+loaded = time.process_time()
+detect(cloud.points)
+print(json.dumps({"interpreter": started, "imports": imported - started, "load": loaded - imported,
+                  "detect": time.process_time() - loaded, "points": len(cloud.points)}))
+"""
+
+
+def _child_cpu(command, **kwargs):
+    """Run ``command``; its CPU seconds (user + system, from the kernel's accounting) and its stdout."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    result = subprocess.run(command, check=True, capture_output=True, text=True, **kwargs)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime, result.stdout
+
+
+def one_shot_split(runs=7):
+    """CPU of the whole ``holecli detect sample_clouds/table1.ply`` process, and where it goes: the
+    interpreter's start, the imports, loading the file, ``detect``; what is left (writing the record,
+    the exit) is the whole minus those. Medians of ``runs`` alternating runs."""
+    path = str(ROOT / "sample_clouds" / "table1.ply")
+    environment = dict(os.environ, PYTHONPATH=str(ROOT))
+    for name in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        environment.pop(name, None)  # as a user's shell has them: unset
+    totals, parts = [], []
+    for _ in range(runs):
+        totals.append(_child_cpu([sys.executable, "-m", "holecli", "detect", path], env=environment)[0])
+        parts.append(json.loads(_child_cpu([sys.executable, "-c", SPLIT, str(ROOT), path], env=environment)[1]))
+    split = {key: float(np.median([part[key] for part in parts])) for key in ("interpreter", "imports", "load", "detect")}
+    split["total"] = float(np.median(totals))
+    split["rest"] = max(0.0, split["total"] - sum(split[key] for key in ("interpreter", "imports", "load", "detect")))
+    split["points"], split["runs"] = parts[0]["points"], runs
+    return split
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--max-points", type=float, default=1e7, help="largest size to run (default 1e7)")
@@ -152,27 +218,38 @@ def main(argv=None):
         return 0
 
     sizes = [(416, "table1", 21), (1572, "table1", 21), (6733, "table1", 21), (9498, "table1", 21),
-             (100_000, "stripes", 5), (1_000_000, "stripes", 5), (10_000_000, "stripes", 1)]
-    print(f"{'points':>10} {'holes':>5} {'load s':>8} {'pipeline s':>11} {'vs Table II':>12} "
-          f"{'Delaunay s':>11} {'vs Delaunay':>12} {'peak MB':>8}")
+             (100_000, "stripes", 5), (1_000_000, "stripes", 5), (10_000_000, "stripes", 1), (915_000, "cad", 3)]
+    print(f"{'scan':<8} {'points':>10} {'holes':>5} {'load s':>7} {'pipeline s':>10} {'cpu s':>7} {'exponent':>8} "
+          f"{'vs Table II':>11} {'Delaunay s':>10} {'vs Delaunay':>11} {'peak MB':>7}")
+    previous = {}
     for size, kind, repeats in sizes:
         if size > args.max_points:
             continue
         row = run_child(size, kind, repeats, delaunay=size <= 1_000_000)
         paper = PAPER_TABLE_II.get(size)
-        versus_paper = f"{paper / row['pipeline']:>11.0f}x" if paper else f"{'':>12}"
+        versus_paper = f"{paper / row['pipeline']:>10.0f}x" if paper else f"{'':>11}"
         if row["delaunay"] is not None:
-            versus_delaunay = f"{row['delaunay'] / row['pipeline']:>11.1f}x"
-            delaunay = f"{row['delaunay']:>11.4f}"
+            versus_delaunay = f"{row['delaunay'] / row['pipeline']:>10.1f}x"
+            delaunay = f"{row['delaunay']:>10.4f}"
         else:
-            versus_delaunay, delaunay = f"{'':>12}", f"{'':>11}"
-        print(f"{row['points']:>10,} {row['holes']:>5} {row['load']:>8.3f} {row['pipeline']:>11.4f} "
-              f"{versus_paper} {delaunay} {versus_delaunay} {row['peak_mb']:>8.0f}", flush=True)
+            versus_delaunay, delaunay = f"{'':>11}", f"{'':>10}"
+        exponent = ""
+        if kind in previous:
+            before = previous[kind]
+            exponent = f"{math.log(row['cpu'] / before['cpu']) / math.log(row['points'] / before['points']):.2f}"
+        previous[kind] = row
+        print(f"{kind:<8} {row['points']:>10,} {row['holes']:>5} {row['load']:>7.3f} {row['pipeline']:>10.4f} "
+              f"{row['cpu']:>7.3f} {exponent:>8} {versus_paper} {delaunay} {versus_delaunay} {row['peak_mb']:>7.0f}",
+              flush=True)
     loads = load_times()
     print(f"load 10^6 points: binary PCD {loads['scan.pcd']:.3f} s, CSV {loads['scan.csv']:.3f} s")
     import_time, heavy_import, help_time, heavy_help = startup()
     print(f"import holecli: {import_time:.3f} s, open3d/matplotlib imported: {heavy_import}")
     print(f"holecli --help: {help_time:.3f} s (whole process), open3d/matplotlib imported: {heavy_help}")
+    split = one_shot_split()
+    print(f"holecli detect on a {split['points']:,}-point PLY, CPU s (median of {split['runs']} runs): whole process "
+          f"{split['total']:.3f} = interpreter {split['interpreter']:.3f} + imports {split['imports']:.3f} "
+          f"+ load {split['load']:.3f} + detect {split['detect']:.3f} + output and exit {split['rest']:.3f}")
     return 0
 
 

@@ -1,5 +1,8 @@
 """holecli.threads: one BLAS thread while holecli measures, the limits put back afterwards."""
 
+import os
+import subprocess
+import sys
 import threading
 
 import numpy as np
@@ -9,7 +12,7 @@ from threadpoolctl import threadpool_info, threadpool_limits
 import holecli.robust.method  # noqa: F401  (loads scipy's BLAS, as detect does before its limit)
 from holecli import detect
 from holecli.errors import PointsError
-from holecli.threads import single_blas_thread
+from holecli.threads import BLAS_THREAD_VARIABLES, single_blas_thread, start_blas_single_threaded
 
 
 def blas_threads():
@@ -76,3 +79,39 @@ def test_detect_measures_on_one_blas_thread(two_blas_threads, monkeypatch):
         detect(np.random.default_rng(0).normal(size=(200, 3)))
     assert seen == [[1]]
     assert blas_threads() == [2]
+
+
+def test_the_program_asks_blas_for_one_thread_unless_the_user_set_a_count():
+    environ = {"MKL_NUM_THREADS": "3"}
+    assert start_blas_single_threaded(environ) == ["OPENBLAS_NUM_THREADS"]
+    assert environ == {"OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "3"}
+    assert start_blas_single_threaded(environ) == []
+
+
+PROGRAM_THEN_NUMPY = """
+import sys
+from holecli.__main__ import main
+sys.argv = ["holecli", "--version"]
+try:
+    main()
+except SystemExit:
+    pass
+import numpy
+from threadpoolctl import threadpool_info
+print(sorted({pool["num_threads"] for pool in threadpool_info() if pool["internal_api"] == "openblas"}))
+"""
+
+
+@pytest.mark.parametrize("given, expected", [(None, "[1]"), ("2", "[2]")])
+def test_numpy_imported_by_the_program_starts_openblas_with_one_thread(given, expected):
+    """The ``holecli`` program sets the variable before numpy loads OpenBLAS (which reads it only
+    then): no BLAS threads are started at import. A count the user set is kept."""
+    environment = {k: v for k, v in os.environ.items() if k not in BLAS_THREAD_VARIABLES}
+    if given is not None:
+        environment["OPENBLAS_NUM_THREADS"] = given
+    result = subprocess.run([sys.executable, "-c", PROGRAM_THEN_NUMPY], env=environment, capture_output=True,
+                            text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    if result.stdout.strip().splitlines()[-1] == "[]":
+        pytest.skip("numpy here has no OpenBLAS")
+    assert result.stdout.strip().splitlines()[-1] == expected
