@@ -66,7 +66,7 @@ def validate_points(points):
     return array
 
 
-def _check_options(view_dir, min_diameter, max_holes):
+def _check_options(view_dir, min_diameter, max_holes, gauge_depth=None):
     if view_dir is not None:
         direction = np.asarray(view_dir, dtype=np.float64).reshape(-1)
         if direction.shape != (3,) or not np.all(np.isfinite(direction)) or not np.any(direction):
@@ -76,11 +76,13 @@ def _check_options(view_dir, min_diameter, max_holes):
         raise PointsError(f"min_diameter must be a finite length >= 0, got {min_diameter!r}")
     if max_holes is not None and (int(max_holes) != max_holes or max_holes < 1):
         raise PointsError(f"max_holes must be a whole number >= 1, got {max_holes!r}")
+    if gauge_depth is not None and not (np.isfinite(gauge_depth) and gauge_depth >= 0):
+        raise PointsError(f"gauge_depth must be a finite depth >= 0, got {gauge_depth!r}")
     return view_dir
 
 
 def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_holes=None, full_only=False,
-           settings=None, rng=0):
+           gauge_depth=None, settings=None, rng=0):
     """Find the holes in a scan of a nearly flat surface.
 
     Parameters
@@ -101,6 +103,9 @@ def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_hol
         Report at most this many holes (the largest).
     full_only : bool
         Leave out holes cut by the border of the scan.
+    gauge_depth : float, optional
+        Depth below the surface at which each countersink's diameter is given
+        (``countersink.diameter_at_depth``), file units.
     settings : holecli.settings.RobustSettings, optional
         Tunables of the robust method.
     rng : int or numpy.random.Generator
@@ -143,21 +148,24 @@ def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_hol
         raise PointsError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     started = time.perf_counter()
     points = validate_points(points)
-    view_dir = _check_options(view_dir, min_diameter, max_holes)
+    view_dir = _check_options(view_dir, min_diameter, max_holes, gauge_depth)
     if method == "robust":
         # Before the limit: importing it loads scipy's own BLAS, which the limit must see.
         from holecli.robust.method import detect_robust
         from holecli.settings import DEFAULT_SETTINGS
     with single_blas_thread():
         if method == "paper":
-            if view_dir is not None or min_diameter is not None or max_holes is not None or full_only:
-                raise PointsError("the paper method takes no options (view_dir, min_diameter, max_holes, full_only)")
+            if (view_dir is not None or min_diameter is not None or max_holes is not None or full_only
+                    or gauge_depth is not None):
+                raise PointsError("the paper method takes no options (view_dir, min_diameter, max_holes, full_only, "
+                                  "gauge_depth)")
             plane, holes = detect_paper(points)
             rejected = ()
         else:
             plane, holes, rejected = detect_robust(points, view_dir=view_dir, min_diameter=min_diameter,
                                                    max_holes=max_holes, full_only=full_only,
-                                                   settings=settings or DEFAULT_SETTINGS, rng=rng)
+                                                   gauge_depth=gauge_depth, settings=settings or DEFAULT_SETTINGS,
+                                                   rng=rng)
     elapsed_ms = (time.perf_counter() - started) * 1000.0
     return Detection(holes=holes, plane=plane, points=len(points), method=method, elapsed_ms=elapsed_ms,
                      rejected=rejected)
@@ -177,7 +185,7 @@ def detect_file(path, **options) -> Detection:
         format.
     **options
         Keyword arguments of :func:`detect`: ``method``, ``view_dir``, ``min_diameter``,
-        ``max_holes``, ``full_only``, ``settings``, ``rng``.
+        ``max_holes``, ``full_only``, ``gauge_depth``, ``settings``, ``rng``.
 
     Returns
     -------

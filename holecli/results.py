@@ -43,6 +43,92 @@ class Plane:
 
 
 @dataclass(frozen=True)
+class Countersink:
+    """The countersink cone of a countersunk hole (file units; see the README's ``countersink``).
+
+    Attributes
+    ----------
+    diameter : float or None
+        Diameter of the cone where its axis meets the surface (in the plane perpendicular to the axis).
+    angle_deg : float or None
+        Included angle of the cone, degrees.
+    depth : float or None
+        Along the axis, from the surface to the cone's lower edge (where it meets the bore).
+    depth_from : str or None
+        ``"bore"`` (the lower edge where the cone meets the fitted bore cylinder) or ``"cone_inner_edge"``
+        (the innermost cone points, when the bore wall is not seen).
+    diameter_at_depth : float or None
+        The cone's diameter at ``gauge_depth`` below the surface (what a countersink gauge reads).
+    gauge_depth : float or None
+        The depth asked for (``--gauge-depth``), None when none was.
+    rms : float or None
+        Root mean square orthogonal distance of the cone points from the fitted cone.
+    points : int
+        Points the cone was fitted to.
+    arc_deg : float
+        Coverage of those points around the axis, degrees.
+    """
+
+    diameter: Optional[float]
+    angle_deg: Optional[float]
+    depth: Optional[float]
+    depth_from: Optional[str]
+    diameter_at_depth: Optional[float]
+    gauge_depth: Optional[float]
+    rms: Optional[float]
+    points: int
+    arc_deg: float
+
+
+@dataclass(frozen=True)
+class Counterbore:
+    """The step of a counterbored hole: its diameter (the edge at the surface) and its depth (along
+    the axis, from the surface to the step's flat floor), with the floor fit's rms and points."""
+
+    diameter: float
+    depth: float
+    rms: float
+    points: int
+
+
+@dataclass(frozen=True)
+class Bore:
+    """The drilled bore below the edge (or below the countersink or counterbore).
+
+    Attributes
+    ----------
+    diameter : float or None
+        Diameter of the cylinder fitted to the bore-wall points; None when too little wall is seen.
+    rms : float or None
+        Root mean square orthogonal distance of the wall points from the cylinder.
+    points : int
+        Wall points the cylinder was fitted to (0 when none).
+    depth_range : (2,) tuple of float or None
+        Shallowest and deepest of those points, along the axis below the surface.
+    arc_deg : float or None
+        Coverage of the wall points around the axis, degrees.
+    floor_depth : float or None
+        A blind hole's floor, along the axis below the surface; None for a hole without a floor.
+    """
+
+    diameter: Optional[float]
+    rms: Optional[float]
+    points: int
+    depth_range: Optional[tuple[float, float]]
+    arc_deg: Optional[float]
+    floor_depth: Optional[float] = None
+
+
+@dataclass(frozen=True)
+class HoleWarning:
+    """Something that makes a hole's result doubtful or incomplete: a short stable ``code`` and a
+    sentence (``message``) with the numbers (the codes are listed in the README)."""
+
+    code: str
+    message: str
+
+
+@dataclass(frozen=True)
 class Hole:
     """One measured hole.
 
@@ -72,6 +158,22 @@ class Hole:
         Angular coverage of the rim points around the center, in degrees (360 for a full rim).
     scan_lines : int or None
         Number of scan lines (stripes) crossing the hole, when the scan has a stripe structure.
+    type : str or None
+        ``"through"``, ``"countersunk"``, ``"counterbored"`` or ``"blind"``, from what the points
+        below the edge show (None from the ``paper`` method, which does not look below the surface).
+    countersink : Countersink or None
+        The countersink of a countersunk hole.
+    counterbore : Counterbore or None
+        The step of a counterbored hole.
+    bore : Bore or None
+        The bore (None from the ``paper`` method).
+    axis : (3,) tuple of float or None
+        The hole's axis (unit, out of the material), from the cone, else the bore's cylinder, else the
+        floor of a blind hole or counterbore; None when none of them is seen.
+    perpendicularity_deg : float or None
+        Angle between :attr:`axis` and :attr:`normal`, degrees.
+    warnings : tuple of HoleWarning
+        What makes the result doubtful or a value null.
     """
 
     index: int
@@ -86,6 +188,13 @@ class Hole:
     partial: bool = False
     arc_deg: float = 360.0
     scan_lines: Optional[int] = None
+    type: Optional[str] = None
+    countersink: Optional[Countersink] = None
+    counterbore: Optional[Counterbore] = None
+    bore: Optional[Bore] = None
+    axis: Optional[Vector] = None
+    perpendicularity_deg: Optional[float] = None
+    warnings: tuple[HoleWarning, ...] = ()
 
     @property
     def radius(self) -> float:
@@ -108,6 +217,10 @@ class Hole:
         out = asdict(self)
         out["center"] = list(self.center)
         out["normal"] = list(self.normal)
+        out["axis"] = None if self.axis is None else list(self.axis)
+        if self.bore is not None and self.bore.depth_range is not None:
+            out["bore"]["depth_range"] = list(self.bore.depth_range)
+        out["warnings"] = [asdict(warning) for warning in self.warnings]
         return out
 
 

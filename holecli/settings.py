@@ -223,6 +223,31 @@ class RobustSettings:
     # bins, each kept with at least this many points (counts).
     cone_depth_bins: int = 8
     cone_min_bin_points: int = 3
+    # --- The whole hole below its edge (holecli.robust.hole_shape) ---
+    # A point is below the surface when it lies more than shape_below_sigmas surface-noise sigmas
+    # (and at least shape_below_radii of the edge radius) under it; the points are gathered within
+    # shape_search_radii edge radii of the axis and shape_depth_radii edge radii deep.
+    shape_below_sigmas: float = 4.0
+    shape_below_radii: float = 0.005
+    shape_search_radii: float = 1.3
+    shape_depth_radii: float = 4.0
+    # A cone, wall or floor is measured from at least shape_min_points points spread over at least
+    # shape_min_arc_deg of its circumference (a cylinder's diameter needs 90 degrees of its wall).
+    shape_min_points: int = 30
+    shape_min_arc_deg: float = 90.0
+    # A bore wall seen over less than shape_axis_min_span of its radius along the axis gives no axis:
+    # its cylinder is fitted parallel to the axis from the cone, the floor or the surface normal.
+    shape_axis_min_span: float = 0.5
+    # Trimming of the cone, cylinder and floor fits: points beyond shape_trim_sigmas robust sigmas.
+    shape_trim_sigmas: float = 3.0
+    # A flat floor: at least shape_floor_fraction of the points below the surface inside the edge lie
+    # in one plane; it is a blind hole's floor when its points reach within shape_floor_center_radii
+    # edge radii of the axis (else a counterbore's step, around the bore).
+    shape_floor_fraction: float = 0.3
+    shape_floor_center_radii: float = 0.3
+    # A fitted countersink's included angle must lie in this range (degrees) to be reported.
+    shape_min_angle_deg: float = 30.0
+    shape_max_angle_deg: float = 150.0
 
     def __post_init__(self):
         for name, low, high in _RANGES:
@@ -277,6 +302,11 @@ _RANGES = (
     ("cone_below_sigmas", 0.0, _INF), ("cone_inner_widths", 0.0, _INF), ("cone_trim_sigmas", 0.0, _INF),
     ("cone_trim_rounds", 1, 1000), ("cone_edge_steps", 2, 10 ** 6), ("cone_depth_bins", 2, 10 ** 6),
     ("cone_min_bin_points", 1, 10 ** 9),
+    ("shape_below_sigmas", 0.0, _INF), ("shape_below_radii", 0.0, _INF), ("shape_search_radii", 1.0, _INF),
+    ("shape_depth_radii", 0.0, _INF), ("shape_min_points", 7, 10 ** 9), ("shape_min_arc_deg", 0.0, 360.0),
+    ("shape_axis_min_span", 0.0, _INF), ("shape_trim_sigmas", 0.0, _INF), ("shape_floor_fraction", 0.0, 1.0),
+    ("shape_floor_center_radii", 0.0, 1.0), ("shape_min_angle_deg", 0.0, 180.0),
+    ("shape_max_angle_deg", 0.0, 180.0),
 )
 _COUNTS = {"cell_index_from_candidates",
            "ransac_sample", "ransac_hypotheses", "sampling_windows", "sampling_window_points", "bias_passes",
@@ -284,8 +314,8 @@ _COUNTS = {"cell_index_from_candidates",
            "min_partial_rim_points", "plane_refine_rounds", "plane_refine_sample", "plane_max_faces",
            "sampling_pitch_neighbours", "max_speck_cells", "bias_min_rim_points", "lattice_min_brackets",
            "cone_min_points_below", "cone_trim_rounds", "cone_edge_steps", "cone_depth_bins",
-           "cone_min_bin_points"}
-_CLOSED = {"min_partial_arc_deg", "full_arc_deg", "boss_fraction", "lattice_min_present_fraction",
+           "cone_min_bin_points", "shape_min_points"}
+_CLOSED = {"shape_min_arc_deg", "shape_floor_fraction", "min_partial_arc_deg", "full_arc_deg", "boss_fraction", "lattice_min_present_fraction",
            "lattice_max_gap_deg"}
 
 

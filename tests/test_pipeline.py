@@ -15,7 +15,8 @@ from holecli.simulation import synth
 PLANE_KEYS = {"point", "normal", "rms", "inliers"}
 HOLE_KEYS = {
     "index", "center", "diameter", "normal", "rim_points", "fit_rms", "max_residual", "roundness",
-    "bias_correction", "partial", "arc_deg", "scan_lines",
+    "bias_correction", "partial", "arc_deg", "scan_lines", "type", "countersink", "counterbore", "bore", "axis",
+    "perpendicularity_deg", "warnings",
 }  # fmt: skip
 RECORD_KEYS = {"file", "points", "dropped_points", "method", "plane", "holes", "elapsed_ms"}
 

@@ -35,6 +35,7 @@ from holecli.robust.countersink import MIN_SLOPE as MIN_CONE_SLOPE
 from holecli.robust.countersink import Cone, fit_cone_edge
 from holecli.robust.edge import fit_edge
 from holecli.robust.empty_circle import empty_circle_bias, largest_empty_circle
+from holecli.robust.hole_shape import measure_hole_shape
 from holecli.robust.lattice import lattice_steps, separating_circle
 from holecli.robust.sampling import estimate_sampling
 from holecli.settings import DEFAULT_SETTINGS
@@ -105,6 +106,7 @@ class _Measured:
     partial: bool
     arc_deg: float
     surface_plane: object = None  # PlaneFit of the surface around the hole (None: the global plane)
+    cone_slope: object = None     # depth per radius of the countersink cone accepted at the edge
 
 
 def _rim_arc(rim_xy, center):
@@ -542,7 +544,7 @@ def _measure_void(scene, grid, void, settings):
         # A countersunk hole: its edge is where the cone meets the surface.
         cone_center, cone_radius = _cone_in_the_plane(scene, center, cone, settings)
         return _Measured(center=cone_center, radius=cone_radius, bias=radius - cone_radius, fit=fit,
-                         rim_xy=rim_xy[used], partial=partial, arc_deg=arc)
+                         rim_xy=rim_xy[used], partial=partial, arc_deg=arc, cone_slope=cone.slope)
     edge = None
     if scene.sampling.lattice_axes and not partial:
         steps = lattice_steps(local, scene.sampling.lattice_axes, scene.sampling.spacing, settings=settings)
@@ -689,7 +691,7 @@ def _to_hole(scene, measured, index):
 
 
 def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, full_only=False,
-                  settings=DEFAULT_SETTINGS, rng=0, flat_crop=False):
+                  gauge_depth=None, settings=DEFAULT_SETTINGS, rng=0, flat_crop=False):
     """The robust method; see the module docstring.
 
     Returns
@@ -777,12 +779,30 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
                         for m in ranked[max_holes:])
     holes = [(None if flat_crop else _on_curved_surface(scene, measured, settings, view_dir, rng))
              or _to_hole(scene, measured, 0) for measured in found]
+    if not flat_crop:
+        holes = [_with_shape(scene, hole, measured, gauge_depth, settings) for hole, measured in zip(holes, found)]
     holes.sort(key=lambda hole: (hole.partial, hole.center))
     holes = tuple(Hole(**{**hole.__dict__, "index": i}) for i, hole in enumerate(holes))
     plane_result = Plane(point=tuple(map(float, origin)), normal=tuple(map(float, normal)), rms=plane.rms,
                          inliers=int(surface.sum()))
     rejections = tuple(sorted((_to_rejection(scene, r) for r in rejected), key=lambda r: (-r.diameter, r.center)))
     return plane_result, holes, rejections
+
+
+def _with_shape(scene, hole, measured, gauge_depth, settings):
+    """The hole with what its points below the edge show (:mod:`holecli.robust.hole_shape`)."""
+    center = np.asarray(hole.center)
+    center2d = (scene.rotation @ (center - scene.origin))[:2]
+    # The plane frame's disk holds every point within the search radius of the hole's axis, deep
+    # points of a hole drilled off the normal or seen on a tilted part included.
+    reach = settings.shape_search_radii * hole.radius * (1.0 + settings.shape_depth_radii * 0.2)
+    index = _within(scene, scene.xy, center2d, 0.0, reach)
+    shape = measure_hole_shape(scene.points[index], center, np.asarray(hole.normal), hole.radius,
+                               noise=scene.height_noise, spacing=scene.sampling.spacing,
+                               cone_slope=measured.cone_slope, gauge_depth=gauge_depth, settings=settings)
+    return Hole(**{**hole.__dict__, "type": shape.type, "countersink": shape.countersink,
+                   "counterbore": shape.counterbore, "bore": shape.bore, "axis": shape.axis,
+                   "perpendicularity_deg": shape.perpendicularity_deg, "warnings": shape.warnings})
 
 
 def _on_curved_surface(scene, measured, settings, view_dir, rng):

@@ -1,0 +1,244 @@
+"""Least-squares fits of the two surfaces a drilled hole is made of: a cylinder (the bore, a
+counterbore's wall) and a cone (a countersink), each about an axis of free direction.
+
+Both are parametrised about a reference frame the caller gives: an origin ``o`` near the axis and a
+guess ``g`` of its direction. In that frame (``g`` as z) the axis passes through ``(x, y, 0)`` with
+direction ``normalise(a, b, 1)``; the cylinder adds its radius ``r``, the cone its radius ``R0`` in
+the plane through ``(x, y, 0)`` perpendicular to the axis and its half angle ``theta`` (the cone
+widens toward +axis: ``R(t) = R0 + t tan(theta)`` at axial position ``t``). The residual of a point is
+its orthogonal distance to the surface: ``rho - r`` for the cylinder, ``(rho - R(t)) cos(theta)`` for
+the cone (exact for points off the apex's side), where ``rho`` is its distance from the axis.
+
+The fits are Levenberg-Marquardt on forward-difference Jacobians (five or six parameters, thousands of
+points: the residuals are cheap) inside a trimming loop: after each fit the points farther than
+``trim_sigmas`` robust standard deviations of the residuals (never less than ``floor``) are set aside
+and the fit is repeated, so that stray points from another surface do not pull it. Numpy only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from holecli.geometry.kernels import robust_sigma
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    """A fitted cylinder: a point on its axis, the axis (unit), radius, residuals of every point
+    given (orthogonal distances), which points the last fit kept, and their rms."""
+
+    point: np.ndarray
+    axis: np.ndarray
+    radius: float
+    residuals: np.ndarray
+    kept: np.ndarray
+    rms: float
+
+
+@dataclass(frozen=True)
+class Cone:
+    """A fitted cone: a point on its axis, the axis (unit, toward the wide end), the radius in the
+    plane through ``point`` perpendicular to the axis, the half angle (radians), residuals of every
+    point given, which points the last fit kept, and their rms."""
+
+    point: np.ndarray
+    axis: np.ndarray
+    radius: float
+    half_angle: float
+    residuals: np.ndarray
+    kept: np.ndarray
+    rms: float
+
+    def radius_at(self, axial):
+        """Radius of the cone at axial position ``axial`` from :attr:`point` (toward the wide end).
+
+        Parameters
+        ----------
+        axial : float or ndarray
+
+        Returns
+        -------
+        float or ndarray
+        """
+        return self.radius + np.asarray(axial) * np.tan(self.half_angle)
+
+
+def frame_about(direction):
+    """Rotation (3, 3) whose third row is the unit ``direction`` (rows: two perpendicular axes, then it).
+
+    Parameters
+    ----------
+    direction : (3,) float
+
+    Returns
+    -------
+    (3, 3) float
+    """
+    z = np.asarray(direction, dtype=np.float64)
+    z = z / np.linalg.norm(z)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    return np.vstack([x, np.cross(z, x), z])
+
+
+def _axis_of(a, b):
+    u = np.array([a, b, 1.0])
+    return u / np.sqrt(1.0 + a * a + b * b)
+
+
+def _radial_axial(local, x, y, a, b):
+    """Distance from the axis and axial position of ``local`` points (reference frame)."""
+    u = _axis_of(a, b)
+    q = local - np.array([x, y, 0.0])
+    t = q @ u
+    rho = np.sqrt(np.maximum(np.einsum("ij,ij->i", q, q) - t * t, 0.0))
+    return rho, t
+
+
+def _cylinder_residuals(parameters, local):
+    x, y, a, b, r = parameters
+    rho, _ = _radial_axial(local, x, y, a, b)
+    return rho - r
+
+
+def _cone_residuals(parameters, local):
+    x, y, a, b, r0, theta = parameters
+    rho, t = _radial_axial(local, x, y, a, b)
+    return (rho - r0 - t * np.tan(theta)) * np.cos(theta)
+
+
+def _levenberg_marquardt(residuals, start, steps, iterations=50, tolerance=1e-12):
+    """Minimise ``sum(residuals(p)^2)`` from ``start``; ``steps`` are the finite-difference steps."""
+    p = np.array(start, dtype=np.float64)
+    f = residuals(p)
+    cost = float(f @ f)
+    damping = 1e-3
+    for _ in range(iterations):
+        jacobian = np.empty((len(f), len(p)))
+        for k, step in enumerate(steps):
+            shifted = p.copy()
+            shifted[k] += step
+            jacobian[:, k] = (residuals(shifted) - f) / step
+        normal = jacobian.T @ jacobian
+        gradient = jacobian.T @ f
+        improved = False
+        for _ in range(12):
+            try:
+                delta = np.linalg.solve(normal + damping * np.diag(np.diag(normal) + 1e-300), -gradient)
+            except np.linalg.LinAlgError:
+                damping *= 10.0
+                continue
+            candidate = p + delta
+            g = residuals(candidate)
+            new_cost = float(g @ g)
+            if np.isfinite(new_cost) and new_cost <= cost:
+                improved = True
+                p, f, decrease, cost = candidate, g, cost - new_cost, new_cost
+                damping = max(damping / 10.0, 1e-12)
+                break
+            damping *= 10.0
+        if not improved or decrease <= tolerance * max(cost, 1e-300):
+            break
+    return p
+
+
+def _trimmed(residuals_of, start, steps, local, floor, trim_sigmas, rounds):
+    """The fit repeated on the points within ``trim_sigmas`` robust sigmas of the previous fit."""
+    kept = np.ones(len(local), dtype=bool)
+    p = np.array(start, dtype=np.float64)
+    for _ in range(rounds):
+        p = _levenberg_marquardt(lambda q: residuals_of(q, local[kept]), p, steps)
+        residuals = residuals_of(p, local)
+        scale = max(robust_sigma(residuals[kept]), floor)
+        new_kept = np.abs(residuals) <= trim_sigmas * scale
+        if np.count_nonzero(new_kept) < len(p) + 1 or np.array_equal(new_kept, kept):
+            break
+        kept = new_kept
+    residuals = residuals_of(p, local)
+    rms = float(np.sqrt(np.mean(residuals[kept] ** 2)))
+    return p, residuals, kept, rms
+
+
+def _to_world(origin, rotation, x, y, a, b):
+    point = origin + rotation.T @ np.array([x, y, 0.0])
+    axis = rotation.T @ _axis_of(a, b)
+    return point, axis / np.linalg.norm(axis)
+
+
+def fit_cylinder(points, origin, direction, radius, *, fixed_axis=False, floor=0.0, trim_sigmas=3.0,
+                 rounds=4):
+    """Fit a cylinder to ``points`` from an axis guess through ``origin`` along ``direction``.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Points on the wall (n >= 6; more is better).
+    origin : (3,) float
+        A point near the axis, where the axial positions count from.
+    direction : (3,) float
+        The axis guess (any length).
+    radius : float
+        The radius guess (> 0).
+    fixed_axis : bool
+        Keep the axis parallel to ``direction`` (fit its position and the radius only): for a wall
+        seen over too short a length to say its direction.
+    floor : float
+        Least residual scale of the trimming (the points' noise).
+    trim_sigmas : float
+        Points beyond this many robust sigmas of the residuals are left out of the next round.
+    rounds : int
+        Trimming rounds at most.
+
+    Returns
+    -------
+    Cylinder
+    """
+    rotation = frame_about(direction)
+    local = (np.asarray(points, dtype=np.float64) - origin) @ rotation.T
+    step = max(1e-7 * radius, 1e-12)
+    if fixed_axis:
+        def residuals_of(q, pts):
+            return _cylinder_residuals((q[0], q[1], 0.0, 0.0, q[2]), pts)
+        p, residuals, kept, rms = _trimmed(residuals_of, (0.0, 0.0, radius), (step, step, step), local,
+                                           floor, trim_sigmas, rounds)
+        x, y, a, b, r = p[0], p[1], 0.0, 0.0, p[2]
+    else:
+        p, residuals, kept, rms = _trimmed(_cylinder_residuals, (0.0, 0.0, 0.0, 0.0, radius),
+                                           (step, step, 1e-7, 1e-7, step), local, floor, trim_sigmas, rounds)
+        x, y, a, b, r = p
+    point, axis = _to_world(np.asarray(origin, dtype=np.float64), rotation, x, y, a, b)
+    return Cylinder(point=point, axis=axis, radius=float(abs(r)), residuals=residuals, kept=kept, rms=rms)
+
+
+def fit_cone(points, origin, direction, radius, half_angle, *, floor=0.0, trim_sigmas=3.0, rounds=4):
+    """Fit a cone to ``points`` from a guess: axis through ``origin`` along ``direction`` (toward the
+    wide end), ``radius`` in the plane through ``origin`` perpendicular to it, ``half_angle``.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Points on the cone (n >= 7).
+    origin : (3,) float
+    direction : (3,) float
+    radius : float
+    half_angle : float
+        Radians, in (0, pi/2).
+    floor, trim_sigmas, rounds
+        As for :func:`fit_cylinder`.
+
+    Returns
+    -------
+    Cone
+    """
+    rotation = frame_about(direction)
+    local = (np.asarray(points, dtype=np.float64) - origin) @ rotation.T
+    step = max(1e-7 * radius, 1e-12)
+    p, residuals, kept, rms = _trimmed(_cone_residuals, (0.0, 0.0, 0.0, 0.0, radius, half_angle),
+                                       (step, step, 1e-7, 1e-7, step, 1e-7), local, floor, trim_sigmas, rounds)
+    x, y, a, b, r0, theta = p
+    point, axis = _to_world(np.asarray(origin, dtype=np.float64), rotation, x, y, a, b)
+    return Cone(point=point, axis=axis, radius=float(r0), half_angle=float(theta), residuals=residuals,
+                kept=kept, rms=rms)

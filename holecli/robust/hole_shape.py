@@ -1,0 +1,345 @@
+"""The whole drilled hole below its edge: its type, countersink, counterbore, bore, floor and axis.
+
+The robust method finds each hole's edge on the surface (center, diameter, normal). Here the points
+of the scan around and below that edge are read as the surfaces a drill leaves: a cone (countersink),
+a flat step around the bore (counterbore), a flat floor across the hole (blind hole) and the bore's
+cylindrical wall. Each is fitted in 3D with its axis free (:mod:`holecli.geometry.revolution`), so
+that a hole drilled off the normal shows its tilt.
+
+Steps (all distances from the edge's center ``c``; ``n`` the surface normal there, turned to point
+out of the material: the side without the points below the surface):
+
+1. Gather the points within ``shape_search_radii`` edge radii of the axis through ``c`` along ``n``
+   and at most ``shape_depth_radii`` radii deep; a point is *below* when it lies more than
+   ``shape_below_sigmas`` surface-noise sigmas under the surface.
+2. A countersunk hole (the robust method accepted a cone at the edge, see
+   :mod:`holecli.robust.countersink`): the cone is fitted to the points below near the hinge the
+   edge fit found, then again to every point within four rms of the first fit. Its diameter is taken
+   where its axis meets the surface, its depth from there to where it meets the bore (fitted below
+   it) or, with no bore seen, to the cone points' inner edge.
+3. Otherwise a flat floor: the most populated depth among the points below inside the edge, fitted
+   as a plane. It makes the hole blind when its points reach the axis, counterbored when they ring
+   it (a step around the bore). A floor needs ``shape_floor_fraction`` of the points below.
+4. The bore wall: the points below that are on no cone or floor (and under the step or cone), near
+   their median distance from the axis; a cylinder is fitted with a free axis when the wall spans at
+   least ``shape_axis_min_span`` radii along it, else parallel to the axis already known.
+5. The axis: the cone's, else the bore's (free fit), else the floor's normal; the perpendicularity
+   is its angle to ``n``.
+
+A value the points cannot support is None, and the hole's warnings say why (codes in
+:data:`WARNING_CODES`): fewer than ``shape_min_points`` points, or a coverage around the axis under
+``shape_min_arc_deg`` degrees.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from holecli.geometry.kernels import largest_angular_gap, robust_sigma
+from holecli.geometry.revolution import fit_cone, fit_cylinder, frame_about
+from holecli.results import Bore, Counterbore, Countersink, HoleWarning
+from holecli.settings import DEFAULT_SETTINGS
+
+#: The warning codes this module gives, with what each means.
+WARNING_CODES = {
+    "bore_not_seen": "too few points on the bore wall for a cylinder fit: no bore diameter",
+    "bore_short_arc": "the bore wall is seen over too little of its circumference for a diameter",
+    "cone_few_points": "too few points on the countersink's cone for a fit: no countersink values",
+    "cone_short_arc": "the countersink's cone is seen over too little of its circumference",
+    "cone_angle_implausible": "the fitted cone's angle is outside the plausible range: no countersink values",
+    "gauge_depth_outside_cone": "--gauge-depth is not within the countersink's depth: no diameter_at_depth",
+    "axis_not_measured": "no cone, bore wall or floor shows the hole's axis: no axis or perpendicularity",
+}
+
+
+@dataclass(frozen=True)
+class HoleShape:
+    """What the points below a hole's edge show (see the module docstring)."""
+
+    type: str
+    countersink: Optional[Countersink]
+    counterbore: Optional[Counterbore]
+    bore: Bore
+    axis: Optional[tuple]
+    perpendicularity_deg: Optional[float]
+    warnings: tuple
+
+
+def _warning(code, detail):
+    return HoleWarning(code=code, message=f"{WARNING_CODES[code]} ({detail})")
+
+
+def _arc_deg(points, center, axis):
+    """Coverage (degrees) of ``points`` around the line through ``center`` along ``axis``."""
+    if len(points) == 0:
+        return 0.0
+    rotation = frame_about(axis)
+    xy = (points - center) @ rotation[:2].T
+    return float(np.degrees(2.0 * np.pi - largest_angular_gap(xy, np.zeros(2))))
+
+
+def _about(points, point, axis):
+    """Distance from the axis line and axial position (along ``axis`` from ``point``) of ``points``."""
+    d = points - point
+    t = d @ axis
+    rho = np.sqrt(np.maximum(np.einsum("ij,ij->i", d, d) - t * t, 0.0))
+    return rho, t
+
+
+def _surface_crossing(point, axis, center, normal):
+    """Axial position (from ``point`` along ``axis``) where the axis meets the surface plane."""
+    along = float(axis @ normal)
+    return float((center - point) @ normal) / along if abs(along) > 1e-9 else 0.0
+
+
+def _angle_deg(a, b):
+    return float(np.degrees(np.arccos(np.clip(abs(float(a @ b)), -1.0, 1.0))))
+
+
+def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, cone_slope=None,
+                       gauge_depth=None, settings=DEFAULT_SETTINGS):
+    """Type, countersink, counterbore, bore and axis of one hole from the points around it.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Points of the scan around the hole (at least those within ``shape_search_radii`` edge radii
+        of its axis); others are ignored.
+    center : (3,) float
+        The edge's center on the surface.
+    normal : (3,) float
+        Unit surface normal at the hole (either sign).
+    edge_radius : float
+        The edge's radius on the surface.
+    noise : float
+        Standard deviation of the surface points' heights.
+    spacing : float
+        The scan's point spacing.
+    cone_slope : float or None
+        Depth per radius of the countersink cone the robust method accepted at the edge; None when it
+        accepted none (the hole is then not countersunk).
+    gauge_depth : float or None
+        Depth below the surface at which to give the countersink's diameter.
+    settings : RobustSettings
+        The ``shape_*`` thresholds.
+
+    Returns
+    -------
+    HoleShape
+    """
+    c = np.asarray(center, dtype=np.float64)
+    n = np.asarray(normal, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    R = float(edge_radius)
+    d = np.asarray(points, dtype=np.float64) - c
+    height = d @ n
+    rho = np.sqrt(np.maximum(np.einsum("ij,ij->i", d, d) - height * height, 0.0))
+    near = (rho < settings.shape_search_radii * R) & (np.abs(height) < settings.shape_depth_radii * R)
+    pts, height, rho = np.asarray(points, dtype=np.float64)[near], height[near], rho[near]
+    threshold = max(settings.shape_below_sigmas * noise, settings.shape_below_radii * R)
+    # Out of the material: the side of the surface without the points inside the edge off it.
+    inner = rho < R
+    if np.count_nonzero(inner & (height > threshold)) > np.count_nonzero(inner & (height < -threshold)):
+        n, height = -n, -height
+    below = height < -threshold
+    floor_noise = max(noise, 1e-9 * R)
+    warnings = []
+    countersink = counterbore = cone = None
+    axis = None
+    floor_depth = None
+    wall_mask = np.zeros(len(pts), dtype=bool)
+    known_axis = n
+
+    if cone_slope is not None:
+        kind = "countersunk"
+        countersink, cone, cone_mask = _countersink(pts, rho, -height, below, c, n, R, cone_slope, floor_noise,
+                                                    spacing, gauge_depth, settings, warnings)
+        if cone is not None:
+            axis, known_axis = cone.axis, cone.axis
+            crp, crt = _about(pts, cone.point, cone.axis)
+            inside_cone = crp < cone.radius_at(crt) - max(4.0 * cone.rms, 3.0 * floor_noise)
+            wall_mask = below & ~cone_mask & inside_cone
+        else:
+            wall_mask = below & (rho < R)
+    else:
+        floor = _floor(pts, rho, -height, below, R, floor_noise, settings)
+        if floor is None:
+            kind = "through"
+            wall_mask = below & (rho < R + 2.0 * spacing + 0.1 * R)
+        else:
+            floor_point, floor_normal, floor_mask, floor_rms = floor
+            floor_normal = floor_normal if floor_normal @ n > 0 else -floor_normal
+            depth = float((c - floor_point) @ floor_normal) / float(n @ floor_normal)
+            blind = np.min(rho[floor_mask]) < settings.shape_floor_center_radii * R
+            kind = "blind" if blind else "counterbored"
+            known_axis = floor_normal
+            if blind:
+                floor_depth = depth
+                wall_mask = below & ~floor_mask & (-height < depth - 3.0 * floor_noise)
+            else:
+                counterbore = Counterbore(diameter=2.0 * R, depth=depth, rms=floor_rms,
+                                          points=int(np.count_nonzero(floor_mask)))
+                wall_mask = below & ~floor_mask & (-height > depth + 3.0 * floor_noise)
+
+    bore, bore_axis = _bore(pts, wall_mask, c, n, known_axis, floor_noise, settings, warnings)
+    if kind == "blind":
+        bore = Bore(**{**bore.__dict__, "floor_depth": floor_depth})
+    if cone is not None:
+        if bore.diameter is not None:
+            lower, source = 0.5 * bore.diameter, "bore"
+        else:
+            lower, source = _inner_edge_radius(cone, pts[cone_mask]), "cone_inner_edge"
+        countersink = _with_depth(countersink, cone, c, n, lower, source, gauge_depth, warnings)
+    if axis is None:
+        axis = bore_axis if bore_axis is not None else (known_axis if kind in ("blind", "counterbored") else None)
+    if axis is None:
+        warnings.append(_warning("axis_not_measured", f"{kind} hole"))
+        perpendicularity = None
+    else:
+        axis = axis if axis @ n > 0 else -axis
+        perpendicularity = _angle_deg(axis, n)
+        axis = tuple(float(v) for v in axis)
+    return HoleShape(type=kind, countersink=countersink, counterbore=counterbore, bore=bore, axis=axis,
+                     perpendicularity_deg=perpendicularity, warnings=tuple(warnings))
+
+
+def _countersink(pts, rho, depth, below, c, n, R, slope, noise, spacing, gauge_depth, settings, warnings):
+    """The countersink from the cone fit; (Countersink, Cone or None, mask of the cone's points)."""
+    margin = max(10.0 * noise, 0.15 * R)
+    guess = below & (rho < R + 2.0 * spacing) & (np.abs(depth - slope * np.maximum(R - rho, 0.0)) < margin)
+    empty = Countersink(diameter=None, angle_deg=None, depth=None, depth_from=None, diameter_at_depth=None,
+                        gauge_depth=gauge_depth, rms=None, points=int(np.count_nonzero(guess)), arc_deg=0.0)
+    if np.count_nonzero(guess) < settings.shape_min_points:
+        warnings.append(_warning("cone_few_points", f"{np.count_nonzero(guess)} < {settings.shape_min_points}"))
+        return empty, None, guess
+    half = float(np.arctan(1.0 / slope))
+    cone = fit_cone(pts[guess], c, n, R, half, floor=noise, trim_sigmas=settings.shape_trim_sigmas)
+    # Once more on every point near the first fit: the first guess's band is a hinge's, not the cone's.
+    crp, crt = _about(pts, cone.point, cone.axis)
+    residual = (crp - cone.radius_at(crt)) * np.cos(cone.half_angle)
+    on_cone = below & (np.abs(residual) < max(4.0 * cone.rms, 3.0 * noise))
+    if np.count_nonzero(on_cone) >= settings.shape_min_points:
+        cone = fit_cone(pts[on_cone], cone.point, cone.axis, cone.radius, cone.half_angle, floor=noise,
+                        trim_sigmas=settings.shape_trim_sigmas)
+        mask = on_cone.copy()
+        mask[on_cone] = cone.kept
+    else:
+        mask = guess.copy()
+        mask[guess] = cone.kept
+    used = int(np.count_nonzero(mask))
+    arc = _arc_deg(pts[mask], cone.point, cone.axis)
+    angle = float(np.degrees(2.0 * cone.half_angle))
+    base = Countersink(diameter=None, angle_deg=None, depth=None, depth_from=None, diameter_at_depth=None,
+                       gauge_depth=gauge_depth, rms=cone.rms, points=used, arc_deg=arc)
+    if used < settings.shape_min_points:
+        warnings.append(_warning("cone_few_points", f"{used} < {settings.shape_min_points}"))
+        return base, None, mask
+    if arc < settings.shape_min_arc_deg:
+        warnings.append(_warning("cone_short_arc", f"{arc:.0f} < {settings.shape_min_arc_deg:g} degrees"))
+        return base, None, mask
+    if not settings.shape_min_angle_deg <= angle <= settings.shape_max_angle_deg:
+        warnings.append(_warning("cone_angle_implausible", f"{angle:.1f} degrees"))
+        return base, None, mask
+    top = _surface_crossing(cone.point, cone.axis, c, n)
+    diameter = float(2.0 * cone.radius_at(top))
+    measured = Countersink(diameter=diameter, angle_deg=angle, depth=None, depth_from=None,
+                           diameter_at_depth=None, gauge_depth=gauge_depth, rms=cone.rms, points=used, arc_deg=arc)
+    return measured, cone, mask
+
+
+def _inner_edge_radius(cone, pts):
+    """Radius of the cone points' inner edge, where the cone meets the bore (seen from above, the
+    bore wall hidden): the innermost cone point's distance from the axis, less the gap expected
+    between the edge and the innermost of points of the density seen (1 / (density x circumference)
+    for points spread at random; a few um at 0.1 mm pitch). The distance from the axis of a point
+    seen along the axis does not move with its range noise."""
+    radius, _ = _about(pts, cone.point, cone.axis)
+    inner = float(np.min(radius))
+    outer = float(np.max(radius))
+    density = len(pts) / max(np.pi * (outer ** 2 - inner ** 2), 1e-300)
+    return inner - 1.0 / max(density * 2.0 * np.pi * inner, 1e-300)
+
+
+def _with_depth(countersink, cone, c, n, lower_radius, source, gauge_depth, warnings):
+    """The countersink with its depth to the lower edge of ``lower_radius`` and the gauge diameter."""
+    top = _surface_crossing(cone.point, cone.axis, c, n)
+    tangent = float(np.tan(cone.half_angle))
+    depth = float((cone.radius_at(top) - lower_radius) / tangent)
+    at_depth = None
+    if gauge_depth is not None:
+        if 0.0 <= gauge_depth <= depth:
+            at_depth = float(2.0 * (cone.radius_at(top) - gauge_depth * tangent))
+        else:
+            warnings.append(_warning("gauge_depth_outside_cone", f"{gauge_depth:g} not in [0, {depth:.4g}]"))
+    return Countersink(**{**countersink.__dict__, "depth": depth, "depth_from": source,
+                          "diameter_at_depth": at_depth})
+
+
+def _floor(pts, rho, depth, below, R, noise, settings):
+    """The flat floor inside the edge: (point, normal, mask, rms), or None when there is none."""
+    inside = below & (rho < R)
+    count = int(np.count_nonzero(inside))
+    if count < settings.shape_min_points:
+        return None
+    values = depth[inside]
+    width = max(4.0 * noise, 0.01 * R)
+    edges = np.arange(values.min(), values.max() + 2.0 * width, width)
+    histogram, edges = np.histogram(values, bins=edges)
+    peak = int(np.argmax(histogram))
+    level = 0.5 * (edges[peak] + edges[peak + 1])
+    candidates = inside & (np.abs(depth - level) < 2.0 * width)
+    if np.count_nonzero(candidates) < max(settings.shape_min_points, settings.shape_floor_fraction * count):
+        return None
+    mask = candidates
+    for _ in range(4):
+        floor_pts = pts[mask]
+        point = floor_pts.mean(axis=0)
+        _, _, vt = np.linalg.svd(floor_pts - point, full_matrices=False)
+        normal = vt[2]
+        distance = (pts - point) @ normal
+        scale = max(robust_sigma(distance[mask]), noise)
+        new_mask = inside & (np.abs(distance) < settings.shape_trim_sigmas * scale)
+        if np.count_nonzero(new_mask) < settings.shape_min_points or np.array_equal(new_mask, mask):
+            break
+        mask = new_mask
+    if np.count_nonzero(mask) < max(settings.shape_min_points, settings.shape_floor_fraction * count):
+        return None
+    rms = float(np.sqrt(np.mean(((pts[mask] - point) @ normal) ** 2)))
+    return point, normal, mask, rms
+
+
+def _bore(pts, wall_mask, c, n, known_axis, noise, settings, warnings):
+    """The bore from the wall points: (Bore, the cylinder's axis when its direction was fitted)."""
+    count = int(np.count_nonzero(wall_mask))
+    empty = Bore(diameter=None, rms=None, points=0, depth_range=None, arc_deg=None)
+    if count < settings.shape_min_points:
+        warnings.append(_warning("bore_not_seen", f"{count} wall points < {settings.shape_min_points}"))
+        return empty, None
+    radial, _ = _about(pts, c, known_axis)
+    typical = float(np.median(radial[wall_mask]))
+    candidates = wall_mask & (np.abs(radial - typical) < 0.25 * typical)
+    if np.count_nonzero(candidates) < settings.shape_min_points:
+        warnings.append(_warning("bore_not_seen", f"{int(np.count_nonzero(candidates))} wall points < "
+                                                  f"{settings.shape_min_points}"))
+        return empty, None
+    axial = (pts[candidates] - c) @ known_axis
+    span = float(np.ptp(axial))
+    free = span >= settings.shape_axis_min_span * typical
+    cylinder = fit_cylinder(pts[candidates], c, known_axis, typical, fixed_axis=not free, floor=noise,
+                            trim_sigmas=settings.shape_trim_sigmas)
+    wall = pts[candidates][cylinder.kept]
+    arc = _arc_deg(wall, cylinder.point, cylinder.axis)
+    depths = -((wall - c) @ n)
+    if len(wall) < settings.shape_min_points:
+        warnings.append(_warning("bore_not_seen", f"{len(wall)} wall points < {settings.shape_min_points}"))
+        return empty, None
+    if arc < settings.shape_min_arc_deg:
+        warnings.append(_warning("bore_short_arc", f"{arc:.0f} < {settings.shape_min_arc_deg:g} degrees"))
+        return Bore(diameter=None, rms=cylinder.rms, points=len(wall),
+                    depth_range=(float(depths.min()), float(depths.max())), arc_deg=arc), None
+    bore = Bore(diameter=float(2.0 * cylinder.radius), rms=cylinder.rms, points=len(wall),
+                depth_range=(float(depths.min()), float(depths.max())), arc_deg=arc)
+    return bore, (cylinder.axis if free else None)
