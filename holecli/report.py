@@ -11,7 +11,10 @@ import json
 CSV_COLUMNS = (
     "file", "hole", "center_x", "center_y", "center_z", "diameter", "normal_x", "normal_y", "normal_z",
     "rim_points", "fit_rms", "max_residual", "roundness", "bias_correction", "partial", "arc_deg",
-    "scan_lines", "name", "diameter_deviation", "position_in_plane", "position_along_normal", "tilt_deg",
+    "scan_lines", "type", "countersink_diameter", "countersink_angle_deg", "countersink_depth",
+    "countersink_diameter_at_depth", "countersink_rms", "counterbore_diameter", "counterbore_depth",
+    "bore_diameter", "bore_rms", "floor_depth", "axis_x", "axis_y", "axis_z", "perpendicularity_deg", "warnings",
+    "name", "diameter_deviation", "position_in_plane", "position_along_normal", "tilt_deg",
     "in_tolerance", "failed_checks",
 )
 
@@ -70,7 +73,7 @@ def _cell(value):
     if isinstance(value, float):
         return repr(value)
     if isinstance(value, (list, tuple)):
-        # failed_checks: a few words, never holding the separator
+        # failed_checks, warnings: a few words, never holding the separator
         return ";".join(str(item) for item in value)
     return str(value)
 
@@ -102,6 +105,18 @@ def csv_rows(record, columns=CSV_COLUMNS):
         for axis, name in enumerate("xyz"):
             values[f"center_{name}"] = hole["center"][axis]
             values[f"normal_{name}"] = hole["normal"][axis]
+        countersink, counterbore, bore = (hole.get(key) or {} for key in ("countersink", "counterbore", "bore"))
+        values.update({"countersink_diameter": countersink.get("diameter"),
+                       "countersink_angle_deg": countersink.get("angle_deg"),
+                       "countersink_depth": countersink.get("depth"),
+                       "countersink_diameter_at_depth": countersink.get("diameter_at_depth"),
+                       "countersink_rms": countersink.get("rms"),
+                       "counterbore_diameter": counterbore.get("diameter"), "counterbore_depth": counterbore.get("depth"),
+                       "bore_diameter": bore.get("diameter"), "bore_rms": bore.get("rms"),
+                       "floor_depth": bore.get("floor_depth"),
+                       "warnings": [warning["code"] for warning in hole.get("warnings", [])]})
+        for axis, name in enumerate("xyz"):
+            values[f"axis_{name}"] = None if hole.get("axis") is None else hole["axis"][axis]
         position = hole.get("position_deviation") or {}
         values["position_in_plane"] = position.get("in_plane")
         values["position_along_normal"] = position.get("along_normal")

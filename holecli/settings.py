@@ -245,6 +245,9 @@ class RobustSettings:
     # edge radii of the axis (else a counterbore's step, around the bore).
     shape_floor_fraction: float = 0.3
     shape_floor_center_radii: float = 0.3
+    # A floor spreads over at least shape_floor_min_width edge radii from the axis outward (a ring of
+    # wall points at one depth, one row of a scan, is planar too, and has no width).
+    shape_floor_min_width: float = 0.15
     # A fitted countersink's included angle must lie in this range (degrees) to be reported.
     shape_min_angle_deg: float = 30.0
     shape_max_angle_deg: float = 150.0
@@ -305,7 +308,7 @@ _RANGES = (
     ("shape_below_sigmas", 0.0, _INF), ("shape_below_radii", 0.0, _INF), ("shape_search_radii", 1.0, _INF),
     ("shape_depth_radii", 0.0, _INF), ("shape_min_points", 7, 10 ** 9), ("shape_min_arc_deg", 0.0, 360.0),
     ("shape_axis_min_span", 0.0, _INF), ("shape_trim_sigmas", 0.0, _INF), ("shape_floor_fraction", 0.0, 1.0),
-    ("shape_floor_center_radii", 0.0, 1.0), ("shape_min_angle_deg", 0.0, 180.0),
+    ("shape_floor_center_radii", 0.0, 1.0), ("shape_floor_min_width", 0.0, _INF), ("shape_min_angle_deg", 0.0, 180.0),
     ("shape_max_angle_deg", 0.0, 180.0),
 )
 _COUNTS = {"cell_index_from_candidates",

@@ -122,9 +122,33 @@ def render_table(records):
         if not record["holes"]:
             table.add_row("-", "", "", "", "no hole found", *[""] * (len(columns) - 5))
         console.print(table)
+        if any(hole.get("type") for hole in record["holes"]):
+            console.print(_shape_table(record["holes"]))
         if "rejected" in record:
             console.print(_rejected_table(record["rejected"]))
     return buffer.getvalue()
+
+
+def _shape_table(holes):
+    """The table of what each hole shows below its edge: type, countersink, counterbore, bore, axis."""
+    from rich.table import Table
+
+    def number(value, digits=4):
+        return "-" if value is None else f"{value:.{digits}f}"
+
+    table = Table(title="below the edge")
+    for column in ("hole", "type", "csk dia", "csk angle", "csk depth", "cbore dia", "cbore depth", "bore dia",
+                   "floor depth", "perp deg", "warnings"):
+        table.add_column(column, justify="left" if column in ("type", "warnings") else "right")
+    for hole in holes:
+        countersink, counterbore, bore = (hole.get(key) or {} for key in ("countersink", "counterbore", "bore"))
+        table.add_row(str(hole["index"]), hole.get("type") or "-", number(countersink.get("diameter")),
+                      number(countersink.get("angle_deg"), 2), number(countersink.get("depth")),
+                      number(counterbore.get("diameter")), number(counterbore.get("depth")),
+                      number(bore.get("diameter")), number(bore.get("floor_depth")),
+                      number(hole.get("perpendicularity_deg"), 3),
+                      ", ".join(warning["code"] for warning in hole.get("warnings", [])))
+    return table
 
 
 def _rejected_table(rejected):

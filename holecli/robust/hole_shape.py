@@ -19,7 +19,8 @@ out of the material: the side without the points below the surface):
    it) or, with no bore seen, to the cone points' inner edge.
 3. Otherwise a flat floor: the most populated depth among the points below inside the edge, fitted
    as a plane. It makes the hole blind when its points reach the axis, counterbored when they ring
-   it (a step around the bore). A floor needs ``shape_floor_fraction`` of the points below.
+   it (a step around the bore). A floor needs ``shape_floor_fraction`` of the points below, spread
+   over at least ``shape_floor_min_width`` radii (one row of wall points lies at one depth too).
 4. The bore wall: the points below that are on no cone or floor (and under the step or cone), near
    their median distance from the axis; a cylinder is fitted with a free axis when the wall spans at
    least ``shape_axis_min_span`` radii along it, else parallel to the axis already known.
@@ -147,7 +148,7 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
     below = height < -threshold
     floor_noise = max(noise, 1e-9 * R)
     warnings = []
-    countersink = counterbore = cone = None
+    countersink = counterbore = cone = floor = None
     axis = None
     floor_depth = None
     wall_mask = np.zeros(len(pts), dtype=bool)
@@ -159,9 +160,12 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
                                                     spacing, gauge_depth, settings, warnings)
         if cone is not None:
             axis, known_axis = cone.axis, cone.axis
+            # Under the cone: deeper along the axis than the cone is at the point's distance from it
+            # (the bore wall below the cone's lower edge, where the cone's extension would be narrower).
             crp, crt = _about(pts, cone.point, cone.axis)
-            inside_cone = crp < cone.radius_at(crt) - max(4.0 * cone.rms, 3.0 * floor_noise)
-            wall_mask = below & ~cone_mask & inside_cone
+            level = (crp - cone.radius) / np.tan(cone.half_angle)
+            under_cone = crt < level - max(4.0 * cone.rms, 3.0 * floor_noise, 1e-6 * R)
+            wall_mask = below & ~cone_mask & under_cone
         else:
             wall_mask = below & (rho < R)
     else:
@@ -172,7 +176,8 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
         else:
             floor_point, floor_normal, floor_mask, floor_rms = floor
             floor_normal = floor_normal if floor_normal @ n > 0 else -floor_normal
-            depth = float((c - floor_point) @ floor_normal) / float(n @ floor_normal)
+            # along the floor's normal here; along the axis once it is known (below)
+            depth = float((c - floor_point) @ floor_normal)
             blind = np.min(rho[floor_mask]) < settings.shape_floor_center_radii * R
             kind = "blind" if blind else "counterbored"
             known_axis = floor_normal
@@ -195,11 +200,19 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
         countersink = _with_depth(countersink, cone, c, n, lower, source, gauge_depth, warnings)
     if axis is None:
         axis = bore_axis if bore_axis is not None else (known_axis if kind in ("blind", "counterbored") else None)
+    if axis is not None:
+        axis = axis if axis @ n > 0 else -axis
+    if floor is not None and axis is not None:
+        # The floor's depth along the axis: where the axis through c meets the floor's plane.
+        along_axis = float((c - floor_point) @ floor_normal) / float(axis @ floor_normal)
+        if kind == "blind":
+            bore = Bore(**{**bore.__dict__, "floor_depth": along_axis})
+        else:
+            counterbore = Counterbore(**{**counterbore.__dict__, "depth": along_axis})
     if axis is None:
         warnings.append(_warning("axis_not_measured", f"{kind} hole"))
         perpendicularity = None
     else:
-        axis = axis if axis @ n > 0 else -axis
         perpendicularity = _angle_deg(axis, n)
         axis = tuple(float(v) for v in axis)
     return HoleShape(type=kind, countersink=countersink, counterbore=counterbore, bore=bore, axis=axis,
@@ -306,6 +319,8 @@ def _floor(pts, rho, depth, below, R, noise, settings):
             break
         mask = new_mask
     if np.count_nonzero(mask) < max(settings.shape_min_points, settings.shape_floor_fraction * count):
+        return None
+    if np.ptp(rho[mask]) < settings.shape_floor_min_width * R:
         return None
     rms = float(np.sqrt(np.mean(((pts[mask] - point) @ normal) ** 2)))
     return point, normal, mask, rms
