@@ -20,14 +20,21 @@ World
 
 Construction (no CSG)
 ---------------------
-Every feature is drilled along the top surface's normal ``n`` at its centre ``c`` (the image of
-its ``(u, v)`` centre): its walls are exact cylinders, cones and planes about that axis. The loops
-where the walls meet the top and bottom surfaces are computed exactly (a quadratic per vertex), so
-every mesh vertex lies on the true surface; only the flat facets between vertices deviate from it.
+Every feature is drilled through its centre ``c`` (the image of its ``(u, v)`` centre on the top
+surface) along its axis ``a``: the top surface's normal ``n`` at ``c``, or for a hole with
+``tilt_deg`` = t and ``tilt_direction_deg`` = phi, ``a = cos(t) n + sin(t) (cos(phi) e_u + sin(phi)
+e_v)``. Its walls are exact cylinders and cones about ``a`` and its levels (a countersink's lower
+edge, a counterbore's step, a blind floor) planes perpendicular to ``a``, every depth measured
+along ``a`` from ``c``. The loops where the walls meet the top and bottom surfaces are computed
+exactly (a quadratic per vertex along each wall's generator line: ``a`` for a cylinder, ``a +
+tan(half angle) e`` for a cone, ``e`` perpendicular to ``a``), so every mesh vertex lies on the true
+surface; only the flat facets between vertices deviate from it.
 The top and bottom faces are 2D Delaunay triangulations in ``(u, v)`` of: the panel border, each
-feature's contour (mapped back into ``(u, v)``), graded offset rings around each contour (spacing
-growing by ``_RING_GROWTH`` from the contour's own spacing, so that the contour's edges are Gabriel
-edges and therefore Delaunay edges; this is checked) and a background grid. Triangles whose three
+feature's contour (mapped back into ``(u, v)``; a tilted hole's contours are bounded by circles
+through their farthest vertex, about where the axis meets each face, for the gap checks and the
+grid), graded offset rings around each contour (spacing growing by ``_RING_GROWTH`` from the
+contour's own spacing, so that the contour's edges are Gabriel edges and therefore Delaunay edges;
+this is checked) and a background grid. Triangles whose three
 vertices lie on one (convex) contour are inside the feature and dropped. Walls are strips between
 loops of the same vertex count; floors are annuli or fans; the four sides are strips between the
 top and bottom borders.
@@ -41,19 +48,31 @@ facets where the rings around a feature meet the grid span up to twice that in `
 4 x ``chord_error`` (0.4 um at R = 500 mm with the default). Every vertex lies on the exact surface
 (to ~1e-12 mm).
 
-Truth on curved sheets
-----------------------
-A drilled cylinder meets a cylindrical surface in a saddle-shaped loop, not a plane circle. The
-truth gives ``center`` = where the axis pierces the top surface, ``axis`` = ``normal`` = the top
-normal there, and ``diameter`` = the *chord-mean diameter* of the visible edge loop measured in the
-tangent plane at ``center`` (projected along the axis; mean length of the chords through the axis,
-computed from ``_TRUTH_SAMPLES`` exact points of the loop). For a plain or blind bore this is the
-drilled diameter exactly; for a countersink or counterbore it differs from the nominal diameter
-(which holds in the tangent plane through ``center``) by about ``tan(half angle) r^2 / (2R)`` for a
-cone and not at all for a counterbore. ``edge_axial_offset`` gives how far the loop leaves the
-tangent plane (min, mean, max along the axis; all zero on a flat sheet), so a scorer fitting a 3D
-circle knows where its centre should be. Because holes are polygons, ``polygon_circumradius`` and
-``polygon_inradius`` describe the mesh's own projected edge polygon.
+Truth
+-----
+``center`` is where the axis pierces the top surface (``c``), ``normal`` the top normal there,
+``axis`` the drilling axis ``a`` (equal to ``normal`` unless the hole is tilted) and
+``perpendicularity_deg`` the angle between them (``tilt_deg``); ``tilt_deg`` and
+``tilt_direction_deg`` repeat the spec. The drilled sizes are the spec's: ``bore_diameter``,
+``countersink_diameter`` (in the plane through ``c`` perpendicular to ``a``) and
+``countersink_angle_deg``, ``countersink_depth`` = (countersink_diameter - diameter) / 2 /
+tan(half angle) along ``a`` from that plane to the cone's lower edge, ``counterbore_diameter`` /
+``counterbore_depth`` and ``floor_depth`` (along ``a`` from ``c``).
+
+``diameter`` is what a measurement of the visible edge is scored against: the *chord-mean
+diameter* of the edge loop (where the outermost wall meets the top surface), measured in the
+tangent plane at ``c`` and projected along the normal ``n``: the mean length of the chords through
+``c`` in ``_TRUTH_SAMPLES`` directions evenly spread over that plane, each chord between two exact
+points of the loop. A drilled cylinder meets a cylindrical sheet in a saddle-shaped loop, not a
+plane circle; untilted, for a plain or blind bore the chord mean is the drilled diameter exactly,
+for a countersink it differs from the nominal diameter by about ``tan(half angle) r^2 / (2R)``
+and for a counterbore not at all. A bore tilted by ``t`` meets a flat sheet in an ellipse of axes
+``d`` (across the lean) and ``d / cos(t)`` (along it), and ``diameter`` is the mean of its chords
+through the centre over all directions, between the two (``edge_diameter_min`` and ``_max`` are
+the shortest and longest chords). ``edge_axial_offset`` gives how far the loop leaves the tangent
+plane (min, mean, max along the normal; all zero on a flat sheet), so a scorer fitting a 3D circle
+knows where its centre should be. Because holes are polygons, ``polygon_circumradius`` and
+``polygon_inradius`` describe the mesh's own edge polygon projected along the normal.
 """
 
 from __future__ import annotations
@@ -111,6 +130,16 @@ _MIN_RADIUS_THICKNESSES = 10.0
 _COUNTERSINK_ANGLE_RANGE = (30.0, 150.0)
 # Smallest wall height (mm) between two loops at different depths, and from a loop to a surface.
 _MIN_WALL = 0.01
+# Drilling axes accepted: tilt from the surface normal in [0, _MAX_TILT_DEG) degrees.
+_MAX_TILT_DEG = 30.0
+# Smallest angle (degrees) between a countersink's steepest generator and the surface normal's
+# plane: tilt + half the included angle may reach at most 90 minus this, or the cone grazes the surface.
+_MIN_CONE_CLEARANCE_DEG = 5.0
+# Hole kinds that may be drilled off the normal.
+_TILTABLE = ("through", "countersunk", "counterbored", "blind")
+# Newton iterations (at most) and tolerance (radians) that find the loop point in a given direction.
+_DIRECTION_ITERATIONS = 20
+_DIRECTION_TOLERANCE = 1e-13
 
 
 # --------------------------------------------------------------------------------------------------
@@ -123,7 +152,7 @@ class FeatureSpec:
 
     Attributes
     ----------
-    kind : {'through', 'countersunk', 'counterbored', 'blind', 'slot'}
+    kind : {'through', 'countersunk', 'counterbored', 'blind', 'slot', 'boss'}
         ``'through'``: a cylindrical bore through the sheet. ``'countersunk'``: a cone of
         ``countersink_angle_deg`` from ``countersink_diameter`` at the surface down to the bore, then
         the bore through. ``'counterbored'``: a step of ``counterbore_diameter`` and
@@ -132,24 +161,42 @@ class FeatureSpec:
         to end) along ``direction_deg``; not a hole. ``'boss'``: a cylindrical pin of ``diameter``
         standing ``height`` above the tangent plane at the centre, flat-topped; not a hole.
     center : (2,) tuple of float
-        ``(u, v)`` of the feature's axis on the top surface, mm (arc length on a curved sheet).
+        ``(u, v)`` of the feature's axis on the top surface, mm (arc length on a curved sheet): the
+        centre point ``c``.
     diameter : float or None
-        Bore diameter, mm, > 0; None (omitted) for a slot.
+        Bore diameter, mm, > 0, perpendicular to the axis; None (omitted) for a slot.
     countersink_diameter : float or None
-        Outer diameter of the cone in the tangent plane at the centre, > ``diameter``.
+        Outer diameter of the cone in the plane perpendicular to the axis through the centre (the
+        tangent plane when the hole is not tilted), > ``diameter``.
     countersink_angle_deg : float
         Included angle of the cone, degrees (82, 90, 100, 110 are standard).
     counterbore_diameter, counterbore_depth : float or None
-        Diameter (> ``diameter``) and depth (0 < depth < thickness, along the axis) of the step.
+        Diameter (> ``diameter``) and depth (0 < depth < thickness, along the axis from the centre)
+        of the step, which is flat and perpendicular to the axis.
     depth : float or None
-        Depth of a blind hole's floor below the tangent plane at the centre, along the axis.
+        Depth of a blind hole's floor along the axis from the centre; the floor is perpendicular to
+        the axis.
     height : float or None
         A boss's height above the tangent plane at the centre, along the axis, > 0.
     width, length, direction_deg : float or None
         A slot's width, overall length (> width) and the direction of its length, degrees from +u
         towards +v.
+    tilt_deg : float
+        Angle between the drilling axis and the top surface's normal ``n`` at the centre, degrees,
+        in [0, 30) (and at most 85 - half the included angle for a countersink). Holes only
+        (through, countersunk, counterbored, blind); 0 (omitted) for a slot or a boss.
+    tilt_direction_deg : float
+        Direction the axis leans toward, degrees from ``+u`` toward ``+v`` in the tangent plane:
+        the axis (pointing out of the material) is ``a = cos(tilt) n + sin(tilt) (cos(dir) e_u +
+        sin(dir) e_v)``, so the bore runs toward ``-dir`` as it goes down. Holes only.
     name : str or None
         A label copied into the truth.
+
+    Notes
+    -----
+    A tilted hole is drilled along ``a`` through ``c``: its bore, cone and counterbore are exact
+    cylinders and cones about ``a``, and its levels (the cone's lower edge, the counterbore's step,
+    the blind floor) are planes perpendicular to ``a``, every depth measured along ``a`` from ``c``.
     """
 
     kind: str
@@ -164,6 +211,8 @@ class FeatureSpec:
     width: Optional[float] = None
     length: Optional[float] = None
     direction_deg: float = 0.0
+    tilt_deg: float = 0.0
+    tilt_direction_deg: float = 0.0
     name: Optional[str] = None
 
     @property
@@ -298,8 +347,8 @@ def _validate(spec, label="features") -> None:
         _fail("features", "a sequence of FeatureSpec", spec.features)
     for k, feature in enumerate(features):
         _validate_feature(f"{label}[{k}]", feature, spec)
-    _check_gaps(features, spec, label)
-    # The curved-sheet checks that need the exact loops are made in _feature_loops.
+    # The gaps between the contours and the checks that need the exact loops (on a curved sheet or
+    # for a tilted hole) are made in _checked_loops.
 
 
 def _validate_feature(name, f, spec) -> None:
@@ -319,15 +368,24 @@ def _validate_feature(name, f, spec) -> None:
     allowed = {"through": set(), "countersunk": {"countersink_diameter", "countersink_angle_deg"},
                "counterbored": {"counterbore_diameter", "counterbore_depth"}, "blind": {"depth"},
                "slot": {"width", "length", "direction_deg"}, "boss": {"height"}}[f.kind]
+    if f.kind in _TILTABLE:
+        allowed = allowed | {"tilt_deg", "tilt_direction_deg"}
     defaults = FeatureSpec(kind=f.kind, center=f.center)
     for key in ("diameter", "countersink_diameter", "countersink_angle_deg", "counterbore_diameter",
-                "counterbore_depth", "depth", "height", "width", "length", "direction_deg"):
+                "counterbore_depth", "depth", "height", "width", "length", "direction_deg", "tilt_deg",
+                "tilt_direction_deg"):
         if key == "diameter" and f.kind != "slot":
             continue
         if key not in allowed and getattr(f, key) != getattr(defaults, key):
             _fail(f"{name}.{key}", f"omitted for a {f.kind} feature", getattr(f, key))
     if f.kind != "slot":
         _positive(f"{name}.diameter", f.diameter)
+    if f.kind in _TILTABLE:
+        if not (_number(f.tilt_deg) and 0.0 <= f.tilt_deg < _MAX_TILT_DEG):
+            _fail(f"{name}.tilt_deg", f"an angle in degrees from 0 to less than {_MAX_TILT_DEG:g} "
+                  "(from the surface normal)", f.tilt_deg)
+        if not _number(f.tilt_direction_deg):
+            _fail(f"{name}.tilt_direction_deg", "a finite angle in degrees", f.tilt_direction_deg)
     if f.kind == "countersunk":
         if not (_number(f.countersink_diameter) and f.countersink_diameter > f.diameter):
             _fail(f"{name}.countersink_diameter", f"a finite number > diameter ({f.diameter:g})",
@@ -340,6 +398,11 @@ def _validate_feature(name, f, spec) -> None:
         if depth >= t - _MIN_WALL:
             _fail(f"{name}.countersink_diameter", f"small enough for the cone's depth ({depth:g}) to "
                   f"stay above the bottom (thickness {t:g})", f.countersink_diameter)
+        steepest = 90.0 - _MIN_CONE_CLEARANCE_DEG - f.countersink_angle_deg / 2.0
+        if f.tilt_deg > steepest:
+            _fail(f"{name}.tilt_deg", f"at most {steepest:g} for a {f.countersink_angle_deg:g} degree "
+                  f"countersink (its flattest generator must stay {_MIN_CONE_CLEARANCE_DEG:g} degrees "
+                  "off the tangent plane)", f.tilt_deg)
     if f.kind == "counterbored":
         if not (_number(f.counterbore_diameter) and f.counterbore_diameter > f.diameter):
             _fail(f"{name}.counterbore_diameter", f"a finite number > diameter ({f.diameter:g})",
@@ -362,7 +425,11 @@ def _validate_feature(name, f, spec) -> None:
 
 
 def _shape(f):
-    """The feature's outer contour in (u, v) as a capsule: centre, unit direction, half-length, radius."""
+    """The feature's nominal outer contour in (u, v) as a capsule: centre, unit direction, half-length, radius.
+
+    This is the contour of a feature drilled along the normal; a tilted hole's contours are bounded
+    by :func:`_contour_shape` of its exact loops instead.
+    """
     c = np.array([float(f.center[0]), float(f.center[1])])
     if f.kind == "slot":
         a = math.radians(f.direction_deg)
@@ -389,13 +456,37 @@ def _segment_distance(p0, p1, q0, q1) -> float:
                point_segment(q0, p0, p1), point_segment(q1, p0, p1))
 
 
-def _check_gaps(features, spec, label) -> None:
-    shapes = [_shape(f) for f in features]
+def _contour_shape(center_uv, contour_uv):
+    """A circle about ``center_uv`` (as a capsule of no length) holding every point of ``contour_uv``.
+
+    Parameters
+    ----------
+    center_uv : (2,) float
+        Where the feature's axis meets the face, in (u, v).
+    contour_uv : (k, 2) float
+        The polygon of the feature's loop on that face, in (u, v).
+
+    Returns
+    -------
+    tuple
+        ``(centre, unit direction, half-length 0, radius)``, the radius the farthest vertex's
+        distance (the polygon is convex, so it lies within the circle).
+    """
+    center_uv = np.asarray(center_uv, dtype=np.float64)
+    radius = float(np.max(np.linalg.norm(contour_uv - center_uv, axis=1)))
+    return center_uv, np.array([1.0, 0.0]), 0.0, radius
+
+
+def _check_gaps(features, spec, label, shapes, face="") -> None:
+    """Refuse contours (capsules ``shapes``, one per feature) too near the border or each other.
+
+    ``face`` is appended to the messages (e.g. " on the bottom face"); empty for the top face.
+    """
     for k, (c, d, half, r) in enumerate(shapes):
         ends = (c - half * d, c + half * d)
         room = min(min(spec.width / 2.0 - abs(e[0]), spec.height / 2.0 - abs(e[1])) for e in ends) - r
         if room < _MIN_GAP:
-            _fail(f"{label}[{k}].center", f"at least {_MIN_GAP:g} mm from the border with its contour "
+            _fail(f"{label}[{k}].center", f"at least {_MIN_GAP:g} mm from the border with its contour{face} "
                   f"(it comes within {room:.4g})", tuple(features[k].center))
     for i in range(len(shapes)):
         for j in range(i + 1, len(shapes)):
@@ -403,8 +494,22 @@ def _check_gaps(features, spec, label) -> None:
             cj, dj, hj, rj = shapes[j]
             gap = _segment_distance(ci - hi * di, ci + hi * di, cj - hj * dj, cj + hj * dj) - ri - rj
             if gap < _MIN_GAP:
-                _fail(f"{label}[{j}].center", f"at least {_MIN_GAP:g} mm from {label}[{i}]'s contour "
+                _fail(f"{label}[{j}].center", f"at least {_MIN_GAP:g} mm from {label}[{i}]'s contour{face} "
                       f"(the gap is {gap:.4g})", tuple(features[j].center))
+
+
+def _ring_limits(spec, shapes):
+    """How far each feature's graded rings may reach: 0.9 x half the room to its neighbours and the border."""
+    limits = []
+    for k, (c, d, half, r) in enumerate(shapes):
+        ends = (c - half * d, c + half * d)
+        room = min(min(spec.width / 2 - abs(e[0]), spec.height / 2 - abs(e[1])) for e in ends) - r
+        for j, (cj, dj, hj, rj) in enumerate(shapes):
+            if j != k:
+                gap = _segment_distance(c - half * d, c + half * d, cj - hj * dj, cj + hj * dj) - r - rj
+                room = min(room, gap / 2)
+        limits.append(0.9 * room)
+    return limits
 
 
 def _countersink_depth(f) -> float:
@@ -497,20 +602,87 @@ class _Loops:
     strips: list         # kind of the strip between loops[i] and loops[i + 1]: WALL or FLOOR
     floor_center: Optional[np.ndarray]
     through: bool
-    top_s: np.ndarray    # axial offsets of the top loop from the tangent plane at the centre
+    top_s: np.ndarray    # axial offsets of the top loop from the plane through the centre perpendicular to the axis
+    top_shape: tuple     # capsule in (u, v) of the top loop: _shape untilted, else _contour_shape of its polygon
+    bottom_shape: tuple  # the same for the bottom loop (the top's when the feature does not go through)
     truth: dict
+
+
+def _rotate(vector, axis, angle):
+    """``vector`` turned by ``angle`` radians about the unit ``axis`` (right hand; Rodrigues' formula)."""
+    cos, sin = math.cos(angle), math.sin(angle)
+    return vector * cos + np.cross(axis, vector) * sin + axis * float(axis @ vector) * (1.0 - cos)
+
+
+def _drill_frame(eu, ev, n, tilt_deg, tilt_direction_deg):
+    """Orthonormal frame ``(e1, e2, a)`` of a hole drilled off the normal, ``e1 x e2 = a``.
+
+    Parameters
+    ----------
+    eu, ev, n : (3,) float
+        The sheet's frame at the hole's centre (``n`` the top normal).
+    tilt_deg, tilt_direction_deg : float
+        Angle between the axis and ``n``; the direction it leans toward, from ``eu`` toward ``ev``.
+
+    Returns
+    -------
+    tuple of (3,) float
+        ``a = cos(tilt) n + sin(tilt) (cos(dir) eu + sin(dir) ev)``, and ``e1``, ``e2``: ``eu`` and
+        ``ev`` turned with it by the smallest rotation taking ``n`` to ``a`` (about ``n x lean``).
+        Untilted, ``(eu, ev, n)`` themselves, so that such a hole is meshed exactly as before.
+    """
+    if tilt_deg == 0:
+        return eu, ev, n
+    phi = math.radians(tilt_direction_deg)
+    lean = math.cos(phi) * eu + math.sin(phi) * ev
+    hinge = np.cross(n, lean)
+    tilt = math.radians(tilt_deg)
+    return _rotate(eu, hinge, tilt), _rotate(ev, hinge, tilt), _rotate(n, hinge, tilt)
+
+
+def _checked_loops(spec, bend, label):
+    """The exact loops of every feature, after checking that their contours keep their distances.
+
+    Parameters
+    ----------
+    spec : PanelSpec
+        A spec that passed :func:`_validate`.
+    bend : _Bend
+        Its sheet.
+    label : str
+        How messages name the features (``features`` or ``feature``).
+
+    Returns
+    -------
+    list of _Loops
+        One per feature.
+
+    Raises
+    ------
+    SpecError
+        A step or floor out of the sheet (from :func:`_feature_loops`), or contours within
+        ``_MIN_GAP`` of each other or of the border on the top or the bottom face.
+    """
+    features = tuple(spec.features)
+    loops = [_feature_loops(k, f, spec, bend, label) for k, f in enumerate(features)]
+    _check_gaps(features, spec, label, [fl.top_shape for fl in loops])
+    if any(f.tilt_deg != 0 for f in features):
+        # Untilted, the bottom contours are the top's (nominal) ones, checked above.
+        _check_gaps(features, spec, label, [fl.bottom_shape for fl in loops], " on the bottom face")
+    return loops
 
 
 def _feature_loops(k, f, spec, bend, label):
     t = spec.thickness
     uc, vc = float(f.center[0]), float(f.center[1])
     eu, ev, n = bend.frame(uc)
+    e1, e2, a = _drill_frame(eu, ev, n, f.tilt_deg, f.tilt_direction_deg)
     c = bend.to3d(uc, vc, 0.0)
     name = f"{label}[{k}]"
 
     def ring(radius, count):
         theta = np.arange(count) * (2 * np.pi / count)
-        return np.cos(theta)[:, None] * eu + np.sin(theta)[:, None] * ev
+        return np.cos(theta)[:, None] * e1 + np.sin(theta)[:, None] * e2
 
     def on_surface(base, direction, w, guess):
         s = bend.hit(base, direction, w, guess)
@@ -518,20 +690,22 @@ def _feature_loops(k, f, spec, bend, label):
 
     def drilled(radius, count, w, guess):
         e = ring(radius, count)
-        return on_surface(c + radius * e, np.broadcast_to(n, e.shape), w, guess)
+        return on_surface(c + radius * e, np.broadcast_to(a, e.shape), w, guess)
 
     def level(radius, count, depth):
-        return c - depth * n + radius * ring(radius, count)
+        return c - depth * a + radius * ring(radius, count)
 
+    perpendicularity = math.degrees(math.atan2(float(np.linalg.norm(np.cross(a, n))), float(a @ n)))
     truth = {"index": k, "name": f.name if f.name is not None else f"{f.kind}{k}", "kind": f.kind,
              "is_hole": f.kind not in ("slot", "boss"), "center": [float(v) for v in c],
-             "center_uv": [uc, vc], "axis": [float(v) for v in n], "normal": [float(v) for v in n],
-             "partial": False, "arc_deg": 360.0}
+             "center_uv": [uc, vc], "axis": [float(v) for v in a], "normal": [float(v) for v in n],
+             "perpendicularity_deg": perpendicularity, "tilt_deg": float(f.tilt_deg),
+             "tilt_direction_deg": float(f.tilt_direction_deg), "partial": False, "arc_deg": 360.0}
     floor_center, strips = None, []
     if f.kind == "slot":
         n_arc = _segments_for(f.width / 2.0, spec) // 2
-        a = math.radians(f.direction_deg)
-        d3 = math.cos(a) * eu + math.sin(a) * ev
+        angle = math.radians(f.direction_deg)
+        d3 = math.cos(angle) * eu + math.sin(angle) * ev
         b3 = np.cross(n, d3)
         outline = _slot_outline(f, n_arc)
         base = c + outline[:, :1] * d3 + outline[:, 1:] * b3
@@ -552,7 +726,7 @@ def _feature_loops(k, f, spec, bend, label):
             rc, half = f.countersink_diameter / 2.0, math.radians(f.countersink_angle_deg) / 2.0
             h = _countersink_depth(f)
             e = ring(rc, count)
-            top, top_s = on_surface(c + rc * e, n + math.tan(half) * e, 0.0, 0.0)
+            top, top_s = on_surface(c + rc * e, a + math.tan(half) * e, 0.0, 0.0)
             bottom, bottom_s = drilled(r, count, t, -t)
             loops, strips = [top, level(r, count, h), bottom], [WALL, WALL]
             _check_level(name, "countersink_diameter", f.countersink_diameter, h, top_s, bottom_s)
@@ -565,12 +739,17 @@ def _feature_loops(k, f, spec, bend, label):
             bottom, bottom_s = drilled(r, count, t, -t)
             loops = [top, level(rb, count, h), level(r, count, h), bottom]
             strips = [WALL, FLOOR, WALL]
-            _check_level(name, "counterbore_depth", h, h, top_s, bottom_s)
+            # The step spans r to rb: on a tilted axis (or a concave sheet) its outer rim may come
+            # nearer the bottom, and its inner rim nearer the top, than the loops that bound its walls.
+            _, inner_top_s = drilled(r, count, 0.0, 0.0)
+            _, outer_bottom_s = drilled(rb, count, t, -t)
+            _check_level(name, "counterbore_depth", h, h, np.minimum(top_s, inner_top_s),
+                         np.maximum(bottom_s, outer_bottom_s))
             truth.update({"counterbore_diameter": float(f.counterbore_diameter),
                           "counterbore_depth": float(h)})
         elif f.kind == "boss":
             top, top_s = drilled(r, count, 0.0, 0.0)
-            loops, strips, floor_center = [top, level(r, count, -f.height)], [WALL], c + f.height * n
+            loops, strips, floor_center = [top, level(r, count, -f.height)], [WALL], c + f.height * a
             if f.height < np.max(top_s) + _MIN_WALL:
                 raise SpecError(f"{name}.height must stand at least {_MIN_WALL:g} above the edge on the "
                                 f"surface (up to {np.max(top_s):.4g} above the tangent plane), got {f.height!r}")
@@ -579,7 +758,7 @@ def _feature_loops(k, f, spec, bend, label):
             top, top_s = drilled(r, count, 0.0, 0.0)
             _, bottom_s = drilled(r, count, t, -t)
             loops = [top, level(r, count, f.depth)]
-            strips, floor_center = [WALL], c - f.depth * n
+            strips, floor_center = [WALL], c - f.depth * a
             _check_level(name, "depth", f.depth, f.depth, top_s, bottom_s)
             truth["floor_depth"] = float(f.depth)
         else:
@@ -587,39 +766,100 @@ def _feature_loops(k, f, spec, bend, label):
             bottom, _ = drilled(r, count, t, -t)
             loops, strips = [top, bottom], [WALL]
         truth["bore_polygon_inradius"] = float(r * math.cos(math.pi / count))
-        truth.update(_edge_truth(f, spec, bend, c, eu, ev, n, top))
+        truth.update(_edge_truth(f, bend, c, (e1, e2, a), (eu, ev, n), top))
     truth["segments"] = int(segments)
-    return _Loops(loops=loops, strips=strips, floor_center=floor_center,
-                  through=f.kind not in ("blind", "boss"), top_s=top_s, truth=truth)
+    through = f.kind not in ("blind", "boss")
+    if f.tilt_deg == 0:
+        top_shape = bottom_shape = _shape(f)
+    else:
+        top_shape = _contour_shape((uc, vc), np.stack(bend.to2d(loops[0])[:2], axis=1))
+        bottom_shape = top_shape
+        if through:
+            pierce = c + bend.hit(c[None, :], a[None, :], t, -t)[0] * a
+            pierce_u, pierce_v, _ = bend.to2d(pierce)
+            bottom_shape = _contour_shape((float(pierce_u), float(pierce_v)),
+                                          np.stack(bend.to2d(loops[-1])[:2], axis=1))
+    return _Loops(loops=loops, strips=strips, floor_center=floor_center, through=through, top_s=top_s,
+                  top_shape=top_shape, bottom_shape=bottom_shape, truth=truth)
 
 
 def _check_level(name, key, value, depth, top_s, bottom_s):
-    # A step or floor at `depth` below the tangent plane must stay below the visible edge and above
-    # the bottom surface all round; on a curved sheet both surfaces leave the tangent plane.
+    # A step or floor at `depth` along the axis below the centre must stay below the visible edge
+    # and above the bottom surface all round; on a curved sheet or a tilted axis both surfaces leave
+    # the plane through the centre perpendicular to the axis.
     if -depth > np.min(top_s) - _MIN_WALL or -depth < np.max(bottom_s) + _MIN_WALL:
         raise SpecError(f"{name}.{key} must put the step or floor (at depth {depth:.4g} along the axis) "
                         f"at least {_MIN_WALL:g} below the top edge (down to {-np.min(top_s):.4g}) and "
                         f"above the bottom (from {-np.max(bottom_s):.4g}), got {value!r}")
 
 
-def _edge_truth(f, spec, bend, c, eu, ev, n, top_polygon) -> dict:
-    """Chord-mean diameter etc. of the exact edge loop, and radii of the mesh's edge polygon."""
-    theta = np.arange(_TRUTH_SAMPLES) * (2 * np.pi / _TRUTH_SAMPLES)
-    e = np.cos(theta)[:, None] * eu + np.sin(theta)[:, None] * ev
+def _directions_on_loop(exact_loop, c, eu, ev, directions):
+    """Loop parameters whose points, seen along the normal, lie in the given directions from ``c``.
+
+    Parameters
+    ----------
+    exact_loop : callable
+        ``theta (k,) -> (k, 3)`` points of the loop, ``theta`` the angle about the drilling axis.
+    c : (3,) float
+        The centre.
+    eu, ev : (3,) float
+        The tangent plane's axes at ``c``.
+    directions : (k,) float
+        Polar angles in the tangent plane, radians from ``eu`` toward ``ev``.
+
+    Returns
+    -------
+    (k,) float
+        ``theta`` with the projected point of ``exact_loop(theta)`` at polar angle ``directions``
+        (Newton's method to ``_DIRECTION_TOLERANCE``; the loop is star-shaped about ``c``).
+    """
+    def polar(theta):
+        rel = exact_loop(theta) - c
+        return np.arctan2(rel @ ev, rel @ eu)
+
+    def wrapped(angle):
+        return (angle + np.pi) % (2 * np.pi) - np.pi
+
+    theta = np.array(directions, dtype=np.float64)
+    step = 1e-6
+    for _ in range(_DIRECTION_ITERATIONS):
+        miss = wrapped(polar(theta) - directions)
+        if np.max(np.abs(miss)) <= _DIRECTION_TOLERANCE:
+            return theta
+        slope = wrapped(polar(theta + step) - polar(theta - step)) / (2 * step)
+        theta = theta - miss / slope
+    raise RuntimeError("panel: the edge loop's directions did not converge (a bug)")
+
+
+def _edge_truth(f, bend, c, drill_frame, sheet_frame, top_polygon) -> dict:
+    """Chord-mean diameter etc. of the exact edge loop, and radii of the mesh's edge polygon.
+
+    Everything is measured in the tangent plane at ``c``, projected along the normal: the chords
+    through ``c`` at ``_TRUTH_SAMPLES`` directions evenly spread in that plane, the loop's offsets
+    from it along the normal, and the mesh polygon's radii about ``c``.
+    """
+    e1, e2, a = drill_frame
+    eu, ev, n = sheet_frame
     rc = f.outer_radius
-    if f.kind == "countersunk":
-        direction = n + math.tan(math.radians(f.countersink_angle_deg) / 2.0) * e
-    else:
-        direction = np.broadcast_to(n, e.shape)
-    base = c + rc * e
-    s = bend.hit(base, direction, 0.0, 0.0)
-    loop = base + s[:, None] * direction
+    slope = math.tan(math.radians(f.countersink_angle_deg) / 2.0) if f.kind == "countersunk" else None
+
+    def exact_loop(theta):
+        e = np.cos(theta)[:, None] * e1 + np.sin(theta)[:, None] * e2
+        direction = np.broadcast_to(a, e.shape) if slope is None else a + slope * e
+        base = c + rc * e
+        s = bend.hit(base, direction, 0.0, 0.0)
+        return base + s[:, None] * direction
+
+    directions = np.arange(_TRUTH_SAMPLES) * (2 * np.pi / _TRUTH_SAMPLES)
+    # Untilted, the loop's point at angle theta about the axis lies in direction theta (seen along n).
+    theta = directions if f.tilt_deg == 0 else _directions_on_loop(exact_loop, c, eu, ev, directions)
+    loop = exact_loop(theta)
     rel = loop - c
     axial = rel @ n
     plane = rel - axial[:, None] * n
     half = _TRUTH_SAMPLES // 2
     chords = np.linalg.norm(plane[:half] - plane[half:], axis=1)
-    # The mesh's own polygon, projected along the axis.
+    # The mesh's own polygon, projected along the normal.
     prel = top_polygon - c
     pplane = prel - (prel @ n)[:, None] * n
     radii = np.linalg.norm(pplane, axis=1)
@@ -765,14 +1005,17 @@ def build_panel(spec: PanelSpec) -> Panel:
     Panel
         Closed, consistently oriented mesh. ``features[k]`` is a dict with ``index``, ``name``,
         ``kind``, ``is_hole`` (False for a slot or a boss), ``center`` (3D, mm: the axis on the top surface),
-        ``center_uv``, ``axis`` and ``normal`` (unit, the top normal at the centre, out of the
-        material), ``partial`` (False) and ``arc_deg`` (360), ``through``, ``segments``; for holes
-        ``diameter`` (chord-mean diameter of the visible edge in the tangent plane, mm; see the
-        module docstring), ``nominal_diameter``, ``edge_diameter_min`` / ``_max``,
-        ``edge_axial_offset`` ([min, mean, max] along the axis, mm), ``bore_diameter``,
-        ``polygon_circumradius``, ``polygon_inradius``, ``bore_polygon_inradius``; and
-        ``countersink_angle_deg``, ``countersink_diameter``, ``countersink_depth`` (axial, from the
-        tangent plane to the start of the bore) / ``counterbore_diameter``, ``counterbore_depth`` /
+        ``center_uv``, ``axis`` (unit, the drilling axis, out of the material), ``normal`` (unit,
+        the top normal at the centre, out of the material; equal to ``axis`` unless tilted),
+        ``perpendicularity_deg`` (the angle between them), ``tilt_deg`` and ``tilt_direction_deg``
+        (as specified), ``partial`` (False) and ``arc_deg`` (360), ``through``, ``segments``; for holes
+        ``diameter`` (chord-mean diameter of the visible edge in the tangent plane, projected along
+        the normal, mm; see the module docstring), ``nominal_diameter``, ``edge_diameter_min`` / ``_max``,
+        ``edge_axial_offset`` ([min, mean, max] along the normal, mm), ``bore_diameter``,
+        ``polygon_circumradius``, ``polygon_inradius`` (the mesh's edge polygon seen along the
+        normal), ``bore_polygon_inradius``; and
+        ``countersink_angle_deg``, ``countersink_diameter``, ``countersink_depth`` (along the axis, from
+        the centre to the start of the bore) / ``counterbore_diameter``, ``counterbore_depth`` /
         ``floor_depth`` / ``height`` (boss) where they apply; for slots ``width``, ``length``, ``direction`` (3D unit)
         and ``direction_deg``.
 
@@ -789,19 +1032,14 @@ def _build(spec, label):
     bend = _Bend(spec.curvature, spec.radius)
     t = spec.thickness
     features = tuple(spec.features)
-    loops = [_feature_loops(k, f, spec, bend, label) for k, f in enumerate(features)]
-    shapes = [_shape(f) for f in features]
+    loops = _checked_loops(spec, bend, label)
+    top_shapes = [fl.top_shape for fl in loops]
+    bottom_shapes = [fl.bottom_shape for fl in loops]
 
-    # Each feature's rings stay within half the gap to its neighbours and inside the border.
-    limits = []
-    for k, (c, d, half, r) in enumerate(shapes):
-        ends = (c - half * d, c + half * d)
-        room = min(min(spec.width / 2 - abs(e[0]), spec.height / 2 - abs(e[1])) for e in ends) - r
-        for j, (cj, dj, hj, rj) in enumerate(shapes):
-            if j != k:
-                gap = _segment_distance(c - half * d, c + half * d, cj - hj * dj, cj + hj * dj) - r - rj
-                room = min(room, gap / 2)
-        limits.append(0.9 * room)
+    # Each feature's rings stay within half the gap to its neighbours and inside the border, on each
+    # face with that face's contours (a tilted bore leaves the bottom away from its centre).
+    limits = {TOP: _ring_limits(spec, top_shapes), BOTTOM: _ring_limits(spec, bottom_shapes)}
+    shapes = {TOP: top_shapes, BOTTOM: bottom_shapes}
 
     du = dv = spec.grid_spacing
     if not bend.flat:
@@ -864,8 +1102,8 @@ def _build(spec, label):
         for k, ids in zip(through, feature_ids):
             u, v, _ = bend.to2d(allv[ids])
             contours.append(np.stack([u, v], axis=1))
-            contour_shapes.append(shapes[k])
-            contour_limits.append(limits[k])
+            contour_shapes.append(shapes[part][k])
+            contour_limits.append(limits[part][k])
         extra, tri = _face(spec, border, contours, contour_shapes, contour_limits, du, dv)
         extra_ids = add(bend.to3d(extra[:, 0], extra[:, 1], w))
         mapping = np.concatenate([border_ids] + list(feature_ids) + [extra_ids]).astype(np.int64)
@@ -920,15 +1158,16 @@ def panel_truth(panel: Panel) -> dict:
 
 _PANEL_KEYS = ("width", "height", "thickness", "curvature", "radius", "chord_error", "segments",
                "grid_spacing")
+_TILT_KEYS = ("tilt_deg", "tilt_direction_deg")
 _FEATURE_KEYS = {
-    "through": ("diameter",),
-    "countersunk": ("diameter", "countersink_diameter", "countersink_angle_deg"),
-    "counterbored": ("diameter", "counterbore_diameter", "counterbore_depth"),
-    "blind": ("diameter", "depth"),
+    "through": ("diameter",) + _TILT_KEYS,
+    "countersunk": ("diameter", "countersink_diameter", "countersink_angle_deg") + _TILT_KEYS,
+    "counterbored": ("diameter", "counterbore_diameter", "counterbore_depth") + _TILT_KEYS,
+    "blind": ("diameter", "depth") + _TILT_KEYS,
     "slot": ("width", "length", "direction_deg"),
     "boss": ("diameter", "height"),
 }
-_OPTIONAL_FEATURE_KEYS = {"countersink_angle_deg", "direction_deg"}
+_OPTIONAL_FEATURE_KEYS = {"countersink_angle_deg", "direction_deg"} | set(_TILT_KEYS)
 
 
 def parse_panel_toml(text) -> PanelSpec:
@@ -940,7 +1179,8 @@ def parse_panel_toml(text) -> PanelSpec:
     (``kind``, ``center = [u, v]``, optional ``name``, and the keys of that kind: ``diameter``;
     ``countersink_diameter``, ``countersink_angle_deg`` (default 100); ``counterbore_diameter``,
     ``counterbore_depth``; ``depth``; ``height`` (boss); for a slot ``width``, ``length``, ``direction_deg``
-    (default 0)).
+    (default 0); for a hole (not a slot or a boss) ``tilt_deg`` and ``tilt_direction_deg`` (default
+    0: drilled along the normal)).
 
     Parameters
     ----------
@@ -1019,8 +1259,6 @@ def parse_panel_toml(text) -> PanelSpec:
               for key in _PANEL_KEYS if key in panel and key != "curvature"}
     spec = PanelSpec(curvature=curvature, features=tuple(features), **values)
     _validate(spec, label="feature")
-    # The depth checks that need the exact loops run here too, so that a file is refused on reading.
-    bend = _Bend(spec.curvature, spec.radius)
-    for k, f in enumerate(spec.features):
-        _feature_loops(k, f, spec, bend, "feature")
+    # The gap and depth checks that need the exact loops run here too, so that a file is refused on reading.
+    _checked_loops(spec, _Bend(spec.curvature, spec.radius), "feature")
     return spec

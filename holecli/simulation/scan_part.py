@@ -25,6 +25,8 @@ _LENGTHS = ("diameter", "bore_diameter", "nominal_diameter", "countersink_diamet
             "bore_polygon_inradius")
 _POINTS = ("center",)
 _DIRECTIONS = ("axis", "normal", "direction")
+# Angles (perpendicularity_deg, tilt_deg, tilt_direction_deg, direction_deg, countersink_angle_deg) are
+# left as they are: a rigid motion and a change of unit keep them (the directions are the sheet's).
 
 
 @dataclass(frozen=True, eq=False)

@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy import integrate
 
 from holecli.errors import SpecError
 from holecli.simulation.panel import (
@@ -406,6 +407,16 @@ def test_a_floor_above_a_curved_edge_is_refused():
         build_panel(spec)
 
 
+
+def test_a_counterbore_step_through_a_concave_bottom_is_refused():
+    # Concave: the bottom rises away from the axis, 0.76 mm at the step's 10 mm rim (R 60, 6 mm
+    # thick), so a 5.5 mm deep step would pass through it there though it clears it at the bore.
+    feature = _one(kind="counterbored", diameter=4.0, counterbore_diameter=20.0, counterbore_depth=5.5)
+    spec = PanelSpec(40.0, 40.0, 6.0, "concave", 60.0, features=(feature,))
+    with pytest.raises(SpecError, match=r"^features\[0\]\.counterbore_depth must put the step .* above the "
+                                        r"bottom \(from 5\.238\)"):
+        build_panel(spec)
+
 # --------------------------------------------------------------------------------------------------
 # TOML
 
@@ -493,3 +504,324 @@ def test_toml_flat_defaults():
 def test_toml_refusals_name_the_key(text, match):
     with pytest.raises(SpecError, match=match):
         parse_panel_toml(text)
+
+
+# --------------------------------------------------------------------------------------------------
+# Holes drilled off the normal
+
+TILT, LEAN = 5.0, 30.0
+
+
+def _tilted_features(tilt=TILT, lean=LEAN):
+    return (
+        FeatureSpec("through", (-30.0, 0.0), 5.0, tilt_deg=tilt, tilt_direction_deg=lean),
+        FeatureSpec("countersunk", (-10.0, 0.0), 4.8, countersink_diameter=9.0, tilt_deg=tilt,
+                    tilt_direction_deg=lean),
+        FeatureSpec("counterbored", (10.0, 0.0), 4.0, counterbore_diameter=8.0, counterbore_depth=1.5,
+                    tilt_deg=tilt, tilt_direction_deg=lean),
+        FeatureSpec("blind", (30.0, 0.0), 3.0, depth=2.0, tilt_deg=tilt, tilt_direction_deg=lean),
+    )
+
+
+TILTED_SPECS = {
+    "flat": PanelSpec(80.0, 30.0, THICKNESS, features=_tilted_features()),
+    "convex": PanelSpec(80.0, 30.0, THICKNESS, "convex", 500.0, features=_tilted_features()),
+}
+_TILTED = {}
+
+
+@pytest.fixture(params=sorted(TILTED_SPECS))
+def tilted(request):
+    if request.param not in _TILTED:
+        _TILTED[request.param] = build_panel(TILTED_SPECS[request.param])
+    return _TILTED[request.param]
+
+
+def _expected_axis(spec, f):
+    """The tilted axis from the sheet's frame at the centre, written out for the test."""
+    u = f.center[0]
+    if spec.curvature == "flat":
+        eu, ev, n = np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, 1.0])
+    else:
+        phi = u / spec.radius
+        sign = 1.0 if spec.curvature == "convex" else -1.0
+        eu = np.array([math.cos(phi), 0.0, -sign * math.sin(phi)])
+        ev = np.array([0.0, 1.0, 0.0])
+        n = np.array([sign * math.sin(phi), 0.0, math.cos(phi)])
+    t, lean = math.radians(f.tilt_deg), math.radians(f.tilt_direction_deg)
+    return math.cos(t) * n + math.sin(t) * (math.cos(lean) * eu + math.sin(lean) * ev), n
+
+
+def test_untilted_keys_give_the_identical_mesh():
+    plain = PanelSpec(80.0, 30.0, THICKNESS, "convex", 500.0, features=_tilted_features(tilt=0.0, lean=0.0))
+    keyed = PanelSpec(80.0, 30.0, THICKNESS, "convex", 500.0, features=_tilted_features(tilt=0.0, lean=75.0))
+    a, b = build_panel(plain), build_panel(keyed)
+    assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.triangles, b.triangles)
+    assert np.array_equal(a.parts, b.parts) and np.array_equal(a.triangle_feature, b.triangle_feature)
+    for ta, tb in zip(a.features, b.features):
+        assert tb["tilt_direction_deg"] == 75.0
+        assert dict(ta, tilt_direction_deg=75.0) == tb
+        assert ta["axis"] == ta["normal"] and ta["perpendicularity_deg"] == 0.0 and ta["tilt_deg"] == 0.0
+
+
+def test_tilted_meshes_are_closed_and_consistently_oriented(tilted):
+    assert _is_closed(tilted)
+    p = tilted.vertices[tilted.triangles]
+    area = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1) / 2
+    assert area.min() > 0
+    volume = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6
+    assert volume > 0.9 * 80 * 30 * THICKNESS
+
+
+def test_tilted_walls_are_exact_about_the_tilted_axis(tilted):
+    spec = tilted.spec
+    for k, f in enumerate(spec.features):
+        center, axis = _axis_frame(tilted, k)
+        expected_axis, _ = _expected_axis(spec, f)
+        np.testing.assert_allclose(axis, expected_axis, atol=1e-15)
+        radial, axial = _radial_axial(_part_vertices(tilted, WALL, k), center, axis)
+        r = f.diameter / 2
+        if f.kind in ("through", "blind"):
+            np.testing.assert_allclose(radial, r, atol=1e-9)
+        elif f.kind == "counterbored":
+            rb, h = f.counterbore_diameter / 2, f.counterbore_depth
+            on_bore, on_counterbore = np.abs(radial - r) < 1e-9, np.abs(radial - rb) < 1e-9
+            assert (on_bore | on_counterbore).all()
+            # The counterbore's wall ends at the step, the bore's starts there.
+            assert axial[on_counterbore].min() == pytest.approx(-h, abs=1e-12)
+            assert axial[on_bore].max() == pytest.approx(-h, abs=1e-12)
+        else:
+            half = math.radians(f.countersink_angle_deg) / 2
+            h = tilted.features[k]["countersink_depth"]
+            assert h == pytest.approx((f.countersink_diameter - f.diameter) / 2 / math.tan(half), abs=1e-15)
+            cone = axial > -h + 1e-9
+            # Cone: radius r at the lower edge (depth h along the axis), growing by tan(half) upward.
+            np.testing.assert_allclose(radial[cone], r + (axial[cone] + h) * math.tan(half), atol=1e-9)
+            np.testing.assert_allclose(radial[~cone], r, atol=1e-9)
+            # The cone's diameter in the plane through the centre perpendicular to the axis.
+            assert r + h * math.tan(half) == pytest.approx(f.countersink_diameter / 2, abs=1e-12)
+
+
+def test_tilted_levels_are_perpendicular_to_the_axis_at_their_depths(tilted):
+    for k, f in enumerate(tilted.spec.features):
+        if f.kind not in ("blind", "counterbored", "countersunk"):
+            continue
+        center, axis = _axis_frame(tilted, k)
+        if f.kind == "countersunk":
+            # The cone's lower edge: the WALL vertices that are neither on the top nor the bottom.
+            loop = tilted.edge_loops[k]
+            walls = _part_vertices(tilted, WALL, k)
+            radial, axial = _radial_axial(walls, center, axis)
+            h = tilted.features[k]["countersink_depth"]
+            edge = (np.abs(radial - f.diameter / 2) < 1e-9) & (axial > -(h + THICKNESS) / 2)
+            assert edge.sum() == len(loop)
+            np.testing.assert_allclose(axial[edge], -h, atol=1e-12)
+            continue
+        radial, axial = _radial_axial(_part_vertices(tilted, FLOOR, k), center, axis)
+        depth = f.depth if f.kind == "blind" else f.counterbore_depth
+        np.testing.assert_allclose(axial, -depth, atol=1e-12)
+        outer = f.diameter / 2 if f.kind == "blind" else f.counterbore_diameter / 2
+        assert radial.max() == pytest.approx(outer, abs=1e-12)
+        key = "floor_depth" if f.kind == "blind" else "counterbore_depth"
+        assert tilted.features[k][key] == depth
+
+
+def test_tilted_edges_and_bottoms_lie_on_the_surfaces(tilted):
+    spec = tilted.spec
+    for k, f in enumerate(spec.features):
+        edge = tilted.vertices[tilted.edge_loops[k]]
+        if spec.curvature == "flat":
+            np.testing.assert_allclose(edge[:, 2], 0.0, atol=1e-12)
+        else:
+            np.testing.assert_allclose(_distance_from_bend_axis(tilted, edge), spec.radius, atol=1e-9)
+    bottom = tilted.vertices[np.unique(tilted.triangles[tilted.parts == BOTTOM])]
+    if spec.curvature == "flat":
+        np.testing.assert_allclose(bottom[:, 2], -THICKNESS, atol=1e-12)
+    else:
+        np.testing.assert_allclose(_distance_from_bend_axis(tilted, bottom), spec.radius - THICKNESS, atol=1e-9)
+
+
+def test_tilted_truth_axis_normal_and_perpendicularity(tilted):
+    truth = json.loads(json.dumps(panel_truth(tilted)))
+    for f, hole in zip(tilted.spec.features, truth["holes"]):
+        axis, normal = _expected_axis(tilted.spec, f)
+        np.testing.assert_allclose(hole["axis"], axis, atol=1e-15)
+        np.testing.assert_allclose(hole["normal"], normal, atol=1e-15)
+        assert hole["perpendicularity_deg"] == pytest.approx(TILT, abs=1e-12)
+        assert math.degrees(math.acos(np.dot(hole["axis"], hole["normal"]))) == pytest.approx(TILT, abs=1e-6)
+        assert hole["tilt_deg"] == TILT and hole["tilt_direction_deg"] == LEAN
+        assert hole["bore_diameter"] == f.diameter
+        assert hole["edge_diameter_min"] <= hole["diameter"] <= hole["edge_diameter_max"]
+        assert 2 * hole["polygon_inradius"] <= hole["edge_diameter_min"] + 1e-12
+
+
+def _chord_mean(radius_in_direction):
+    """Mean over directions psi in [0, pi) of the chord through the centre, rho(psi) + rho(psi + pi)."""
+    value, _ = integrate.quad(lambda psi: radius_in_direction(psi) + radius_in_direction(psi + math.pi),
+                              0.0, math.pi, epsabs=1e-13, epsrel=1e-13, limit=200)
+    return value / math.pi
+
+
+@pytest.mark.parametrize("tilt", [5.0, 25.0])
+def test_tilted_bore_edge_is_an_ellipse_scored_by_its_chord_mean(tilt):
+    feature = FeatureSpec("through", (0.0, 0.0), 5.0, tilt_deg=tilt, tilt_direction_deg=45.0)
+    truth = build_panel(PanelSpec(30.0, 30.0, THICKNESS, features=(feature,))).features[0]
+    # The bore meets the flat top in an ellipse about the centre: semi-axes r across the lean and
+    # r / cos(t) along it.
+    r = 2.5
+    a, b = r / math.cos(math.radians(tilt)), r
+
+    def ellipse(psi):
+        return 1.0 / math.hypot(math.cos(psi) / a, math.sin(psi) / b)
+
+    expected = _chord_mean(ellipse)
+    assert 2 * b < expected < 2 * a
+    assert truth["diameter"] == pytest.approx(expected, abs=1e-12)
+    # Directions every 2 pi / 4096 hit both axes of an ellipse leaning at 45 degrees.
+    assert truth["edge_diameter_min"] == pytest.approx(2 * b, abs=1e-12)
+    assert truth["edge_diameter_max"] == pytest.approx(2 * a, abs=1e-12)
+    np.testing.assert_allclose(truth["edge_axial_offset"], 0.0, atol=1e-12)
+    assert truth["nominal_diameter"] == 5.0 and truth["perpendicularity_deg"] == pytest.approx(tilt, abs=1e-12)
+
+
+def test_tilted_countersink_edge_is_the_cone_cut_by_the_surface():
+    f = FeatureSpec("countersunk", (0.0, 0.0), 4.8, countersink_diameter=9.0, countersink_angle_deg=90.0,
+                    tilt_deg=10.0, tilt_direction_deg=-60.0)
+    truth = build_panel(PanelSpec(30.0, 30.0, THICKNESS, features=(f,))).features[0]
+    axis = np.asarray(truth["axis"])
+    rc, slope = f.countersink_diameter / 2, math.tan(math.radians(f.countersink_angle_deg) / 2)
+
+    def cone(psi):
+        # A point rho w of the top plane (w a unit direction in it) is on the cone where its distance
+        # from the axis is rc + slope times its offset along the axis.
+        along = math.cos(psi) * axis[0] + math.sin(psi) * axis[1]
+        return rc / (math.sqrt(1.0 - along * along) - along * slope)
+
+    assert truth["diameter"] == pytest.approx(_chord_mean(cone), abs=1e-12)
+    assert truth["countersink_diameter"] == 9.0 and truth["countersink_angle_deg"] == 90.0
+
+
+def test_tilted_flat_volume_is_the_sheet_minus_the_oblique_bores():
+    features = (
+        FeatureSpec("through", (-20.0, 0.0), 5.0, tilt_deg=12.0, tilt_direction_deg=200.0),
+        FeatureSpec("counterbored", (0.0, 0.0), 4.0, counterbore_diameter=7.0, counterbore_depth=1.2,
+                    tilt_deg=8.0, tilt_direction_deg=90.0),
+        FeatureSpec("blind", (20.0, 0.0), 3.0, depth=2.0, tilt_deg=20.0, tilt_direction_deg=-10.0),
+    )
+    panel = build_panel(PanelSpec(60.0, 20.0, THICKNESS, features=features))
+    p = panel.vertices[panel.triangles]
+    volume = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6
+    removed = 0.0
+    for f, truth in zip(features, panel.features):
+        n = truth["segments"]
+        # A prism about the axis cut by planes holds its cross-section's area times the length of
+        # its axis between them; the flat bottom is t / cos(tilt) along the axis from the centre.
+        length_to_bottom = THICKNESS / math.cos(math.radians(f.tilt_deg))
+        r = f.diameter / 2
+        if f.kind == "through":
+            round_volume = math.pi * r * r * length_to_bottom
+        elif f.kind == "blind":
+            round_volume = math.pi * r * r * f.depth
+        else:
+            rb, h = f.counterbore_diameter / 2, f.counterbore_depth
+            round_volume = math.pi * (rb * rb * h + r * r * (length_to_bottom - h))
+        removed += n * math.sin(2 * math.pi / n) / (2 * math.pi) * round_volume
+    assert volume == pytest.approx(60.0 * 20.0 * THICKNESS - removed, rel=1e-11)
+    assert _is_closed(panel)
+
+
+@pytest.mark.parametrize("curvature, radius", [("flat", None), ("concave", 500.0)])
+def test_steep_tilts_still_give_closed_meshes(curvature, radius):
+    features = (
+        FeatureSpec("through", (-15.0, 0.0), 5.0, tilt_deg=29.0, tilt_direction_deg=0.0),
+        FeatureSpec("countersunk", (0.0, 0.0), 4.0, countersink_diameter=7.0, countersink_angle_deg=82.0,
+                    tilt_deg=29.0, tilt_direction_deg=180.0),
+        FeatureSpec("blind", (15.0, 0.0), 4.0, depth=1.5, tilt_deg=20.0, tilt_direction_deg=90.0),
+    )
+    panel = build_panel(PanelSpec(50.0, 20.0, THICKNESS, curvature, radius, features=features))
+    assert _is_closed(panel)
+    center, axis = _axis_frame(panel, 0)
+    radial, _ = _radial_axial(_part_vertices(panel, WALL, 0), center, axis)
+    np.testing.assert_allclose(radial, 2.5, atol=1e-9)
+
+
+@pytest.mark.parametrize("feature, match", [
+    (_one(tilt_deg=-1.0), r"^features\[0\]\.tilt_deg must be an angle in degrees from 0 to less than 30"),
+    (_one(tilt_deg=30.0), r"^features\[0\]\.tilt_deg must be an angle .* got 30\.0"),
+    (_one(tilt_deg=float("nan")), r"^features\[0\]\.tilt_deg must be an angle"),
+    (_one(tilt_deg="5"), r"^features\[0\]\.tilt_deg must be an angle .* got '5'"),
+    (_one(tilt_deg=5.0, tilt_direction_deg=float("inf")),
+     r"^features\[0\]\.tilt_direction_deg must be a finite angle in degrees, got inf"),
+    (_one(kind="slot", diameter=None, width=4.0, length=10.0, tilt_deg=5.0),
+     r"^features\[0\]\.tilt_deg must be omitted for a slot feature, got 5\.0"),
+    (_one(kind="slot", diameter=None, width=4.0, length=10.0, tilt_direction_deg=10.0),
+     r"^features\[0\]\.tilt_direction_deg must be omitted for a slot feature"),
+    (_one(kind="boss", height=1.0, tilt_deg=2.0), r"^features\[0\]\.tilt_deg must be omitted for a boss feature"),
+    (_one(kind="countersunk", countersink_diameter=8.0, countersink_angle_deg=150.0, tilt_deg=15.0),
+     r"^features\[0\]\.tilt_deg must be at most 10 for a 150 degree countersink"),
+    (_one(kind="counterbored", diameter=4.0, counterbore_diameter=8.0, counterbore_depth=1.5, tilt_deg=25.0),
+     r"^features\[0\]\.counterbore_depth must put the step or floor \(at depth 1\.5 along the axis\)"),
+])
+def test_invalid_tilts_are_refused_naming_the_field(feature, match):
+    with pytest.raises(SpecError, match=match):
+        build_panel(PanelSpec(50.0, 50.0, THICKNESS, features=(feature,)))
+
+
+def test_a_tilted_bore_crowding_its_neighbour_on_the_bottom_is_refused():
+    # 1 mm apart on top. The first axis leans 25 degrees away from the second (toward -u), so going
+    # down the bore runs toward it and comes 1.4 mm nearer at the bottom, where its ellipse is also
+    # 10 % longer; leaning the other way it is fine.
+    lean = _one(tilt_deg=25.0, tilt_direction_deg=180.0)
+    neighbour = _one(center=(6.0, 0.0))
+    assert _is_closed(build_panel(PanelSpec(50.0, 50.0, THICKNESS, features=(_one(tilt_deg=25.0), neighbour))))
+    with pytest.raises(SpecError, match=r"^features\[1\]\.center must be at least 0\.5 mm from features\[0\]'s "
+                                        r"contour on the bottom face \(the gap is -"):
+        build_panel(PanelSpec(50.0, 50.0, THICKNESS, features=(lean, neighbour)))
+
+
+TILTED_TOML = """
+[panel]
+width = 60
+height = 40
+thickness = 3.0
+
+[[feature]]
+kind = "through"
+center = [-10.0, 0.0]
+diameter = 5
+tilt_deg = 5
+tilt_direction_deg = 30
+
+[[feature]]
+kind = "countersunk"
+center = [10.0, 0.0]
+diameter = 4.8
+countersink_diameter = 9.0
+tilt_deg = 2.5
+"""
+
+
+def test_toml_tilt_keys():
+    spec = parse_panel_toml(TILTED_TOML)
+    assert spec.features == (
+        FeatureSpec("through", (-10.0, 0.0), 5.0, tilt_deg=5.0, tilt_direction_deg=30.0),
+        FeatureSpec("countersunk", (10.0, 0.0), 4.8, countersink_diameter=9.0, tilt_deg=2.5))
+    assert isinstance(spec.features[0].tilt_deg, float)
+    truth = panel_truth(build_panel(spec))
+    assert [h["perpendicularity_deg"] for h in truth["holes"]] == pytest.approx([5.0, 2.5], abs=1e-12)
+    assert [h["tilt_direction_deg"] for h in truth["holes"]] == [30.0, 0.0]
+
+
+@pytest.mark.parametrize("feature, match", [
+    ("kind = 'slot'\ncenter = [0, 0]\nwidth = 4\nlength = 10\ntilt_deg = 5\n",
+     r"^feature\[0\]: unknown key 'tilt_deg' for a slot feature"),
+    ("kind = 'boss'\ncenter = [0, 0]\ndiameter = 4\nheight = 1\ntilt_direction_deg = 5\n",
+     r"^feature\[0\]: unknown key 'tilt_direction_deg' for a boss feature"),
+    ("kind = 'through'\ncenter = [0, 0]\ndiameter = 4\ntilt_deg = '5'\n",
+     r"^feature\[0\]\.tilt_deg must be a number, got '5'"),
+    ("kind = 'blind'\ncenter = [0, 0]\ndiameter = 4\ndepth = 1\ntilt_deg = 45\n",
+     r"^feature\[0\]\.tilt_deg must be an angle in degrees from 0 to less than 30"),
+])
+def test_toml_tilt_refusals(feature, match):
+    with pytest.raises(SpecError, match=match):
+        parse_panel_toml("[panel]\nwidth = 50\nheight = 40\nthickness = 3\n[[feature]]\n" + feature)

@@ -64,6 +64,24 @@ def test_simulate_panel_writes_a_float32_scan_and_its_truth(run, tmp_path):
     assert truth["profiler"]["point_pitch"] == 0.2 and truth["units"] == "mm"
 
 
+def test_simulate_panel_carries_a_tilted_axis_into_the_robot_frame(run, tmp_path):
+    spec = tmp_path / "tilted.toml"
+    spec.write_text("[panel]\nwidth = 20\nheight = 14\nthickness = 2\nsegments = 128\n\n[[feature]]\n"
+                    "name = 'T1'\nkind = 'through'\ncenter = [0.0, 0.0]\ndiameter = 4.0\ntilt_deg = 5.0\n"
+                    "tilt_direction_deg = 30.0\n")
+    scan = tmp_path / "tilted.ply"
+    result = run("simulate", scan, "--panel", spec, "--spacing", "0.2", "--rotation", "0,0,90")
+    assert result.exit_code == 0, result.stderr
+    (hole,) = json.loads((tmp_path / "tilted.truth.json").read_text())["holes"]
+    tilt, lean = math.radians(5.0), math.radians(30.0)
+    part_axis = np.array([math.sin(tilt) * math.cos(lean), math.sin(tilt) * math.sin(lean), math.cos(tilt)])
+    # Turned 90 degrees about z: (x, y, z) -> (-y, x, z); the angles are the sheet's and stay.
+    np.testing.assert_allclose(hole["axis"], [-part_axis[1], part_axis[0], part_axis[2]], atol=1e-12)
+    np.testing.assert_allclose(hole["normal"], [0.0, 0.0, 1.0], atol=1e-12)
+    assert hole["perpendicularity_deg"] == pytest.approx(5.0, abs=1e-12)
+    assert (hole["tilt_deg"], hole["tilt_direction_deg"]) == (5.0, 30.0)
+    assert 4.0 < hole["diameter"] < 4.0 / math.cos(tilt)
+
 @pytest.mark.slow
 def test_detect_finds_the_holes_of_a_scanned_panel_and_nothing_on_its_slot_and_boss(run, tmp_path):
     scan = tmp_path / "panel.ply"
