@@ -238,6 +238,13 @@ class RobustSettings:
     # A bore wall seen over less than shape_axis_min_span of its radius along the axis gives no axis:
     # its cylinder is fitted parallel to the axis from the cone, the floor or the surface normal.
     shape_axis_min_span: float = 0.5
+    # A free bore axis more than shape_max_axis_change_deg off the axis known before it (cone, floor,
+    # normal) is not trusted (the wall is then fitted along the known axis).
+    shape_max_axis_change_deg: float = 15.0
+    # A cone or cylinder fit leaving an rms above shape_max_rms_sigmas surface-noise sigmas (and above
+    # shape_max_rms_radii of its radius) is no such surface: its values are null.
+    shape_max_rms_sigmas: float = 5.0
+    shape_max_rms_radii: float = 0.005
     # Trimming of the cone, cylinder and floor fits: points beyond shape_trim_sigmas robust sigmas.
     shape_trim_sigmas: float = 3.0
     # A flat floor: at least shape_floor_fraction of the points below the surface inside the edge lie
@@ -248,6 +255,10 @@ class RobustSettings:
     # A floor spreads over at least shape_floor_min_width edge radii from the axis outward (a ring of
     # wall points at one depth, one row of a scan, is planar too, and has no width).
     shape_floor_min_width: float = 0.15
+    # The floor's plane is the best of shape_floor_hypotheses planes through three points below,
+    # among those leaning at most shape_floor_max_tilt_deg off the surface normal.
+    shape_floor_hypotheses: int = 128
+    shape_floor_max_tilt_deg: float = 20.0
     # A fitted countersink's included angle must lie in this range (degrees) to be reported.
     shape_min_angle_deg: float = 30.0
     shape_max_angle_deg: float = 150.0
@@ -308,7 +319,9 @@ _RANGES = (
     ("shape_below_sigmas", 0.0, _INF), ("shape_below_radii", 0.0, _INF), ("shape_search_radii", 1.0, _INF),
     ("shape_depth_radii", 0.0, _INF), ("shape_min_points", 7, 10 ** 9), ("shape_min_arc_deg", 0.0, 360.0),
     ("shape_axis_min_span", 0.0, _INF), ("shape_trim_sigmas", 0.0, _INF), ("shape_floor_fraction", 0.0, 1.0),
-    ("shape_floor_center_radii", 0.0, 1.0), ("shape_floor_min_width", 0.0, _INF), ("shape_min_angle_deg", 0.0, 180.0),
+    ("shape_floor_center_radii", 0.0, 1.0), ("shape_floor_min_width", 0.0, _INF), ("shape_max_axis_change_deg", 0.0, 180.0),
+    ("shape_max_rms_sigmas", 0.0, _INF), ("shape_max_rms_radii", 0.0, _INF),
+    ("shape_floor_hypotheses", 1, 10 ** 6), ("shape_floor_max_tilt_deg", 0.0, 90.0), ("shape_min_angle_deg", 0.0, 180.0),
     ("shape_max_angle_deg", 0.0, 180.0),
 )
 _COUNTS = {"cell_index_from_candidates",
@@ -317,7 +330,7 @@ _COUNTS = {"cell_index_from_candidates",
            "min_partial_rim_points", "plane_refine_rounds", "plane_refine_sample", "plane_max_faces",
            "sampling_pitch_neighbours", "max_speck_cells", "bias_min_rim_points", "lattice_min_brackets",
            "cone_min_points_below", "cone_trim_rounds", "cone_edge_steps", "cone_depth_bins",
-           "cone_min_bin_points", "shape_min_points"}
+           "cone_min_bin_points", "shape_min_points", "shape_floor_hypotheses"}
 _CLOSED = {"shape_min_arc_deg", "shape_floor_fraction", "min_partial_arc_deg", "full_arc_deg", "boss_fraction", "lattice_min_present_fraction",
            "lattice_max_gap_deg"}
 

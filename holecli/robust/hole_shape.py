@@ -17,8 +17,9 @@ out of the material: the side without the points below the surface):
    edge fit found, then again to every point within four rms of the first fit. Its diameter is taken
    where its axis meets the surface, its depth from there to where it meets the bore (fitted below
    it) or, with no bore seen, to the cone points' inner edge.
-3. Otherwise a flat floor: the most populated depth among the points below inside the edge, fitted
-   as a plane. It makes the hole blind when its points reach the axis, counterbored when they ring
+3. Otherwise a flat floor: of planes through three of the points below inside the edge (leaning at
+   most ``shape_floor_max_tilt_deg`` off the normal: a floor is drilled square to a tilted axis),
+   the one holding most points, fitted again to them. It makes the hole blind when its points reach the axis, counterbored when they ring
    it (a step around the bore). A floor needs ``shape_floor_fraction`` of the points below, spread
    over at least ``shape_floor_min_width`` radii (one row of wall points lies at one depth too).
 4. The bore wall: the points below that are on no cone or floor (and under the step or cone), near
@@ -51,6 +52,8 @@ WARNING_CODES = {
     "cone_few_points": "too few points on the countersink's cone for a fit: no countersink values",
     "cone_short_arc": "the countersink's cone is seen over too little of its circumference",
     "cone_angle_implausible": "the fitted cone's angle is outside the plausible range: no countersink values",
+    "cone_not_conical": "the points taken for the countersink do not lie on one cone: no countersink values",
+    "bore_not_cylindrical": "the points taken for the bore wall do not lie on one cylinder: no bore diameter",
     "gauge_depth_outside_cone": "--gauge-depth is not within the countersink's depth: no diameter_at_depth",
     "axis_not_measured": "no cone, bore wall or floor shows the hole's axis: no axis or perpendicularity",
 }
@@ -169,7 +172,7 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
         else:
             wall_mask = below & (rho < R)
     else:
-        floor = _floor(pts, rho, -height, below, R, floor_noise, settings)
+        floor = _floor(pts, rho, below, n, R, floor_noise, settings)
         if floor is None:
             kind = "through"
             wall_mask = below & (rho < R + 2.0 * spacing + 0.1 * R)
@@ -181,13 +184,16 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
             blind = np.min(rho[floor_mask]) < settings.shape_floor_center_radii * R
             kind = "blind" if blind else "counterbored"
             known_axis = floor_normal
+            # Height above the floor's plane: a blind hole's wall stands above it, a counterbore's bore
+            # goes on below it.
+            above_floor = (pts - floor_point) @ floor_normal
             if blind:
                 floor_depth = depth
-                wall_mask = below & ~floor_mask & (-height < depth - 3.0 * floor_noise)
+                wall_mask = below & ~floor_mask & (above_floor > 3.0 * floor_noise)
             else:
                 counterbore = Counterbore(diameter=2.0 * R, depth=depth, rms=floor_rms,
                                           points=int(np.count_nonzero(floor_mask)))
-                wall_mask = below & ~floor_mask & (-height > depth + 3.0 * floor_noise)
+                wall_mask = below & ~floor_mask & (above_floor < -3.0 * floor_noise)
 
     bore, bore_axis = _bore(pts, wall_mask, c, n, known_axis, floor_noise, settings, warnings)
     if kind == "blind":
@@ -253,6 +259,10 @@ def _countersink(pts, rho, depth, below, c, n, R, slope, noise, spacing, gauge_d
     if arc < settings.shape_min_arc_deg:
         warnings.append(_warning("cone_short_arc", f"{arc:.0f} < {settings.shape_min_arc_deg:g} degrees"))
         return base, None, mask
+    limit = _rms_limit(noise, R, settings)
+    if cone.rms > limit:
+        warnings.append(_warning("cone_not_conical", f"rms {cone.rms:.3g} > {limit:.3g}"))
+        return base, None, mask
     if not settings.shape_min_angle_deg <= angle <= settings.shape_max_angle_deg:
         warnings.append(_warning("cone_angle_implausible", f"{angle:.1f} degrees"))
         return base, None, mask
@@ -261,6 +271,13 @@ def _countersink(pts, rho, depth, below, c, n, R, slope, noise, spacing, gauge_d
     measured = Countersink(diameter=diameter, angle_deg=angle, depth=None, depth_from=None,
                            diameter_at_depth=None, gauge_depth=gauge_depth, rms=cone.rms, points=used, arc_deg=arc)
     return measured, cone, mask
+
+
+def _rms_limit(noise, radius, settings):
+    """Largest rms a cone or cylinder fit may leave: shape_max_rms_sigmas times the surface noise, and
+    at least shape_max_rms_radii of the radius (for noise-free scans, whose facets and round-off
+    remain)."""
+    return max(settings.shape_max_rms_sigmas * noise, settings.shape_max_rms_radii * radius)
 
 
 def _inner_edge_radius(cone, pts):
@@ -291,19 +308,35 @@ def _with_depth(countersink, cone, c, n, lower_radius, source, gauge_depth, warn
                           "diameter_at_depth": at_depth})
 
 
-def _floor(pts, rho, depth, below, R, noise, settings):
-    """The flat floor inside the edge: (point, normal, mask, rms), or None when there is none."""
+def _floor(pts, rho, below, up, R, noise, settings):
+    """The flat floor inside the edge: (point, normal, mask, rms), or None when there is none
+    (``up``: the surface normal)."""
     inside = below & (rho < R)
     count = int(np.count_nonzero(inside))
     if count < settings.shape_min_points:
         return None
-    values = depth[inside]
-    width = max(4.0 * noise, 0.01 * R)
-    edges = np.arange(values.min(), values.max() + 2.0 * width, width)
-    histogram, edges = np.histogram(values, bins=edges)
-    peak = int(np.argmax(histogram))
-    level = 0.5 * (edges[peak] + edges[peak + 1])
-    candidates = inside & (np.abs(depth - level) < 2.0 * width)
+    # The plane holding most of the points below: a floor drilled off the normal is tilted with the
+    # axis, so its depth along the normal varies across it (by 2 R tan(5 deg) = 0.3 mm at 3.5 mm).
+    # Planes through three of the points, those leaning at most shape_floor_max_tilt_deg off the
+    # normal; seeded, so the result does not vary from run to run.
+    index = np.flatnonzero(inside)
+    band = max(4.0 * noise, 0.01 * R)
+    rng = np.random.default_rng(0)
+    triples = index[rng.integers(0, len(index), (settings.shape_floor_hypotheses, 3))]
+    a, b, c3 = pts[triples[:, 0]], pts[triples[:, 1]], pts[triples[:, 2]]
+    normals = np.cross(b - a, c3 - a)
+    lengths = np.linalg.norm(normals, axis=1)
+    usable = lengths > 1e-12 * R * R
+    normals = normals[usable] / lengths[usable, None]
+    a = a[usable]
+    steep = np.abs(normals @ up) < np.cos(np.radians(settings.shape_floor_max_tilt_deg))
+    normals, a = normals[~steep], a[~steep]
+    if len(normals) == 0:
+        return None
+    offsets = np.einsum("ij,ij->i", a, normals)
+    support = (np.abs(pts[index] @ normals.T - offsets) < band).sum(axis=0)
+    best = int(np.argmax(support))
+    candidates = inside & (np.abs((pts - a[best]) @ normals[best]) < band)
     if np.count_nonzero(candidates) < max(settings.shape_min_points, settings.shape_floor_fraction * count):
         return None
     mask = candidates
@@ -345,12 +378,24 @@ def _bore(pts, wall_mask, c, n, known_axis, noise, settings, warnings):
     free = span >= settings.shape_axis_min_span * typical
     cylinder = fit_cylinder(pts[candidates], c, known_axis, typical, fixed_axis=not free, floor=noise,
                             trim_sigmas=settings.shape_trim_sigmas)
+    if free and _angle_deg(cylinder.axis, known_axis) > settings.shape_max_axis_change_deg:
+        # Walls of two radii (a counterbore's and the bore's) or a wall and stray points pull a free
+        # axis over; a bore drilled that far off the axis known (the cone's, the floor's, the normal)
+        # is no bore of this hole: its direction is not trusted.
+        free = False
+        cylinder = fit_cylinder(pts[candidates], c, known_axis, typical, fixed_axis=True, floor=noise,
+                                trim_sigmas=settings.shape_trim_sigmas)
     wall = pts[candidates][cylinder.kept]
     arc = _arc_deg(wall, cylinder.point, cylinder.axis)
     depths = -((wall - c) @ n)
     if len(wall) < settings.shape_min_points:
         warnings.append(_warning("bore_not_seen", f"{len(wall)} wall points < {settings.shape_min_points}"))
         return empty, None
+    limit = _rms_limit(noise, cylinder.radius, settings)
+    if cylinder.rms > limit:
+        warnings.append(_warning("bore_not_cylindrical", f"rms {cylinder.rms:.3g} > {limit:.3g}"))
+        return Bore(diameter=None, rms=cylinder.rms, points=len(wall),
+                    depth_range=(float(depths.min()), float(depths.max())), arc_deg=arc), None
     if arc < settings.shape_min_arc_deg:
         warnings.append(_warning("bore_short_arc", f"{arc:.0f} < {settings.shape_min_arc_deg:g} degrees"))
         return Bore(diameter=None, rms=cylinder.rms, points=len(wall),

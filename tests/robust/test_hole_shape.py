@@ -9,6 +9,7 @@ import pytest
 
 from holecli.geometry.revolution import frame_about
 from holecli.robust.hole_shape import WARNING_CODES, measure_hole_shape
+from holecli.settings import RobustSettings
 
 PITCH = 0.05
 
@@ -247,3 +248,51 @@ def test_a_steep_cone_is_not_reported_as_a_countersink():
     cone = np.column_stack([annulus, -(3.5 - np.hypot(*annulus.T)) / np.tan(half)])
     shape = _measure(np.vstack([_surface(3.5), cone]), 3.5, cone_slope=1 / np.tan(half))
     assert shape.countersink.angle_deg is None and "cone_angle_implausible" in _codes(shape)
+
+
+@pytest.mark.parametrize("tilt", [2.0, 5.0])
+def test_a_counterbore_step_drilled_off_the_normal_is_found(tilt):
+    """shape_floor_max_tilt_deg: the step lies square to the tilted axis, so across it its depth below
+    the surface varies by 2 R tan(tilt); the floor is searched among tilted planes."""
+    axis = _axis(tilt)
+    step = _polar(2.0, 3.5)
+    floor = _in_axis_frame(np.column_stack([step, np.full(len(step), -1.0)]), axis)
+    wall = _wall(2.0, 1.0 + 2 * PITCH, 3.0, axis, (0.0, np.pi))
+    shape = _measure(np.vstack([_surface(3.5), floor, wall]), 3.5)
+    assert shape.type == "counterbored"
+    assert abs(shape.counterbore.depth - 1.0) < 1e-3
+    assert abs(shape.perpendicularity_deg - tilt) < 0.01
+    flat_only = _measure(np.vstack([_surface(3.5), floor, wall]), 3.5,
+                         settings=RobustSettings(shape_floor_max_tilt_deg=0.5))
+    assert flat_only.type != "counterbored" or abs(flat_only.perpendicularity_deg - tilt) > 0.01
+
+
+def test_two_walls_of_different_radii_give_no_bore():
+    """shape_max_rms_sigmas / shape_max_rms_radii: the wall of a counterbore and the bore below it,
+    taken together, are no cylinder."""
+    axis = _axis(0.0)
+    walls = np.vstack([_wall(1.8, 0.1, 1.0, axis), _wall(2.0, 1.0, 2.5, axis)])
+    shape = _measure(np.vstack([_surface(2.0), walls]), 2.0)
+    assert shape.bore.diameter is None and "bore_not_cylindrical" in _codes(shape)
+    one = _measure(np.vstack([_surface(2.0), _wall(2.0, 1.0, 2.5, axis)]), 2.0)
+    assert one.bore.diameter == pytest.approx(4.0, abs=1e-3)
+
+
+def test_a_free_axis_far_off_the_known_one_is_not_trusted():
+    """shape_max_axis_change_deg: a bore 'drilled' 30 degrees off the normal is no bore of this
+    hole; its wall is fitted along the known axis and gives no axis of its own."""
+    wall = _wall(2.0, 0.1, 3.0, _axis(30.0), (0.0, 1.5 * np.pi))
+    shape = _measure(np.vstack([_surface(2.0), wall]), 2.0)
+    assert shape.axis is None or shape.perpendicularity_deg < 15.0
+    loose = _measure(np.vstack([_surface(2.0), wall]), 2.0, settings=RobustSettings(shape_max_axis_change_deg=60.0))
+    assert loose.perpendicularity_deg == pytest.approx(30.0, abs=0.01)
+
+
+def test_a_rounded_bowl_is_no_countersink():
+    """shape_max_rms_sigmas / shape_max_rms_radii for the cone: a bowl (depth growing with the square
+    of the distance from the edge) has a cone's slope on average but lies on no cone."""
+    annulus = _polar(2.0, 3.5)
+    depth = ((3.5 - np.hypot(*annulus.T)) / 1.5) ** 2 * 1.5
+    bowl = np.column_stack([annulus, -depth])
+    shape = _measure(np.vstack([_surface(3.5), bowl]), 3.5, cone_slope=1.0)
+    assert shape.countersink.angle_deg is None and "cone_not_conical" in _codes(shape)
