@@ -250,7 +250,7 @@ class RobustSettings:
     # A flat floor: at least shape_floor_fraction of the points below the surface inside the edge lie
     # in one plane; it is a blind hole's floor when its points reach within shape_floor_center_radii
     # edge radii of the axis (else a counterbore's step, around the bore).
-    shape_floor_fraction: float = 0.3
+    shape_floor_fraction: float = 0.2
     shape_floor_center_radii: float = 0.3
     # A floor spreads over at least shape_floor_min_width edge radii from the axis outward (a ring of
     # wall points at one depth, one row of a scan, is planar too, and has no width).

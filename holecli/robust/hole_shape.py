@@ -181,7 +181,7 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
             floor_normal = floor_normal if floor_normal @ n > 0 else -floor_normal
             # along the floor's normal here; along the axis once it is known (below)
             depth = float((c - floor_point) @ floor_normal)
-            blind = np.min(rho[floor_mask]) < settings.shape_floor_center_radii * R
+            blind = _floor_is_blind(pts[floor_mask], rho[floor_mask], c, floor_normal, R, settings)
             kind = "blind" if blind else "counterbored"
             known_axis = floor_normal
             # Height above the floor's plane: a blind hole's wall stands above it, a counterbore's bore
@@ -357,6 +357,34 @@ def _floor(pts, rho, below, up, R, noise, settings):
         return None
     rms = float(np.sqrt(np.mean(((pts[mask] - point) @ normal) ** 2)))
     return point, normal, mask, rms
+
+
+def _floor_is_blind(floor_pts, floor_rho, c, normal, R, settings, sector_deg=10.0):
+    """Whether a floor is a blind hole's (across the axis) rather than a counterbore's step (around it).
+
+    It is when its points reach within ``shape_floor_center_radii`` edge radii of the axis. A blind
+    floor seen from a tilted view can show only a lune on one side, the rest hidden by the wall: then
+    its side toward the axis is an arc of the opening's shadow, and the floor lies inside the circle of
+    that arc; a step's side toward the axis is the bore's edge, and the step lies outside it. The arc
+    is the innermost floor point of every ``sector_deg`` sector around the axis, fitted with a circle.
+    """
+    if np.min(floor_rho) < settings.shape_floor_center_radii * R:
+        return True
+    rotation = frame_about(normal)
+    xy = (floor_pts - c) @ rotation[:2].T
+    sector = np.floor((np.degrees(np.arctan2(xy[:, 1], xy[:, 0])) + 180.0) / sector_deg).astype(np.int64)
+    order = np.lexsort((floor_rho, sector))
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = sector[order][1:] != sector[order][:-1]
+    boundary = xy[order][first]
+    if len(boundary) < 4:
+        return False
+    # Kasa's circle through the boundary: x^2 + y^2 = 2 a x + 2 b y + k.
+    design = np.column_stack([2.0 * boundary, np.ones(len(boundary))])
+    (a, b, k), *_ = np.linalg.lstsq(design, np.einsum("ij,ij->i", boundary, boundary), rcond=None)
+    radius = np.sqrt(max(k + a * a + b * b, 0.0))
+    inside = np.hypot(xy[:, 0] - a, xy[:, 1] - b) < radius
+    return bool(np.mean(inside) > 0.5)
 
 
 def _bore(pts, wall_mask, c, n, known_axis, noise, settings, warnings):

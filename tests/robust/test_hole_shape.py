@@ -296,3 +296,18 @@ def test_a_rounded_bowl_is_no_countersink():
     bowl = np.column_stack([annulus, -depth])
     shape = _measure(np.vstack([_surface(3.5), bowl]), 3.5, cone_slope=1.0)
     assert shape.countersink.angle_deg is None and "cone_not_conical" in _codes(shape)
+
+
+def test_a_blind_floor_seen_only_on_one_side_is_still_blind():
+    """_floor_is_blind: from a tilted view the wall hides all of a deep blind floor but a lune on one
+    side, which does not reach the axis; its side toward the axis is the shadow's arc, and the floor
+    lies inside that arc's circle. A counterbore's step seen over half a turn lies outside its arc."""
+    disc = _polar(0.0, 2.0)
+    shadow = np.hypot(disc[:, 0] - 2.6, disc[:, 1]) < 2.0  # the opening's shadow, shifted 2.6 mm
+    lune = disc[shadow]
+    assert np.min(np.hypot(*lune.T)) > 0.3 * 2.0
+    floor = np.column_stack([lune, np.full(len(lune), -2.5)])
+    assert _measure(np.vstack([_surface(2.0), floor]), 2.0).type == "blind"
+    step = _polar(2.0, 3.5, angles=(-np.radians(80), np.radians(80)))
+    floor = np.column_stack([step, np.full(len(step), -1.0)])
+    assert _measure(np.vstack([_surface(3.5), floor]), 3.5).type == "counterbored"
