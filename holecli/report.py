@@ -12,6 +12,8 @@ CSV_COLUMNS = (
     "file", "hole", "center_x", "center_y", "center_z", "diameter", "normal_x", "normal_y", "normal_z",
     "rim_points", "fit_rms", "max_residual", "roundness", "bias_correction", "partial", "arc_deg",
     "scan_lines", "name", "diameter_deviation", "position_in_plane", "position_along_normal", "tilt_deg",
+    "countersink_diameter_deviation", "countersink_angle_deviation", "countersink_depth_deviation",
+    "bore_diameter_deviation",
     "in_tolerance", "failed_checks",
 )
 
