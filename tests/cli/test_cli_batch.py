@@ -860,3 +860,10 @@ def test_the_table_cell_of_a_verdict_shows_each_failed_check_with_its_value():
                                   "bore_diameter not measured, perpendicularity 1.5")
     assert verdict_cell(dict(hole, in_tolerance=True, failed_checks=[])) == "A1: in"
     assert verdict_cell({"in_tolerance": None, "failed_checks": None}) == "not checked"
+
+
+def test_the_sample_panel_spec_gives_the_verdict_the_readme_shows(run, panel, repo_root):
+    result, record = _detect(run, panel, "--spec", repo_root / "sample_clouds" / "panel_tolerances.toml")
+    assert result.exit_code == cli.EXIT_OUT_OF_TOLERANCE, result.stderr
+    assert {hole["name"]: hole["failed_checks"] for hole in record["holes"]} == {
+        "T1": ["bore_diameter_not_measured"], "C1": [], "B1": [], "L1": []}
