@@ -15,6 +15,8 @@ CSV_COLUMNS = (
     "countersink_diameter_at_depth", "countersink_rms", "counterbore_diameter", "counterbore_depth",
     "bore_diameter", "bore_rms", "floor_depth", "axis_x", "axis_y", "axis_z", "perpendicularity_deg", "warnings",
     "name", "diameter_deviation", "position_in_plane", "position_along_normal", "tilt_deg",
+    "countersink_diameter_deviation", "countersink_angle_deviation", "countersink_depth_deviation",
+    "bore_diameter_deviation",
     "in_tolerance", "failed_checks",
 )
 

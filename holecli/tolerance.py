@@ -17,6 +17,18 @@ position
 tilt
     the angle between the lines of the measured and the nominal normal (the sign of a normal does not
     matter) at most ``max_tilt`` degrees.
+countersink_diameter, countersink_angle, countersink_depth, bore_diameter
+    measured - nominal value within its band, like the diameter: the hole's ``countersink.diameter``,
+    ``countersink.angle_deg`` (degrees), ``countersink.depth`` and ``bore.diameter`` against the
+    nominal's ``countersink_diameter`` and ``countersink_diameter_band`` and so on (spec keys
+    ``countersink_diameter`` and ``countersink_diameter_tolerance``, ...).
+perpendicularity
+    the hole's ``perpendicularity_deg`` (the angle between its axis and its surface normal) at most
+    ``max_perpendicularity`` degrees.
+
+A check whose measured value is null (a hole without a countersink, a bore wall not seen, no axis) is
+*not measured*: it fails, with ``<check>_not_measured`` in ``failed_checks`` (``"bore_diameter_not_measured"``)
+and a null deviation, so that a value the scan does not show is never taken for one in tolerance.
 
 Matching
 --------
@@ -48,12 +60,43 @@ Vector = tuple[float, float, float]
 # hole is 1e-4 of it) and far above the round-off of a subtraction (1e-16).
 _ROUND_OFF = 1e-9
 
+
+@dataclass(frozen=True)
+class _FeatureCheck:
+    """A nominal value with a band, checked against one measured value of the hole below its edge.
+
+    ``name`` is the check's name (in ``failed_checks``), the spec key of the nominal value, the prefix
+    of the verdict field ``<name>_deviation`` and, with ``_band``, of the band's attribute of
+    :class:`NominalHole`; ``<name>_tolerance`` is the spec key of the band. ``path`` is where the
+    measured value is in a hole record; ``accept`` and ``expected`` validate the nominal value.
+    """
+
+    name: str
+    path: tuple[str, str]
+    accept: object
+    expected: str
+
+
+_FEATURE_CHECKS = (
+    _FeatureCheck("countersink_diameter", ("countersink", "diameter"), lambda v: v > 0, "a number > 0"),
+    _FeatureCheck("countersink_angle", ("countersink", "angle_deg"), lambda v: 0 < v < 180,
+                  "an angle in degrees between 0 and 180"),
+    _FeatureCheck("countersink_depth", ("countersink", "depth"), lambda v: v > 0, "a number > 0"),
+    _FeatureCheck("bore_diameter", ("bore", "diameter"), lambda v: v > 0, "a number > 0"),
+)
+_FEATURE_KEYS = tuple(key for feature in _FEATURE_CHECKS for key in (feature.name, f"{feature.name}_tolerance"))
+
 # The keys of a [[hole]] table of a spec file, and which of them are required.
-_SPEC_KEYS = ("name", "center", "diameter", "tolerance", "position_tolerance", "normal", "max_tilt")
+_SPEC_KEYS = ("name", "center", "diameter", "tolerance", "position_tolerance", "normal", "max_tilt",
+              *_FEATURE_KEYS, "max_perpendicularity")
 _REQUIRED_KEYS = ("name", "center", "diameter", "tolerance")
 
 # How the command line calls the values (for messages); the spec file uses the keys themselves.
 _KEY_NAMES = {key: key for key in _SPEC_KEYS}
+
+# The keys that make a nominal hole check something (the others only say what to check against).
+_TOLERANCE_KEYS = ("tolerance", "position_tolerance", "max_tilt",
+                   *(f"{feature.name}_tolerance" for feature in _FEATURE_CHECKS), "max_perpendicularity")
 
 
 
@@ -94,6 +137,13 @@ class NominalHole:
         Nominal surface normal (any length but zero, any sign).
     max_tilt : float or None
         Largest allowed angle between the measured and the nominal normal, degrees; needs ``normal``.
+    countersink_diameter, countersink_angle, countersink_depth, bore_diameter : float or None
+        Nominal countersink diameter at the surface, included countersink angle (degrees), countersink
+        depth and bore diameter; each checked against its band.
+    countersink_diameter_band, countersink_angle_band, countersink_depth_band, bore_diameter_band : Band or None
+        Their tolerance bands (degrees for the angle); each given exactly when its value is.
+    max_perpendicularity : float or None
+        Largest allowed angle between the hole's axis and its surface normal, degrees.
     match_radius : float
         A measured hole farther than this from ``center`` is not matched to this nominal.
     """
@@ -105,6 +155,15 @@ class NominalHole:
     position_tolerance: Optional[float] = None
     normal: Optional[Vector] = None
     max_tilt: Optional[float] = None
+    countersink_diameter: Optional[float] = None
+    countersink_diameter_band: Optional[Band] = None
+    countersink_angle: Optional[float] = None
+    countersink_angle_band: Optional[Band] = None
+    countersink_depth: Optional[float] = None
+    countersink_depth_band: Optional[Band] = None
+    bore_diameter: Optional[float] = None
+    bore_diameter_band: Optional[Band] = None
+    max_perpendicularity: Optional[float] = None
     match_radius: float = math.inf
 
 
@@ -177,7 +236,10 @@ def parse_band(value) -> Band:
 
 
 def nominal_spec(*, diameter=None, tolerance=None, center=None, position_tolerance=None, normal=None,
-                 max_tilt=None, names=None) -> Spec:
+                 max_tilt=None, countersink_diameter=None, countersink_diameter_tolerance=None,
+                 countersink_angle=None, countersink_angle_tolerance=None, countersink_depth=None,
+                 countersink_depth_tolerance=None, bore_diameter=None, bore_diameter_tolerance=None,
+                 max_perpendicularity=None, names=None) -> Spec:
     """A spec of one nominal hole from separate values (the command-line options).
 
     Parameters
@@ -195,6 +257,15 @@ def nominal_spec(*, diameter=None, tolerance=None, center=None, position_toleran
         Nominal normal: ``tilt_deg`` is reported.
     max_tilt : float, optional
         Largest angle from ``normal``, degrees in [0, 90]; needs ``normal``.
+    countersink_diameter, countersink_angle, countersink_depth, bore_diameter : float, optional
+        Nominal countersink diameter at the surface (> 0), included countersink angle (degrees, in
+        (0, 180)), countersink depth (> 0) and bore diameter (> 0); each needs its tolerance.
+    countersink_diameter_tolerance, countersink_angle_tolerance, countersink_depth_tolerance, \
+bore_diameter_tolerance : float, str or Band, optional
+        Their tolerances, in the forms of :func:`parse_band` (degrees for the angle: ``1`` or
+        ``"+/-1"`` for 100 +- 1, ``"+1/-0.5"``); each needs its value.
+    max_perpendicularity : float, optional
+        Largest angle between the hole's axis and its surface normal, degrees in [0, 90].
     names : dict, optional
         How messages call each parameter (the CLI passes its option names).
 
@@ -210,12 +281,19 @@ def nominal_spec(*, diameter=None, tolerance=None, center=None, position_toleran
     """
     names = {**_KEY_NAMES, **(names or {})}
     entry = {"diameter": diameter, "tolerance": tolerance, "center": center,
-             "position_tolerance": position_tolerance, "normal": normal, "max_tilt": max_tilt}
+             "position_tolerance": position_tolerance, "normal": normal, "max_tilt": max_tilt,
+             "countersink_diameter": countersink_diameter,
+             "countersink_diameter_tolerance": countersink_diameter_tolerance,
+             "countersink_angle": countersink_angle, "countersink_angle_tolerance": countersink_angle_tolerance,
+             "countersink_depth": countersink_depth, "countersink_depth_tolerance": countersink_depth_tolerance,
+             "bore_diameter": bore_diameter, "bore_diameter_tolerance": bore_diameter_tolerance,
+             "max_perpendicularity": max_perpendicularity}
     entry = {key: value for key, value in entry.items() if value is not None}
     hole = _nominal_hole(entry, name=None, names=names, where="")
-    if not any(key in entry for key in ("tolerance", "position_tolerance", "max_tilt")):
+    if not any(key in entry for key in _TOLERANCE_KEYS):
         raise SpecError(f"give a tolerance: {names['tolerance']} (with {names['diameter']}), "
-                        f"{names['position_tolerance']} or {names['max_tilt']}")
+                        + ", ".join(names[key] for key in _TOLERANCE_KEYS[1:-1])
+                        + f" or {names[_TOLERANCE_KEYS[-1]]}")
     return Spec(holes=(hole,), named=False)
 
 
@@ -224,7 +302,11 @@ def parse_spec(text, source="spec") -> Spec:
 
     The file holds one ``[[hole]]`` table per hole with ``name``, ``center = [x, y, z]``,
     ``diameter`` and ``tolerance`` (see :func:`parse_band`), and optionally ``position_tolerance``,
-    ``normal = [x, y, z]`` and ``max_tilt`` (degrees, needs ``normal``). Each hole is matched
+    ``normal = [x, y, z]``, ``max_tilt`` (degrees, needs ``normal``), the pairs
+    ``countersink_diameter`` and ``countersink_diameter_tolerance``, ``countersink_angle`` and
+    ``countersink_angle_tolerance`` (degrees), ``countersink_depth`` and ``countersink_depth_tolerance``,
+    ``bore_diameter`` and ``bore_diameter_tolerance`` (each value with its tolerance, the tolerance in
+    the forms of :func:`parse_band`), and ``max_perpendicularity`` (degrees). Each hole is matched
     within its nominal diameter of its center.
 
     Parameters
@@ -285,8 +367,11 @@ def parse_spec(text, source="spec") -> Spec:
 
 
 def _nominal_hole(entry, name, names, where) -> NominalHole:
-    for key, partner in (("diameter", "tolerance"), ("tolerance", "diameter"),
-                         ("position_tolerance", "center"), ("max_tilt", "normal")):
+    partners = [("diameter", "tolerance"), ("tolerance", "diameter"),
+                ("position_tolerance", "center"), ("max_tilt", "normal")]
+    for feature in _FEATURE_CHECKS:
+        partners += [(feature.name, f"{feature.name}_tolerance"), (f"{feature.name}_tolerance", feature.name)]
+    for key, partner in partners:
         if key in entry and partner not in entry:
             raise SpecError(f"{where}{names[key]} needs {names[partner]}")
 
@@ -323,6 +408,23 @@ def _nominal_hole(entry, name, names, where) -> NominalHole:
             raise SpecError(f"{where}{names['normal']} must not be the zero vector")
     if "max_tilt" in entry:
         values["max_tilt"] = number("max_tilt", lambda v: 0 <= v <= 90, "an angle in degrees from 0 to 90")
+    for feature in _FEATURE_CHECKS:
+        if feature.name not in entry:
+            continue
+        tolerance_key = f"{feature.name}_tolerance"
+        if isinstance(entry[feature.name], str):
+            # "100 +/- 1" in one value: say where its tolerance goes.
+            raise SpecError(f"{where}{names[feature.name]} must be {feature.expected} (its tolerance goes "
+                            f"in {names[tolerance_key]}), got {entry[feature.name]!r}")
+        values[feature.name] = number(feature.name, feature.accept, feature.expected)
+        tolerance = entry[tolerance_key]
+        try:
+            values[f"{feature.name}_band"] = tolerance if isinstance(tolerance, Band) else parse_band(tolerance)
+        except SpecError as error:
+            raise SpecError(f"{where}{names[tolerance_key]}: {error}") from None
+    if "max_perpendicularity" in entry:
+        values["max_perpendicularity"] = number("max_perpendicularity", lambda v: 0 <= v <= 90,
+                                                "an angle in degrees from 0 to 90")
     return NominalHole(name=name, **values)
 
 
@@ -352,7 +454,8 @@ def check(record, spec) -> dict:
     ----------
     record : dict
         A detection record (:meth:`holecli.results.Detection.to_dict`): ``holes`` with ``center``,
-        ``diameter`` and ``normal``.
+        ``diameter`` and ``normal``, and ``countersink``, ``bore`` and ``perpendicularity_deg`` for the
+        checks of those (missing counts as null).
     spec : Spec
         From :func:`nominal_spec` or :func:`parse_spec`.
 
@@ -360,8 +463,11 @@ def check(record, spec) -> dict:
     -------
     dict
         The record, every hole with ``diameter_deviation``, ``position_deviation``
-        (``{"in_plane", "along_normal"}``), ``tilt_deg``, ``in_tolerance`` and ``failed_checks``
-        (None where the check does not apply, all None for a hole no nominal applies to), and with
+        (``{"in_plane", "along_normal"}``), ``tilt_deg``, ``countersink_diameter_deviation``,
+        ``countersink_angle_deviation``, ``countersink_depth_deviation``, ``bore_diameter_deviation``,
+        ``in_tolerance`` and ``failed_checks`` (None where the check does not apply or its value is
+        not measured, all None for a hole no nominal applies to; a check not measured is in
+        ``failed_checks`` as ``<check>_not_measured``), and with
         ``name`` when ``spec.named``; and ``verdict``: ``{"checked", "out_of_tolerance", "missing",
         "in_tolerance"}`` after ``holes``.
     """
@@ -412,16 +518,16 @@ def _match(holes, nominals) -> dict:
 
 
 def _verdict(hole, nominal) -> dict:
-    out = {"diameter_deviation": None, "position_deviation": None, "tilt_deg": None, "in_tolerance": None,
-           "failed_checks": None}
+    out = {"diameter_deviation": None, "position_deviation": None, "tilt_deg": None,
+           **{f"{feature.name}_deviation": None for feature in _FEATURE_CHECKS},
+           "in_tolerance": None, "failed_checks": None}
     if nominal is None:
         return out
     failed = []
     if nominal.diameter is not None:
         deviation = hole["diameter"] - nominal.diameter
         out["diameter_deviation"] = deviation
-        slack = _ROUND_OFF * nominal.diameter
-        if not nominal.band.lower - slack <= deviation <= nominal.band.upper + slack:
+        if not _within(deviation, nominal.band, nominal.diameter):
             failed.append("diameter")
     normal = _unit(hole["normal"])
     if nominal.center is not None:
@@ -437,9 +543,34 @@ def _verdict(hole, nominal) -> dict:
         out["tilt_deg"] = tilt
         if nominal.max_tilt is not None and tilt > nominal.max_tilt * (1 + _ROUND_OFF):
             failed.append("tilt")
+    for feature in _FEATURE_CHECKS:
+        nominal_value = getattr(nominal, feature.name)
+        if nominal_value is None:
+            continue
+        part, key = feature.path
+        measured = (hole.get(part) or {}).get(key)
+        if measured is None:
+            failed.append(f"{feature.name}_not_measured")
+            continue
+        deviation = measured - nominal_value
+        out[f"{feature.name}_deviation"] = deviation
+        if not _within(deviation, getattr(nominal, f"{feature.name}_band"), nominal_value):
+            failed.append(feature.name)
+    if nominal.max_perpendicularity is not None:
+        perpendicularity = hole.get("perpendicularity_deg")
+        if perpendicularity is None:
+            failed.append("perpendicularity_not_measured")
+        elif perpendicularity > nominal.max_perpendicularity * (1 + _ROUND_OFF):
+            failed.append("perpendicularity")
     out["in_tolerance"] = not failed
     out["failed_checks"] = failed
     return out
+
+
+def _within(deviation, band, size) -> bool:
+    """Whether ``deviation`` is in ``band``, limits included, with the round-off of a quantity of ``size``."""
+    slack = _ROUND_OFF * size
+    return band.lower - slack <= deviation <= band.upper + slack
 
 
 def _unit(vector):

@@ -12,8 +12,12 @@ from holecli.results import Detection, Hole, Plane
 # The CSV columns as the README documents them, in order.
 DOCUMENTED_COLUMNS = (
     "file,hole,center_x,center_y,center_z,diameter,normal_x,normal_y,normal_z,rim_points,fit_rms,"
-    "max_residual,roundness,bias_correction,partial,arc_deg,scan_lines,name,diameter_deviation,"
-    "position_in_plane,position_along_normal,tilt_deg,in_tolerance,failed_checks"
+    "max_residual,roundness,bias_correction,partial,arc_deg,scan_lines,type,countersink_diameter,"
+    "countersink_angle_deg,countersink_depth,countersink_diameter_at_depth,countersink_rms,counterbore_diameter,"
+    "counterbore_depth,bore_diameter,bore_rms,floor_depth,axis_x,axis_y,axis_z,perpendicularity_deg,warnings,"
+    "name,diameter_deviation,"
+    "position_in_plane,position_along_normal,tilt_deg,countersink_diameter_deviation,countersink_angle_deviation,"
+    "countersink_depth_deviation,bore_diameter_deviation,in_tolerance,failed_checks"
 ).split(",")
 
 # Floats that lose digits when printed short.

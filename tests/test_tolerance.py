@@ -257,7 +257,9 @@ def test_check_keeps_the_record_and_adds_the_verdict_after_the_holes():
     assert list(out) == ["file", "points", "method", "holes", "verdict", "elapsed_ms"]
     for key in record["holes"][0]:
         assert out["holes"][0][key] == record["holes"][0][key]
-    assert list(out["holes"][0])[-5:] == ["diameter_deviation", "position_deviation", "tilt_deg", "in_tolerance",
+    assert list(out["holes"][0])[-9:] == ["diameter_deviation", "position_deviation", "tilt_deg",
+                                          "countersink_diameter_deviation", "countersink_angle_deviation",
+                                          "countersink_depth_deviation", "bore_diameter_deviation", "in_tolerance",
                                           "failed_checks"]
 
 
@@ -398,3 +400,228 @@ def test_spec_matching_is_one_to_one_and_greedy_by_distance():
     out = check(_record(_hole(0, (1.1, 0, 0), 3.0), _hole(1, (1.9, 0, 0), 3.0)), spec)
     assert [hole["name"] for hole in out["holes"]] == ["left", "right"]
     assert out["verdict"]["missing"] == []
+
+
+# --- verdicts: countersink, bore and perpendicularity (issue 12) ------------------------------------
+
+
+def _countersunk(index=0, center=(0, 0, 0), diameter=7.0, angle=100.0, depth=1.26, bore=4.0,
+                 perpendicularity=0.02):
+    hole = _hole(index, center, diameter)
+    hole.update(type="countersunk", perpendicularity_deg=perpendicularity,
+                countersink={"diameter": diameter, "angle_deg": angle, "depth": depth, "depth_from": "bore",
+                             "diameter_at_depth": None, "gauge_depth": None, "rms": 0.001, "points": 600,
+                             "arc_deg": 360.0},
+                counterbore=None,
+                bore={"diameter": bore, "rms": 0.001, "points": 300, "depth_range": [1.3, 3.0], "arc_deg": 360.0,
+                      "floor_depth": None})
+    return hole
+
+
+def _through(index=0, center=(0, 0, 0), diameter=4.0):
+    """A through hole whose bore wall is not seen and whose axis is not measured: only the edge."""
+    hole = _hole(index, center, diameter)
+    hole.update(type="through", countersink=None, counterbore=None, perpendicularity_deg=None, axis=None,
+                bore={"diameter": None, "rms": None, "points": 0, "depth_range": None, "arc_deg": None,
+                      "floor_depth": None})
+    return hole
+
+
+FEATURE_CASES = [
+    # check, measured (keyword of _countersunk), nominal, tolerance, expected
+    ("countersink_diameter", "diameter", 7.0, "+0.1/-0", True),
+    ("countersink_diameter", "diameter", 7.1, "+0.1/-0", True),  # on the upper limit
+    ("countersink_diameter", "diameter", 7.1001, "+0.1/-0", False),
+    ("countersink_diameter", "diameter", 6.9999, "+0.1/-0", False),  # below the lower limit 0
+    ("countersink_angle", "angle", 100.8, 1, True),  # 100 +- 1
+    ("countersink_angle", "angle", 101.2, "+/-1", False),
+    ("countersink_angle", "angle", 98.9, "±1", False),
+    ("countersink_angle", "angle", 99.6, "+1/-0.5", True),
+    ("countersink_angle", "angle", 99.4, "+1/-0.5", False),
+    ("countersink_angle", "angle", 101.0, "+1/-0.5", True),  # on the upper limit
+    ("countersink_depth", "depth", 1.3, 0.05, True),
+    ("countersink_depth", "depth", 1.36, 0.05, False),
+    ("countersink_depth", "depth", 1.24, 0.05, False),
+    ("bore_diameter", "bore", 4.01, "+0.02/-0", True),
+    ("bore_diameter", "bore", 4.03, "+0.02/-0", False),
+    ("bore_diameter", "bore", 3.99, "+0.02/-0", False),
+]
+
+
+@pytest.mark.parametrize("name, measured_key, measured, tolerance, expected", FEATURE_CASES)
+def test_feature_verdict(name, measured_key, measured, tolerance, expected):
+    nominal = {"countersink_diameter": 7.0, "countersink_angle": 100.0, "countersink_depth": 1.3,
+               "bore_diameter": 4.0}[name]
+    spec = nominal_spec(**{name: nominal, f"{name}_tolerance": tolerance})
+    out = check(_record(_countersunk(**{measured_key: measured})), spec)
+    hole = out["holes"][0]
+    assert hole[f"{name}_deviation"] == pytest.approx(measured - nominal, abs=1e-12)
+    assert hole["in_tolerance"] is expected
+    assert hole["failed_checks"] == ([] if expected else [name])
+    others = {f"{other}_deviation" for other in ("countersink_diameter", "countersink_angle", "countersink_depth",
+                                                 "bore_diameter")} - {f"{name}_deviation"}
+    assert all(hole[key] is None for key in others) and hole["diameter_deviation"] is None
+    assert out["verdict"]["in_tolerance"] is expected
+
+
+@pytest.mark.parametrize("perpendicularity, expected", [(0.0, True), (0.5, True), (0.5000001, False), (3.0, False)])
+def test_perpendicularity_verdict(perpendicularity, expected):
+    out = check(_record(_countersunk(perpendicularity=perpendicularity)), nominal_spec(max_perpendicularity=0.5))
+    hole = out["holes"][0]
+    assert hole["in_tolerance"] is expected
+    assert hole["failed_checks"] == ([] if expected else ["perpendicularity"])
+    assert hole["perpendicularity_deg"] == perpendicularity  # the measured value, as it was
+
+
+@pytest.mark.parametrize("values, failed", [
+    ({"countersink_diameter": 7.0, "countersink_diameter_tolerance": 0.1}, "countersink_diameter_not_measured"),
+    ({"countersink_angle": 100.0, "countersink_angle_tolerance": 1}, "countersink_angle_not_measured"),
+    ({"countersink_depth": 1.3, "countersink_depth_tolerance": 0.1}, "countersink_depth_not_measured"),
+    ({"bore_diameter": 4.0, "bore_diameter_tolerance": 0.1}, "bore_diameter_not_measured"),
+    ({"max_perpendicularity": 1.0}, "perpendicularity_not_measured"),
+])
+@pytest.mark.parametrize("shape", ["through", "paper"])
+def test_a_check_without_its_measured_value_is_not_measured_and_fails(values, failed, shape):
+    # a through hole (no countersink, bore wall not seen, no axis), or a record of the paper method,
+    # whose holes have neither countersink nor bore (null), or an older record without the keys at all
+    hole = _through() if shape == "through" else dict(_hole(0, (0, 0, 0), 4.0), countersink=None, bore=None)
+    out = check(_record(hole), nominal_spec(diameter=4.0, tolerance=0.1, **values))
+    checked = out["holes"][0]
+    assert checked["in_tolerance"] is False
+    assert checked["failed_checks"] == [failed]  # the diameter itself is in tolerance
+    assert all(checked[key] is None for key in checked if key.endswith("_deviation") and key != "diameter_deviation")
+    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 1, "missing": [], "in_tolerance": False}
+    bare = check(_record(_hole(0, (0, 0, 0), 4.0)), nominal_spec(diameter=4.0, tolerance=0.1, **values))
+    assert bare["holes"][0]["failed_checks"] == [failed]
+
+
+def test_every_check_at_once_lists_every_failure_in_order():
+    spec = nominal_spec(diameter=7.0, tolerance=0.01, countersink_diameter=7.0, countersink_diameter_tolerance=0.01,
+                        countersink_angle=90.0, countersink_angle_tolerance=1, countersink_depth=1.26,
+                        countersink_depth_tolerance=0.01, bore_diameter=4.2, bore_diameter_tolerance=0.05,
+                        max_perpendicularity=0.01)
+    out = check(_record(_countersunk(diameter=7.005)), spec)
+    hole = out["holes"][0]
+    assert hole["failed_checks"] == ["countersink_angle", "bore_diameter", "perpendicularity"]
+    assert hole["countersink_angle_deviation"] == pytest.approx(10.0)
+    assert hole["bore_diameter_deviation"] == pytest.approx(-0.2)
+    assert hole["countersink_diameter_deviation"] == pytest.approx(0.005)
+    assert hole["countersink_depth_deviation"] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_feature_checks_are_json_ready():
+    import json
+
+    spec = nominal_spec(countersink_angle=100.0, countersink_angle_tolerance=1)
+    out = check(_record(_countersunk(), _through(1, (10, 0, 0))), spec)
+    assert json.loads(json.dumps(out, allow_nan=False)) == out
+
+
+@pytest.mark.parametrize(
+    "values, match",
+    [
+        ({"countersink_diameter": 7.0}, "countersink_diameter needs countersink_diameter_tolerance"),
+        ({"countersink_angle_tolerance": 1}, "countersink_angle_tolerance needs countersink_angle"),
+        ({"countersink_depth": 1.0}, "countersink_depth needs countersink_depth_tolerance"),
+        ({"bore_diameter_tolerance": 0.1}, "bore_diameter_tolerance needs bore_diameter"),
+        ({"countersink_diameter": 0.0, "countersink_diameter_tolerance": 0.1},
+         "countersink_diameter must be a number > 0, got 0.0"),
+        ({"countersink_angle": 180.0, "countersink_angle_tolerance": 1},
+         "countersink_angle must be an angle in degrees between 0 and 180, got 180.0"),
+        ({"countersink_angle": 0, "countersink_angle_tolerance": 1}, "countersink_angle must be an angle"),
+        ({"countersink_angle": float("nan"), "countersink_angle_tolerance": 1}, "countersink_angle must be an angle"),
+        ({"countersink_angle": "100 +/- 1", "countersink_angle_tolerance": 1},
+         r"its tolerance goes in countersink_angle_tolerance\), got '100 \+/- 1'"),
+        ({"countersink_angle": 100, "countersink_angle_tolerance": "-1"},
+         "countersink_angle_tolerance: a symmetric tolerance must be a number >= 0"),
+        ({"countersink_angle": 100, "countersink_angle_tolerance": "1/0.5"},
+         "countersink_angle_tolerance: write the lower deviation of '1/0.5' with its sign"),
+        ({"countersink_angle": 100, "countersink_angle_tolerance": "-0.5/+1"},
+         r"countersink_angle_tolerance: .* did you mean \+1/-0.5"),
+        ({"countersink_angle": 100, "countersink_angle_tolerance": "100 +/- 1"},
+         "countersink_angle_tolerance: expected a number"),
+        ({"countersink_depth": -1.0, "countersink_depth_tolerance": 0.1}, "countersink_depth must be a number > 0"),
+        ({"bore_diameter": True, "bore_diameter_tolerance": 0.1}, "bore_diameter must be a number > 0, got True"),
+        ({"max_perpendicularity": -0.1}, "max_perpendicularity must be an angle in degrees from 0 to 90"),
+        ({"max_perpendicularity": 90.5}, "max_perpendicularity must be an angle in degrees from 0 to 90"),
+        ({"center": (0, 0, 0)}, "give a tolerance: .*countersink_angle_tolerance.* or max_perpendicularity"),
+    ],
+)
+def test_nominal_spec_refuses_bad_feature_values(values, match):
+    with pytest.raises(SpecError, match=match):
+        nominal_spec(**values)
+
+
+def test_nominal_spec_feature_values():
+    spec = nominal_spec(countersink_diameter=7, countersink_diameter_tolerance="+0.1/-0", countersink_angle=100,
+                        countersink_angle_tolerance="+/- 1", countersink_depth=1.3, countersink_depth_tolerance=0.05,
+                        bore_diameter=4, bore_diameter_tolerance=Band(-0.01, 0.02), max_perpendicularity=0.5)
+    (hole,) = spec.holes
+    assert (hole.countersink_diameter, hole.countersink_diameter_band) == (7.0, Band(0.0, 0.1))
+    assert (hole.countersink_angle, hole.countersink_angle_band) == (100.0, Band(-1.0, 1.0))
+    assert (hole.countersink_depth, hole.countersink_depth_band) == (1.3, Band(-0.05, 0.05))
+    assert (hole.bore_diameter, hole.bore_diameter_band) == (4.0, Band(-0.01, 0.02))
+    assert hole.max_perpendicularity == 0.5 and hole.diameter is None
+
+
+COUNTERSUNK_SPEC = """
+[[hole]]
+name = "CS1"
+center = [0, 0, 0]
+diameter = 7.0
+tolerance = "+0.1/-0"
+countersink_diameter = 7.0
+countersink_diameter_tolerance = "+0.1/-0"
+countersink_angle = 100
+countersink_angle_tolerance = "+/-1"      # 100 +- 1 degrees
+countersink_depth = 1.26
+countersink_depth_tolerance = 0.05
+max_perpendicularity = 0.5
+
+[[hole]]
+name = "T1"
+center = [10, 0, 0]
+diameter = 4.0
+tolerance = 0.05
+bore_diameter = 4.0
+bore_diameter_tolerance = "+0.02/-0"
+"""
+
+
+def test_parse_spec_feature_keys_and_their_verdicts():
+    spec = parse_spec(COUNTERSUNK_SPEC)
+    countersunk, through = spec.holes
+    assert countersunk.countersink_angle == 100.0 and countersunk.countersink_angle_band == Band(-1.0, 1.0)
+    assert countersunk.countersink_diameter_band == Band(0.0, 0.1) and countersunk.max_perpendicularity == 0.5
+    assert countersunk.bore_diameter is None and through.bore_diameter_band == Band(0.0, 0.02)
+    out = check(_record(_countersunk(angle=100.4), _through(1, (10, 0, 0))), spec)
+    first, second = out["holes"]
+    assert (first["name"], first["in_tolerance"], first["failed_checks"]) == ("CS1", True, [])
+    assert first["countersink_angle_deviation"] == pytest.approx(0.4)
+    assert (second["name"], second["in_tolerance"]) == ("T1", False)
+    assert second["failed_checks"] == ["bore_diameter_not_measured"]
+    assert out["verdict"] == {"checked": 2, "out_of_tolerance": 1, "missing": [], "in_tolerance": False}
+
+
+@pytest.mark.parametrize(
+    "changes, match",
+    [
+        ({"countersink_angle": "100"}, "countersink_angle needs countersink_angle_tolerance"),
+        ({"countersink_angle_tolerance": "1"}, "countersink_angle_tolerance needs countersink_angle"),
+        ({"countersink_angle": '"100 +/- 1"', "countersink_angle_tolerance": "1"},
+         r"hole 1 \('A1'\): countersink_angle must be an angle in degrees between 0 and 180 \(its tolerance goes in "
+         r"countersink_angle_tolerance\), got '100 \+/- 1'"),
+        ({"countersink_angle": "200", "countersink_angle_tolerance": "1"}, "between 0 and 180, got 200"),
+        ({"countersink_angle": "100", "countersink_angle_tolerance": '"1/1"'},
+         "countersink_angle_tolerance: write the lower deviation"),
+        ({"countersink_diameter": "7", "countersink_diameter_tolerance": "[0.1]"},
+         "countersink_diameter_tolerance: expected a number"),
+        ({"bore_diameter": "0", "bore_diameter_tolerance": "0.1"}, "bore_diameter must be a number > 0"),
+        ({"max_perpendicularity": "91"}, "max_perpendicularity must be an angle in degrees from 0 to 90"),
+        ({"max_perpendicularity": '"0.5"'}, "max_perpendicularity must be an angle"),
+        ({"countersink_angel": "100"}, "unknown key 'countersink_angel'"),
+    ],
+)
+def test_parse_spec_refuses_bad_feature_keys(changes, match):
+    with pytest.raises(SpecError, match=match):
+        parse_spec(_spec_with(**changes))

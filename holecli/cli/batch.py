@@ -117,8 +117,7 @@ def batch_exit_code(tally):
 @detection_option_decorators
 @tolerance_option_decorators
 def batch(paths, recursive, pattern, fmt, output, jobs, resume, explain, method, view_dir, min_diameter, max_holes,
-          full_only, nominal_diameter, tolerance, nominal_center, position_tolerance, nominal_normal, max_tilt,
-          spec_file):
+          full_only, gauge_depth, spec_file, **nominal_options):
     """Measure every point cloud in the folders and files PATH.
 
     A folder contributes the .ply, .pcd, .csv, .txt and .xyz files directly in it (any case; with
@@ -135,9 +134,9 @@ def batch(paths, recursive, pattern, fmt, output, jobs, resume, explain, method,
       holecli batch scans/ --spec part.toml -o shift.jsonl --resume
       holecli batch scans/*.ply --nominal-diameter 3 --tolerance 0.02 | jq -c 'select(.verdict.in_tolerance | not)'
     """
-    options = detection_options(method, view_dir, min_diameter, max_holes, full_only)
-    nominal = nominal_from_options(nominal_diameter, tolerance, nominal_center, position_tolerance,
-                                   nominal_normal, max_tilt, spec_file)
+    options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
+    # the tolerance options (--nominal-diameter, ..., --max-perpendicularity) by their parameter names
+    nominal = nominal_from_options(spec_file, **nominal_options)
     if resume and (output is None or output == "-"):
         raise click.UsageError("--resume needs --output (the file to go on with)")
     if explain and fmt == "csv":

@@ -113,11 +113,7 @@ def render_table(records):
                 f"{hole['fit_rms']:.2g}", "yes" if hole.get("partial") else "no",
             ]
             if verdict is not None:
-                name = f"{hole['name']}: " if hole.get("name") else ""
-                if hole["in_tolerance"] is None:
-                    cells.append(name + "not checked")
-                else:
-                    cells.append(name + ("in" if hole["in_tolerance"] else "OUT: " + ", ".join(hole["failed_checks"])))
+                cells.append(verdict_cell(hole))
             table.add_row(*cells)
         if not record["holes"]:
             table.add_row("-", "", "", "", "no hole found", *[""] * (len(columns) - 5))
@@ -149,6 +145,49 @@ def _shape_table(holes):
                       number(hole.get("perpendicularity_deg"), 3),
                       ", ".join(warning["code"] for warning in hole.get("warnings", [])))
     return table
+# The value a failed check is shown with in the table: the field of the checked hole (a deviation, or
+# the measured angle for tilt and perpendicularity).
+_FAILED_CHECK_VALUES = {
+    "diameter": "diameter_deviation", "tilt": "tilt_deg", "perpendicularity": "perpendicularity_deg",
+    "countersink_diameter": "countersink_diameter_deviation", "countersink_angle": "countersink_angle_deviation",
+    "countersink_depth": "countersink_depth_deviation", "bore_diameter": "bore_diameter_deviation",
+}
+
+
+def verdict_cell(hole):
+    """The ``tolerance`` cell of a hole in ``--format table``: its name, and ``in``, ``not checked``
+    or ``OUT:`` with every failed check and its value.
+
+    Parameters
+    ----------
+    hole : dict
+        A hole of a checked record (:func:`holecli.tolerance.check`).
+
+    Returns
+    -------
+    str
+        E.g. ``"A1: OUT: diameter -0.0029, countersink_angle +1.21, bore_diameter not measured"``
+        (deviations signed; ``position`` with its in-plane distance, ``tilt`` and
+        ``perpendicularity`` with their angle).
+    """
+    name = f"{hole['name']}: " if hole.get("name") else ""
+    if hole["in_tolerance"] is None:
+        return name + "not checked"
+    if hole["in_tolerance"]:
+        return name + "in"
+    failures = []
+    for check in hole["failed_checks"]:
+        if check.endswith("_not_measured"):
+            failures.append(f"{check.removesuffix('_not_measured')} not measured")
+            continue
+        if check == "position":
+            value = f"{hole['position_deviation']['in_plane']:.4g}"
+        else:
+            field = _FAILED_CHECK_VALUES.get(check, "")
+            number = hole.get(field)
+            value = "" if number is None else (f"{number:+.4g}" if field.endswith("_deviation") else f"{number:.4g}")
+        failures.append(f"{check} {value}".rstrip())
+    return name + "OUT: " + ", ".join(failures)
 
 
 def _rejected_table(rejected):
@@ -209,8 +248,8 @@ def emit(text, output):
                    "(\"rejected\" in JSON, a second table with --format table).")
 @detection_option_decorators
 @tolerance_option_decorators
-def detect(scan, fmt, output, explain, method, view_dir, min_diameter, max_holes, full_only, nominal_diameter,
-           tolerance, nominal_center, position_tolerance, nominal_normal, max_tilt, spec_file):
+def detect(scan, fmt, output, explain, method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file,
+           **nominal_options):
     """Measure the holes in SCAN (.ply, .pcd, .csv, .txt or .xyz).
 
     Prints center, diameter and normal of every hole as JSON (units those of the file). With
@@ -225,14 +264,17 @@ def detect(scan, fmt, output, explain, method, view_dir, min_diameter, max_holes
       holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0
       holecli detect scan.ply --nominal-center 3.65,5.14,5.53 --position-tolerance 0.1 \\
           --nominal-normal 0.18,-0.5,0.85 --max-tilt 1
+      holecli detect scan.ply --countersink-angle 100 --countersink-angle-tolerance 1 \\
+          --countersink-diameter 7 --countersink-diameter-tolerance +0.1/-0 --max-perpendicularity 0.5
+      holecli detect scan.ply --gauge-depth 0.5
       holecli detect scan.ply --spec part.toml --format table
       holecli detect scan.ply --explain --format table
     """
     if explain and fmt == "csv":
         raise click.UsageError("--explain needs --format json or table (CSV has one row per hole)")
-    options = detection_options(method, view_dir, min_diameter, max_holes, full_only)
-    nominal = nominal_from_options(nominal_diameter, tolerance, nominal_center, position_tolerance,
-                                   nominal_normal, max_tilt, spec_file)
+    options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
+    # the tolerance options (--nominal-diameter, ..., --max-perpendicularity) by their parameter names
+    nominal = nominal_from_options(spec_file, **nominal_options)
 
     def body():
         from holecli.tolerance import check
@@ -250,7 +292,10 @@ def detect(scan, fmt, output, explain, method, view_dir, min_diameter, max_holes
     verdict = record.get("verdict")
     if verdict is not None and not verdict["in_tolerance"]:
         missing = f", missing: {', '.join(str(name) for name in verdict['missing'])}" if verdict["missing"] else ""
+        not_measured = sum(any(check.endswith("_not_measured") for check in hole.get("failed_checks") or ())
+                           for hole in record["holes"])
+        unmeasured = f" ({not_measured} with a check not measured)" if not_measured else ""
         click.echo(f"holecli: out of tolerance: {verdict['out_of_tolerance']} of {verdict['checked']} checked "
-                   f"holes{missing} in {scan}", err=True)
+                   f"holes{unmeasured}{missing} in {scan}", err=True)
         sys.exit(EXIT_OUT_OF_TOLERANCE)
     sys.exit(EXIT_OK if record["holes"] else EXIT_NO_HOLE)

@@ -45,20 +45,29 @@ class FloatTuple(click.ParamType):
 
 class Decimal(click.FloatRange):
     """A plain ASCII decimal number, optionally within a range (click's FloatRange, without the
-    leniency of ``float``: no ``1_0``, no non-ASCII digits, no ``inf`` or ``nan``)."""
+    leniency of ``float``: no ``1_0``, no non-ASCII digits, no ``inf`` or ``nan``).
+
+    ``hint``, when given, is added to the message for text that is not a number (``"give its
+    tolerance with --countersink-angle-tolerance"`` for ``--countersink-angle "100 +/- 1"``)."""
 
     name = "decimal"
+
+    def __init__(self, *args, hint=None, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.hint = hint
 
     def convert(self, value, param, ctx):
         from holecli.io.decimal_text import is_decimal
 
         if isinstance(value, str) and not is_decimal(value.strip()):
-            self.fail(f"{value!r} is not a plain decimal number", param, ctx)
+            self.fail(f"{value!r} is not a plain decimal number" + (f" ({self.hint})" if self.hint else ""),
+                      param, ctx)
         return super().convert(value.strip() if isinstance(value, str) else value, param, ctx)
 
 
 class ToleranceBand(click.ParamType):
-    """A diameter tolerance: ``T`` (symmetric) or ``+U/-L`` (signed upper/lower deviation)."""
+    """A tolerance: ``T`` (symmetric) or ``+U/-L`` (signed upper/lower deviation), see
+    :func:`holecli.tolerance.parse_band`."""
 
     name = "T|+U/-L"
 
@@ -74,16 +83,16 @@ class ToleranceBand(click.ParamType):
             self.fail(str(error), param, ctx)
 
 
-def detection_options(method, view_dir, min_diameter, max_holes, full_only):
+def detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth=None):
     """The ``detect`` keyword arguments of the command-line detection options.
 
     Parameters
     ----------
     method : {"robust", "paper"}
         ``--method``.
-    view_dir, min_diameter, max_holes, full_only
-        ``--view-dir``, ``--min-diameter``, ``--max-holes``, ``--full-only`` (None or False when not
-        given).
+    view_dir, min_diameter, max_holes, full_only, gauge_depth
+        ``--view-dir``, ``--min-diameter``, ``--max-holes``, ``--full-only``, ``--gauge-depth`` (None
+        or False when not given).
 
     Returns
     -------
@@ -97,13 +106,14 @@ def detection_options(method, view_dir, min_diameter, max_holes, full_only):
     """
     if method == "paper":
         given = [name for name, value in (("--view-dir", view_dir), ("--min-diameter", min_diameter),
-                                          ("--max-holes", max_holes), ("--full-only", full_only or None))
+                                          ("--max-holes", max_holes), ("--full-only", full_only or None),
+                                          ("--gauge-depth", gauge_depth))
                  if value is not None]
         if given:
             raise click.UsageError(f"{', '.join(given)} cannot be used with --method paper")
         return {"method": "paper"}
     return {"method": method, "view_dir": view_dir, "min_diameter": min_diameter, "max_holes": max_holes,
-            "full_only": full_only}
+            "full_only": full_only, "gauge_depth": gauge_depth}
 
 
 def detection_option_decorators(function):
@@ -132,6 +142,9 @@ def detection_option_decorators(function):
         click.option("--max-holes", type=click.IntRange(min=1), default=None,
                      help="Report at most N holes (the largest)."),
         click.option("--full-only", is_flag=True, help="Leave out holes cut by the border of the scan."),
+        click.option("--gauge-depth", type=Decimal(min=0), default=None, metavar="DEPTH",
+                     help="Also give each countersink's diameter at DEPTH below the surface "
+                          "(countersink.diameter_at_depth, what a countersink gauge reads), file units."),
     ]
     for option in reversed(options):
         function = option(function)
@@ -142,7 +155,30 @@ def detection_option_decorators(function):
 TOLERANCE_OPTION_NAMES = {
     "diameter": "--nominal-diameter", "tolerance": "--tolerance", "center": "--nominal-center",
     "position_tolerance": "--position-tolerance", "normal": "--nominal-normal", "max_tilt": "--max-tilt",
+    "countersink_diameter": "--countersink-diameter",
+    "countersink_diameter_tolerance": "--countersink-diameter-tolerance",
+    "countersink_angle": "--countersink-angle", "countersink_angle_tolerance": "--countersink-angle-tolerance",
+    "countersink_depth": "--countersink-depth", "countersink_depth_tolerance": "--countersink-depth-tolerance",
+    "bore_diameter": "--bore-diameter", "bore_diameter_tolerance": "--bore-diameter-tolerance",
+    "max_perpendicularity": "--max-perpendicularity",
 }
+
+# The keyword arguments of holecli.tolerance.nominal_spec by the names of the click parameters
+# (the others are the same).
+_NOMINAL_SPEC_KEYS = {"nominal_diameter": "diameter", "nominal_center": "center", "nominal_normal": "normal"}
+
+# The checks of a nominal value with a band: (value option, its metavar, its help, an example band).
+_FEATURE_OPTIONS = (
+    ("--countersink-diameter", "D", "Nominal countersink diameter at the surface, checked against the "
+                                    "countersink's diameter with --countersink-diameter-tolerance.", "+0.1/-0"),
+    ("--countersink-angle", "DEG", "Nominal included angle of the countersink, degrees, checked with "
+                                   "--countersink-angle-tolerance (100 +-1: --countersink-angle 100 "
+                                   "--countersink-angle-tolerance 1).", "+1/-0.5"),
+    ("--countersink-depth", "D", "Nominal countersink depth (along the axis, from the surface to the cone's "
+                                 "lower edge), checked with --countersink-depth-tolerance.", "0.05"),
+    ("--bore-diameter", "D", "Nominal diameter of the bore below the edge (its fitted cylinder), checked "
+                             "with --bore-diameter-tolerance.", "+0.036/-0"),
+)
 
 
 def tolerance_option_decorators(function):
@@ -174,6 +210,24 @@ def tolerance_option_decorators(function):
                      help="Nominal surface normal (either sign): tilt_deg is reported."),
         click.option("--max-tilt", type=Decimal(min=0, max=90), default=None, metavar="DEG",
                      help="Largest angle between the hole's normal and --nominal-normal, degrees."),
+    ]
+    for name, metavar, help_text, example in _FEATURE_OPTIONS:
+        if name == "--countersink-angle":
+            value_type = Decimal(min=0, max=180, min_open=True, max_open=True,
+                                 hint=f"a number of degrees; give its tolerance with {name}-tolerance")
+        else:
+            value_type = Decimal(min=0, min_open=True, hint=f"a number; give its tolerance with {name}-tolerance")
+        what = "degrees, " if name == "--countersink-angle" else ""
+        options += [
+            click.option(name, type=value_type, default=None, metavar=metavar, help=help_text),
+            click.option(f"{name}-tolerance", type=ToleranceBand(), default=None,
+                         help=f"Tolerance of {name}, {what}as --tolerance: T for +-T, or the upper/lower "
+                              f"deviation +U/-L (e.g. {example})."),
+        ]
+    options += [
+        click.option("--max-perpendicularity", type=Decimal(min=0, max=90), default=None, metavar="DEG",
+                     help="Largest angle between the hole's axis (from its countersink cone, bore or floor) "
+                          "and its surface normal, degrees."),
         click.option("--spec", "spec_file", type=click.Path(path_type=str), default=None, metavar="FILE",
                      help="TOML file of the part's nominal holes ([[hole]] tables, see README); "
                           "not with the options above."),
@@ -183,16 +237,18 @@ def tolerance_option_decorators(function):
     return function
 
 
-def nominal_from_options(nominal_diameter, tolerance, nominal_center, position_tolerance, nominal_normal,
-                         max_tilt, spec_file):
+def nominal_from_options(spec_file=None, **options):
     """The :class:`holecli.tolerance.Spec` of the nominal options.
 
     Parameters
     ----------
-    nominal_diameter, tolerance, nominal_center, position_tolerance, nominal_normal, max_tilt
-        The tolerance options' values (None when not given).
     spec_file : str or None
         ``--spec`` (read later, by :func:`read_spec`, inside the guarded body).
+    **options
+        The other tolerance options' values by their click parameter names (``nominal_diameter``,
+        ``tolerance``, ``nominal_center``, ``position_tolerance``, ``nominal_normal``, ``max_tilt``,
+        ``countersink_diameter``, ``countersink_diameter_tolerance``, ..., ``max_perpendicularity``;
+        None when not given).
 
     Returns
     -------
@@ -207,8 +263,10 @@ def nominal_from_options(nominal_diameter, tolerance, nominal_center, position_t
     """
     from holecli.tolerance import nominal_spec
 
-    values = {"diameter": nominal_diameter, "tolerance": tolerance, "center": nominal_center,
-              "position_tolerance": position_tolerance, "normal": nominal_normal, "max_tilt": max_tilt}
+    values = {_NOMINAL_SPEC_KEYS.get(name, name): value for name, value in options.items()}
+    unknown = sorted(set(values) - set(TOLERANCE_OPTION_NAMES))
+    if unknown:
+        raise TypeError(f"nominal_from_options() got an unexpected keyword argument {unknown[0]!r}")
     given = [TOLERANCE_OPTION_NAMES[key] for key, value in values.items() if value is not None]
     if spec_file is not None:
         if given:

@@ -4,6 +4,7 @@ interruption and resume of a real process."""
 import csv
 import io
 import json
+import math
 import os
 import shutil
 import signal
@@ -20,7 +21,9 @@ from holecli.simulation import synth
 
 RECORD_KEYS = {"file", "points", "dropped_points", "method", "plane", "holes", "elapsed_ms"}
 BATCH_RECORD_KEYS = RECORD_KEYS | {"path"}
-VERDICT_HOLE_KEYS = {"diameter_deviation", "position_deviation", "tilt_deg", "in_tolerance", "failed_checks"}
+VERDICT_HOLE_KEYS = {"diameter_deviation", "position_deviation", "tilt_deg", "countersink_diameter_deviation",
+                     "countersink_angle_deviation", "countersink_depth_deviation", "bore_diameter_deviation",
+                     "in_tolerance", "failed_checks"}
 
 
 def _scan(seed, holes=((0.0, 0.0, 2.5),), extent=(-2.8, 2.8, -2.8, 2.8)):
@@ -654,3 +657,213 @@ def test_batch_explain_gives_every_record_its_rejected_list(run, good_scans, tmp
     plain = _lines(run("batch", *good_scans, "--jobs", "1").stdout)
     assert all("rejected" not in record for record in plain)
     assert run("batch", *good_scans, "--explain", "--format", "csv").exit_code == 2
+
+
+# --- countersink, bore and perpendicularity checks, --gauge-depth (issue 12) ------------------------------
+
+# sample_clouds/panel.ply (sample_clouds/panel.toml): a through hole T1, a countersunk C1 (7.0 at the
+# surface, 100 degrees), a counterbored B1 and a blind L1, 4.0 each, none with its bore wall seen.
+PANEL_CENTERS = {"T1": (-20.0, 8.0, 0.0), "C1": (-6.0, 8.0, 0.0), "B1": (8.0, 8.0, 0.0), "L1": (20.0, 8.0, 0.0)}
+C1 = ["--nominal-center", "-6,8,0"]
+
+
+@pytest.fixture(scope="module")
+def panel(repo_root):
+    return repo_root / "sample_clouds" / "panel.ply"
+
+
+@pytest.fixture(scope="module")
+def bored_scan(tmp_path_factory):
+    """A 2.5 mm through hole whose bore wall is scanned 2 mm deep: its bore diameter is measured."""
+    scene = synth.SceneSpec(holes=(synth.HoleSpec(center=(0.0, 0.0), diameter=2.5, bore_depth=2.0),),
+                            extent=(-2.8, 2.8, -2.8, 2.8), spacing=0.1, rotation_deg=(10.0, 5.0, 0.0),
+                            translation=(0.0, 2.0, 3.0))
+    path = tmp_path_factory.mktemp("bored") / "bored.ply"
+    save_points(path, synth.make_scan(scene, 0).points)
+    return path
+
+
+def test_detect_countersink_checks_pass_and_fail(run, panel):
+    in_tolerance = [*C1, "--countersink-diameter", "7", "--countersink-diameter-tolerance", "+0.1/-0.1",
+                    "--countersink-angle", "100", "--countersink-angle-tolerance", "1",
+                    "--countersink-depth", "1.26", "--countersink-depth-tolerance", "0.05",
+                    "--max-perpendicularity", "0.5"]
+    result, record = _detect(run, panel, *in_tolerance)
+    assert result.exit_code == cli.EXIT_OK, result.stderr
+    checked = [hole for hole in record["holes"] if hole["in_tolerance"] is not None]
+    assert len(checked) == 1
+    (hole,) = checked
+    assert hole["type"] == "countersunk" and hole["failed_checks"] == []
+    assert hole["countersink_diameter_deviation"] == pytest.approx(hole["countersink"]["diameter"] - 7.0, abs=1e-12)
+    assert hole["countersink_angle_deviation"] == pytest.approx(hole["countersink"]["angle_deg"] - 100.0, abs=1e-12)
+    assert hole["countersink_depth_deviation"] == pytest.approx(hole["countersink"]["depth"] - 1.26, abs=1e-12)
+    assert hole["bore_diameter_deviation"] is None and hole["diameter_deviation"] is None
+    # 98 +1/-0.5 is exceeded by the 100 degrees measured, 102 +/-1 is not reached, 0.005 perpendicularity is too little
+    for options, failed in [
+        (["--countersink-angle", "98", "--countersink-angle-tolerance", "+1/-0.5"], ["countersink_angle"]),
+        (["--countersink-angle", "102", "--countersink-angle-tolerance", "+/-1"], ["countersink_angle"]),
+        (["--countersink-diameter", "7.2", "--countersink-diameter-tolerance", "+0.1/-0.1"], ["countersink_diameter"]),
+        (["--max-perpendicularity", "0.005"], ["perpendicularity"]),
+    ]:
+        result, record = _detect(run, panel, *C1, *options)
+        assert result.exit_code == cli.EXIT_OUT_OF_TOLERANCE, (options, result.stderr)
+        (hole,) = [hole for hole in record["holes"] if hole["in_tolerance"] is not None]
+        assert hole["failed_checks"] == failed
+        assert "out of tolerance: 1 of 1 checked holes in" in result.stderr
+    assert hole["perpendicularity_deg"] > 0.005
+
+
+def test_detect_a_check_that_the_scan_does_not_measure_fails_as_not_measured(run, panel):
+    options = ["--nominal-center", "20,8,0", "--nominal-diameter", "4", "--tolerance", "0.1",
+               "--countersink-angle", "100", "--countersink-angle-tolerance", "1",
+               "--bore-diameter", "4", "--bore-diameter-tolerance", "0.1"]
+    result, record = _detect(run, panel, *options)  # the blind hole: no countersink, no bore wall seen
+    assert result.exit_code == cli.EXIT_OUT_OF_TOLERANCE, result.stderr
+    (hole,) = [hole for hole in record["holes"] if hole["in_tolerance"] is not None]
+    assert hole["type"] == "blind" and hole["in_tolerance"] is False
+    assert hole["failed_checks"] == ["countersink_angle_not_measured", "bore_diameter_not_measured"]
+    assert hole["countersink_angle_deviation"] is None and hole["bore_diameter_deviation"] is None
+    assert abs(hole["diameter_deviation"]) < 0.1
+    assert "(1 with a check not measured)" in result.stderr
+    table = run("detect", panel, "--format", "table", *options)
+    assert table.exit_code == cli.EXIT_OUT_OF_TOLERANCE
+    cells = " ".join(table.stdout.replace("│", " ").split())  # the wrapped cell read across its lines
+    assert "OUT: countersink_angle not measured, bore_diameter not measured" in cells
+    rows = list(csv.DictReader(io.StringIO(run("detect", panel, "--format", "csv", *options).stdout)))
+    (row,) = [row for row in rows if row["in_tolerance"]]
+    assert row["failed_checks"] == "countersink_angle_not_measured;bore_diameter_not_measured"
+    assert row["countersink_angle_deviation"] == "" and row["in_tolerance"] == "false"
+
+
+def test_detect_bore_diameter_check_and_its_csv_column(run, bored_scan):
+    result, record = _detect(run, bored_scan, "--bore-diameter", "2.5", "--bore-diameter-tolerance", "+0.01/-0.01")
+    assert result.exit_code == cli.EXIT_OK, result.stderr
+    (hole,) = record["holes"]
+    assert hole["bore"]["diameter"] == pytest.approx(2.5, abs=0.01)
+    assert hole["bore_diameter_deviation"] == pytest.approx(hole["bore"]["diameter"] - 2.5, abs=1e-12)
+    result = run("detect", bored_scan, "--format", "csv", "--bore-diameter", "2.45", "--bore-diameter-tolerance",
+                 "+0.02/-0")
+    assert result.exit_code == cli.EXIT_OUT_OF_TOLERANCE
+    (row,) = csv.DictReader(io.StringIO(result.stdout))
+    assert float(row["bore_diameter_deviation"]) == pytest.approx(0.05, abs=0.01)
+    assert row["failed_checks"] == "bore_diameter"
+    table = run("detect", bored_scan, "--format", "table", "--bore-diameter", "2.45", "--bore-diameter-tolerance",
+                "+0.02/-0")
+    assert "OUT: bore_diameter +0.05" in table.stdout
+
+
+def test_spec_file_with_feature_checks_in_detect_and_batch(run, panel, tmp_path):
+    spec = tmp_path / "panel.toml"
+    tables = {
+        "T1": "bore_diameter = 4.0\nbore_diameter_tolerance = 0.05\n",
+        "C1": 'countersink_diameter = 7.0\ncountersink_diameter_tolerance = "+0.1/-0"\ncountersink_angle = 100\n'
+              'countersink_angle_tolerance = "+/-1"\nmax_perpendicularity = 0.5\n',
+        "B1": "max_perpendicularity = 0.5\n",
+        "L1": "countersink_depth = 1.0\ncountersink_depth_tolerance = 0.1\n",
+    }
+    spec.write_text(_spec_text([(name, PANEL_CENTERS[name], 7.0 if name in ("C1", "B1") else 4.0, extra)
+                                for name, extra in tables.items()]).replace('tolerance = "+0.1/-0.1"', "tolerance = 0.2"))
+    result, record = _detect(run, panel, "--spec", spec)
+    assert result.exit_code == cli.EXIT_OUT_OF_TOLERANCE, result.stderr
+    by_name = {hole["name"]: hole for hole in record["holes"]}
+    assert by_name["C1"]["failed_checks"] == [] and by_name["B1"]["failed_checks"] == []
+    assert by_name["T1"]["failed_checks"] == ["bore_diameter_not_measured"]
+    assert by_name["L1"]["failed_checks"] == ["countersink_depth_not_measured"]
+    assert record["verdict"] == {"checked": 4, "out_of_tolerance": 2, "missing": [], "in_tolerance": False}
+    result = run("batch", panel, "--spec", spec, "--format", "csv")
+    assert result.exit_code == cli.EXIT_OUT_OF_TOLERANCE, result.stderr
+    rows = {row["name"]: row for row in csv.DictReader(io.StringIO(result.stdout))}
+    assert float(rows["C1"]["countersink_angle_deviation"]) == pytest.approx(
+        by_name["C1"]["countersink_angle_deviation"])
+    assert rows["T1"]["failed_checks"] == "bore_diameter_not_measured"
+
+
+def test_gauge_depth_reaches_detect_and_the_workers_of_batch(run, panel, tmp_path):
+    result, record = _detect(run, panel, "--gauge-depth", "0.5")
+    assert result.exit_code == cli.EXIT_OK, result.stderr
+    (countersink,) = [hole["countersink"] for hole in record["holes"] if hole["countersink"]]
+    assert countersink["gauge_depth"] == 0.5
+    # a 100 degree cone narrows by 2 * 0.5 * tan(50 degrees) in 0.5 below the surface
+    assert countersink["diameter_at_depth"] == pytest.approx(countersink["diameter"] - math.tan(math.radians(50)),
+                                                             abs=0.01)
+    copy = tmp_path / "panel_copy.ply"
+    shutil.copy(panel, copy)
+    result = run("batch", panel, copy, "--gauge-depth", "0.5", "--jobs", "2")
+    assert result.exit_code == cli.EXIT_OK, result.stderr
+    for line in result.stdout.splitlines():
+        (batch_countersink,) = [hole["countersink"] for hole in json.loads(line)["holes"] if hole["countersink"]]
+        assert batch_countersink["gauge_depth"] == 0.5
+        assert batch_countersink["diameter_at_depth"] == pytest.approx(countersink["diameter_at_depth"], abs=1e-9)
+    result, record = _detect(run, panel)
+    assert all(hole["countersink"]["diameter_at_depth"] is None for hole in record["holes"] if hole["countersink"])
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        (["--countersink-angle", "100"], "--countersink-angle needs --countersink-angle-tolerance"),
+        (["--countersink-angle-tolerance", "1"], "--countersink-angle-tolerance needs --countersink-angle"),
+        (["--countersink-diameter", "7"], "--countersink-diameter needs --countersink-diameter-tolerance"),
+        (["--countersink-depth-tolerance", "0.1"], "--countersink-depth-tolerance needs --countersink-depth"),
+        (["--bore-diameter", "4"], "--bore-diameter needs --bore-diameter-tolerance"),
+        (["--countersink-angle", "100 +/- 1", "--countersink-angle-tolerance", "1"],
+         "give its tolerance with --countersink-angle-tolerance"),
+        (["--countersink-angle", "180", "--countersink-angle-tolerance", "1"], "0<x<180"),
+        (["--countersink-angle", "100", "--countersink-angle-tolerance", "1/0.5"], "with its sign"),
+        (["--countersink-angle", "100", "--countersink-angle-tolerance", "-0.5/+1"], "did you mean +1/-0.5"),
+        (["--countersink-diameter", "0", "--countersink-diameter-tolerance", "0.1"], "--countersink-diameter"),
+        (["--bore-diameter", "4", "--bore-diameter-tolerance", "1_0"], "expected a number"),
+        (["--max-perpendicularity", "95"], "--max-perpendicularity"),
+        (["--spec", "part.toml", "--countersink-angle", "100", "--countersink-angle-tolerance", "1"],
+         "--spec cannot be combined with --countersink-angle, --countersink-angle-tolerance"),
+        (["--gauge-depth", "-1"], "--gauge-depth"),
+        (["--gauge-depth", "nan"], "not a plain decimal number"),
+        (["--method", "paper", "--gauge-depth", "0.5"], "--gauge-depth cannot be used with --method paper"),
+    ],
+)
+@pytest.mark.parametrize("command", ["detect", "batch"])
+def test_feature_check_and_gauge_depth_option_errors_exit_2(run, one_scan, options, message, command):
+    result = run(command, one_scan[0], *options)
+    assert result.exit_code == cli.EXIT_USAGE, result.stderr
+    assert result.stdout == ""
+    assert message in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+@pytest.mark.parametrize("command", ["detect", "batch"])
+def test_every_tolerance_and_detection_option_has_a_metavar_and_help(run, command):
+    import click
+
+    params = {param.name: param for param in cli.main.commands[command].params}
+    expected = {"gauge_depth": "DEPTH", "countersink_diameter": "D", "countersink_angle": "DEG",
+                "countersink_depth": "D", "bore_diameter": "D", "max_perpendicularity": "DEG",
+                "countersink_diameter_tolerance": "T|+U/-L", "countersink_angle_tolerance": "T|+U/-L",
+                "countersink_depth_tolerance": "T|+U/-L", "bore_diameter_tolerance": "T|+U/-L"}
+    context = click.Context(cli.main.commands[command])
+    for name, metavar in expected.items():
+        assert params[name].help, name
+        assert params[name].make_metavar(context) == metavar, name
+    help_text = run(command, "--help").stdout
+    for name in expected:
+        assert f"--{name.replace('_', '-')} " in help_text
+
+
+def test_the_table_cell_of_a_verdict_shows_each_failed_check_with_its_value():
+    from holecli.cli.detect import verdict_cell
+
+    hole = {"name": "A1", "in_tolerance": False, "diameter_deviation": -0.0029,
+            "position_deviation": {"in_plane": 0.061, "along_normal": 0.0}, "tilt_deg": 0.72,
+            "perpendicularity_deg": 1.5, "countersink_angle_deviation": 1.214, "bore_diameter_deviation": None,
+            "failed_checks": ["diameter", "position", "tilt", "countersink_angle", "bore_diameter_not_measured",
+                              "perpendicularity"]}
+    assert verdict_cell(hole) == ("A1: OUT: diameter -0.0029, position 0.061, tilt 0.72, countersink_angle +1.214, "
+                                  "bore_diameter not measured, perpendicularity 1.5")
+    assert verdict_cell(dict(hole, in_tolerance=True, failed_checks=[])) == "A1: in"
+    assert verdict_cell({"in_tolerance": None, "failed_checks": None}) == "not checked"
+
+
+def test_the_sample_panel_spec_gives_the_verdict_the_readme_shows(run, panel, repo_root):
+    result, record = _detect(run, panel, "--spec", repo_root / "sample_clouds" / "panel_tolerances.toml")
+    assert result.exit_code == cli.EXIT_OUT_OF_TOLERANCE, result.stderr
+    assert {hole["name"]: hole["failed_checks"] for hole in record["holes"]} == {
+        "T1": ["bore_diameter_not_measured"], "C1": [], "B1": [], "L1": []}
