@@ -10,9 +10,10 @@ its orthogonal distance to the surface: ``rho - r`` for the cylinder, ``(rho - R
 the cone (exact for points off the apex's side), where ``rho`` is its distance from the axis.
 
 The fits are Levenberg-Marquardt on forward-difference Jacobians (five or six parameters, thousands of
-points: the residuals are cheap) inside a trimming loop: after each fit the points farther than
-``trim_sigmas`` robust standard deviations of the residuals (never less than ``floor``) are set aside
-and the fit is repeated, so that stray points from another surface do not pull it. Numpy only.
+points: the residuals are cheap) inside a trimming loop: before the first fit (from the starting surface) and after each fit the
+points farther than ``trim_sigmas`` robust standard deviations of the residuals (never less than
+``floor``) are set aside and the fit is repeated, so that stray points from another surface do not
+pull it. Numpy only.
 """
 
 from __future__ import annotations
@@ -147,8 +148,14 @@ def _levenberg_marquardt(residuals, start, steps, iterations=50, tolerance=1e-12
 
 def _trimmed(residuals_of, start, steps, local, floor, trim_sigmas, rounds):
     """The fit repeated on the points within ``trim_sigmas`` robust sigmas of the previous fit."""
-    kept = np.ones(len(local), dtype=bool)
     p = np.array(start, dtype=np.float64)
+    # The first round already leaves out what lies far from the starting surface: a good start (the
+    # cone's hinge, the wall's median radius) then keeps a neighbouring surface's points from pulling
+    # the first fit into a wrong minimum that trimming after it would no longer leave.
+    residuals = residuals_of(p, local)
+    kept = np.abs(residuals) <= trim_sigmas * max(robust_sigma(residuals), floor)
+    if np.count_nonzero(kept) < len(p) + 1:
+        kept = np.ones(len(local), dtype=bool)
     for _ in range(rounds):
         p = _levenberg_marquardt(lambda q: residuals_of(q, local[kept]), p, steps)
         residuals = residuals_of(p, local)
