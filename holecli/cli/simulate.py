@@ -43,7 +43,10 @@ from holecli.cli.options import Decimal, FloatTuple, read_small_text
 @click.option("--inside-points", type=click.IntRange(min=0), default=0, show_default=True,
               help="Random points inside each hole (reflections; the paper's Fig. 5 uses 10 and 100).")
 @click.option("--countersink", type=Decimal(min=0, min_open=True), default=None,
-              help="Countersink diameter at the surface (100-degree cone) for every hole.")
+              help="Countersink diameter at the surface for every hole (a cone of --countersink-angle).")
+@click.option("--countersink-angle", type=Decimal(min=0, max=180, min_open=True, max_open=True), default=100.0,
+              show_default=True, metavar="DEG",
+              help="Included angle of the countersinks, degrees (82, 90, 100 and 110 are standard).")
 @click.option("--bore-depth", type=Decimal(min=0), default=0.0, show_default=True,
               help="Depth of bore-wall points below the surface (0: none).")
 @click.option("--bottom-depth", type=Decimal(min=0), default=0.0, show_default=True,
@@ -97,7 +100,7 @@ from holecli.cli.options import Decimal, FloatTuple, read_small_text
               help="Where to write the ground truth [default: OUTPUT with .truth.json].")
 @click.pass_context
 def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pattern, line_pitch, scan_angle, rotation,
-             translation, noise_z, noise_normal, inside_points, countersink, bore_depth, bottom_depth, outliers, ragged,
+             translation, noise_z, noise_normal, inside_points, countersink, countersink_angle, bore_depth, bottom_depth, outliers, ragged,
              nan_points, panel_file, mesh_file, target, standoff, view, line, line_length, scan_length, parallel_rays,
              triangulation_deg, max_incidence_deg, range_noise, range_quantum, dropout, jitter, keep_nan, metres,
              float64, seed, truth_path):
@@ -140,7 +143,7 @@ def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pat
         try:
             scene = synth.SceneSpec(
                 holes=tuple(synth.HoleSpec(center=(x, y), diameter=d, countersink_diameter=countersink,
-                                           bore_depth=bore_depth, bottom_depth=bottom_depth,
+                                           countersink_angle_deg=countersink_angle, bore_depth=bore_depth, bottom_depth=bottom_depth,
                                            inside_points=inside_points)
                             for x, y, d in specs),
                 extent=extent, spacing=spacing, pattern=pattern, line_pitch=line_pitch,
@@ -168,7 +171,7 @@ _PROFILER_OPTIONS = ("target", "standoff", "view", "line", "line_length", "scan_
                      "triangulation_deg", "max_incidence_deg", "range_noise", "range_quantum", "dropout", "jitter",
                      "keep_nan", "metres", "float64")
 _SYNTHETIC_OPTIONS = ("diameter", "center", "holes", "no_hole", "extent", "pattern", "scan_angle", "noise_z",
-                      "noise_normal", "inside_points", "countersink", "bore_depth", "bottom_depth", "outliers",
+                      "noise_normal", "inside_points", "countersink", "countersink_angle", "bore_depth", "bottom_depth", "outliers",
                       "ragged", "nan_points")
 
 

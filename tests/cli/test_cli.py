@@ -356,6 +356,20 @@ def test_simulate_output_is_detected(run, tmp_path):
     assert np.linalg.norm(np.subtract(record["holes"][0]["center"], truth["center"])) < 0.010
 
 
+@pytest.mark.parametrize("angle", [82.0, 110.0])
+def test_simulate_countersink_angle_is_the_cone_detect_measures(run, tmp_path, angle):
+    out = tmp_path / "countersunk.ply"
+    result = run("simulate", out, "--hole", "0,0,3", "--countersink", "5", "--countersink-angle", str(angle),
+                 "--extent", "-4,4,-4,4", "--spacing", "0.05", "--bore-depth", "3", "--rotation", "0,0,0",
+                 "--translation", "0,0,0")
+    assert result.exit_code == 0, result.stderr
+    hole = json.loads(run("detect", out).stdout)["holes"][0]
+    assert hole["type"] == "countersunk"
+    assert abs(hole["countersink"]["angle_deg"] - angle) < 0.1
+    assert abs(hole["countersink"]["depth"] - 1.0 / np.tan(np.radians(angle / 2))) < 0.005
+    assert abs(hole["bore"]["diameter"] - 3.0) < 0.005
+
+
 def test_simulate_repeated_hole_option(run, tmp_path):
     out = tmp_path / "two.pcd"
     result = run("simulate", out, "--hole", "0,0,2", "--hole", "3,3,1.5", "--truth", tmp_path / "t.json")
