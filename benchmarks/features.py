@@ -7,7 +7,9 @@ picked: the hole's kind (classes ``cs82``, ``cs90``, ``cs100``, ``cs110``: count
 angle; ``counterbored``, ``blind``, ``through``), its diameter (3-6 mm), the sheet's thickness (3-6 mm),
 the angle it was drilled off the normal (0, 2 or 5 deg, toward any direction), the sensor's tilt from
 the normal (0-40 deg, any direction), the pitch (0.03-0.1 mm) and the range noise (0, 2, 5 or 10 um):
-the conditions of issue 12's targets.
+the conditions of issue 12's targets. Two more classes draw the hole's kind too: ``curved``, on a
+convex or concave sheet of R 500-2000 mm, and ``robot_frame``, the scan in metres in a robot's base
+frame (any heading, tilted up to 45 deg, 1-2 m from the origin).
 
 Per class it prints the holes found and typed right. Then, per measured value, over every scene that
 has it: how many scenes gave it (a value the points cannot support is null, with a warning), the
@@ -35,7 +37,7 @@ from holecli.simulation.panel import FeatureSpec, PanelSpec, build_panel, panel_
 from holecli.simulation.profiler import ProfilerSpec  # noqa: E402
 from holecli.simulation.scan_part import scan_part  # noqa: E402
 
-CLASSES = ("cs82", "cs90", "cs100", "cs110", "counterbored", "blind", "through")
+CLASSES = ("cs82", "cs90", "cs100", "cs110", "counterbored", "blind", "through", "curved", "robot_frame")
 EXPECTED_TYPE = {"counterbored": "counterbored", "blind": "blind", "through": "through"}
 # value: (target, unit label, scale from mm to the unit)
 TARGETS = {
@@ -54,6 +56,18 @@ def scene(kind, seed):
     rng = np.random.default_rng([sum(map(ord, kind)), seed, 12])
     diameter = float(rng.uniform(3.0, 6.0))
     thickness = float(rng.uniform(3.0, 6.0))
+    curvature, radius, frame, scale = "flat", None, None, 1.0
+    if kind in ("curved", "robot_frame"):
+        if kind == "curved":
+            curvature, radius = str(rng.choice(["convex", "concave"])), float(rng.uniform(500.0, 2000.0))
+        else:
+            a, b = rng.uniform(0, 2 * np.pi), rng.uniform(-np.pi / 4, np.pi / 4)
+            rotation = _rotation(a, b)
+            frame = np.eye(4)
+            frame[:3, :3] = rotation
+            frame[:3, 3] = rng.uniform(-1500.0, 1500.0, 3) + [0.0, 0.0, 1000.0]
+            frame, scale = tuple(map(tuple, frame)), 1e-3
+        kind = str(rng.choice(CLASSES[:7]))
     drill_tilt = float(rng.choice([0.0, 2.0, 5.0]))
     drill_direction = float(rng.uniform(0.0, 360.0))
     tilt = {"tilt_deg": drill_tilt, "tilt_direction_deg": drill_direction}
@@ -77,8 +91,8 @@ def scene(kind, seed):
         feature = FeatureSpec(kind="through", center=(0.0, 0.0), diameter=diameter, **tilt)
         outer = diameter
     size = 6.0 * outer
-    panel = build_panel(PanelSpec(width=size, height=size, thickness=thickness, features=(feature,),
-                                  chord_error=1e-4))
+    panel = build_panel(PanelSpec(width=size, height=size, thickness=thickness, curvature=curvature, radius=radius,
+                                  features=(feature,), chord_error=1e-4))
     view_tilt = math.radians(float(rng.uniform(0.0, 40.0)))
     azimuth = float(rng.uniform(0.0, 2.0 * math.pi))
     view = (math.sin(view_tilt) * math.cos(azimuth), math.sin(view_tilt) * math.sin(azimuth), -math.cos(view_tilt))
@@ -91,29 +105,36 @@ def scene(kind, seed):
     noise = float(rng.choice([0.0, 0.002, 0.005, 0.01]))
     spec = ProfilerSpec(target=(0.0, 0.0, 0.0), standoff=100.0, view=view, line=line, line_length=reach,
                         scan_length=reach, point_pitch=pitch, line_pitch=pitch, fan=bool(rng.integers(2)),
-                        triangulation_deg=25.0, range_noise=noise, range_quantum=0.001, float32=True)
+                        triangulation_deg=25.0, range_noise=noise, range_quantum=0.001, frame=frame,
+                        unit_scale=scale, float32=True)
     description = dict(pitch=pitch, noise=noise, diameter=diameter, drill_tilt=drill_tilt,
-                       view_tilt=math.degrees(view_tilt))
+                       view_tilt=math.degrees(view_tilt), kind=kind, curvature=curvature, unit_scale=scale)
     return panel, spec, description
 
 
-def errors_of(hole, truth):
-    """(name, measured - true in mm or degrees) of every value the hole gives that the truth has."""
+def _rotation(a, b):
+    ca, sa, cb, sb = math.cos(a), math.sin(a), math.cos(b), math.sin(b)
+    return np.array([[ca, -sa, 0.0], [sa, ca, 0.0], [0.0, 0.0, 1.0]]) @ np.array([[1, 0, 0], [0, cb, -sb], [0, sb, cb]])
+
+
+def errors_of(hole, truth, scale=1.0):
+    """(name, measured - true in mm or degrees) of every value the hole gives that the truth has
+    (``scale``: file units per mm)."""
     out = []
     cs = hole.countersink
     if truth["kind"] == "countersunk" and cs is not None:
         if cs.angle_deg is not None:
             out.append(("countersink angle", cs.angle_deg - truth["countersink_angle_deg"]))
         if cs.diameter is not None:
-            out.append(("countersink diameter", cs.diameter - truth["countersink_diameter"]))
+            out.append(("countersink diameter", (cs.diameter - truth["countersink_diameter"]) / scale))
         if cs.depth is not None:
-            out.append(("countersink depth", cs.depth - truth["countersink_depth"]))
+            out.append(("countersink depth", (cs.depth - truth["countersink_depth"]) / scale))
     if truth["kind"] == "counterbored" and hole.counterbore is not None:
-        out.append(("counterbore depth", hole.counterbore.depth - truth["counterbore_depth"]))
+        out.append(("counterbore depth", (hole.counterbore.depth - truth["counterbore_depth"]) / scale))
     if truth["kind"] == "blind" and hole.bore is not None and hole.bore.floor_depth is not None:
-        out.append(("floor depth", hole.bore.floor_depth - truth["floor_depth"]))
+        out.append(("floor depth", (hole.bore.floor_depth - truth["floor_depth"]) / scale))
     if hole.bore is not None and hole.bore.diameter is not None:
-        out.append(("bore diameter", hole.bore.diameter - truth["bore_diameter"]))
+        out.append(("bore diameter", (hole.bore.diameter - truth["bore_diameter"]) / scale))
     if hole.perpendicularity_deg is not None:
         true_axis = np.asarray(truth["axis"])
         axis = np.asarray(hole.axis)
@@ -134,11 +155,12 @@ def measure(kind, seed):
     detection = detect(points)
     cpu = time.process_time() - started
     match = min(detection.holes, key=lambda h: np.linalg.norm(np.subtract(h.center, true_scan["center"])), default=None)
-    if match is not None and np.linalg.norm(np.subtract(match.center, true_scan["center"])) > 0.5 * truth["diameter"]:
+    if match is not None and np.linalg.norm(np.subtract(match.center, true_scan["center"])) > 0.5 * true_scan["diameter"]:
         match = None
-    expected_type = EXPECTED_TYPE.get(kind, "countersunk")
+    expected_type = EXPECTED_TYPE.get(description["kind"], "countersunk")
     return dict(description, found=match is not None, typed=match is not None and match.type == expected_type,
-                type=None if match is None else match.type, errors=[] if match is None else errors_of(match, true_scan),
+                type=None if match is None else match.type,
+                errors=[] if match is None else errors_of(match, true_scan, description["unit_scale"]),
                 warnings=[] if match is None else [w.code for w in match.warnings], cpu=cpu, points=len(points))
 
 

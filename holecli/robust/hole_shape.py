@@ -72,6 +72,34 @@ class HoleShape:
     warnings: tuple
 
 
+def _from_local_surface(d, height, rho, n, R, noise, spacing, settings):
+    """Heights above the surface around the hole itself, and that surface's noise.
+
+    The scan's noise and plane describe the whole scan; on a curved panel its heights spread by the
+    sag across it (0.1 mm over 20 mm at R 500), which is no noise here, and the surface around a hole
+    leaves its tangent plane by r^2 / 2R (20 um at 1.3 x 3.5 mm, R 500). A quadric in the hole's frame
+    is fitted to the surface ring from the edge (plus two spacings) out to ``shape_search_radii`` edge
+    radii, trimmed twice at ``shape_trim_sigmas``: heights are taken from it and the noise is its
+    residuals'. With fewer than 12 ring points the tangent plane and the scan's noise stay.
+    """
+    ring = (rho > R + 2.0 * spacing) & (np.abs(height) < max(0.05 * R, 10.0 * noise))
+    if np.count_nonzero(ring) < 12:
+        return height, noise
+    rotation = frame_about(n)
+    u, v = (d @ rotation[0]), (d @ rotation[1])
+    design = np.column_stack([np.ones(len(u)), u, v, u * u, u * v, v * v])
+    kept = ring
+    for _ in range(3):
+        coefficients, *_ = np.linalg.lstsq(design[kept], height[kept], rcond=None)
+        residual = height - design @ coefficients
+        scale = max(robust_sigma(residual[kept]), 1e-9 * R)
+        new_kept = ring & (np.abs(residual) < settings.shape_trim_sigmas * scale)
+        if np.count_nonzero(new_kept) < 12 or np.array_equal(new_kept, kept):
+            break
+        kept = new_kept
+    return residual, max(robust_sigma(residual[kept]), 1e-9 * R)
+
+
 def _warning(code, detail):
     return HoleWarning(code=code, message=f"{WARNING_CODES[code]} ({detail})")
 
@@ -143,6 +171,7 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
     rho = np.sqrt(np.maximum(np.einsum("ij,ij->i", d, d) - height * height, 0.0))
     near = (rho < settings.shape_search_radii * R) & (np.abs(height) < settings.shape_depth_radii * R)
     pts, height, rho = np.asarray(points, dtype=np.float64)[near], height[near], rho[near]
+    height, noise = _from_local_surface(pts - c, height, rho, n, R, noise, spacing, settings)
     threshold = max(settings.shape_below_sigmas * noise, settings.shape_below_radii * R)
     # Out of the material: the side of the surface without the points inside the edge off it.
     inner = rho < R
@@ -235,7 +264,12 @@ def _countersink(pts, rho, depth, below, c, n, R, slope, noise, spacing, gauge_d
         warnings.append(_warning("cone_few_points", f"{np.count_nonzero(guess)} < {settings.shape_min_points}"))
         return empty, None, guess
     half = float(np.arctan(1.0 / slope))
-    cone = fit_cone(pts[guess], c, n, R, half, floor=noise, trim_sigmas=settings.shape_trim_sigmas)
+    # The first fit on the cone's outer three quarters: the bore wall, seen from a tilted view over
+    # much of its depth, stands at the cone's inner end, within the hinge's band there.
+    inner = float(np.percentile(rho[guess], 5.0))
+    outer_part = guess & (rho >= inner + 0.25 * (R - inner))
+    first = outer_part if np.count_nonzero(outer_part) >= settings.shape_min_points else guess
+    cone = fit_cone(pts[first], c, n, R, half, floor=noise, trim_sigmas=settings.shape_trim_sigmas)
     # Once more on every point near the first fit: the first guess's band is a hinge's, not the cone's.
     crp, crt = _about(pts, cone.point, cone.axis)
     residual = (crp - cone.radius_at(crt)) * np.cos(cone.half_angle)
