@@ -109,6 +109,8 @@ class Bore:
         Coverage of the wall points around the axis, degrees.
     floor_depth : float or None
         A blind hole's floor, along the axis below the surface; None for a hole without a floor.
+    floor_rms : float or None
+        Root mean square distance of the floor's points from its fitted plane.
     """
 
     diameter: Optional[float]
@@ -117,6 +119,7 @@ class Bore:
     depth_range: Optional[tuple[float, float]]
     arc_deg: Optional[float]
     floor_depth: Optional[float] = None
+    floor_rms: Optional[float] = None
 
 
 @dataclass(frozen=True)

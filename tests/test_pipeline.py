@@ -298,3 +298,32 @@ def test_the_command_line_and_the_batch_workers_measure_with_detect_file(table1_
         cli_record.pop(key, None)
         record.pop(key, None)
     assert cli_record == record
+
+
+def test_the_panel_sample_s_holes_are_measured_below_their_edges(repo_root):
+    """sample_clouds/panel.ply (a straight-down profiler scan at 0.2 mm pitch): each hole's type and
+    what the scan shows of it, against the mesh's truth; the paper method does not look below."""
+    from holecli import detect_file
+
+    truth = json.loads((repo_root / "sample_clouds" / "panel.truth.json").read_text())["holes"]
+    detection = detect_file(repo_root / "sample_clouds" / "panel.ply", gauge_depth=0.5)
+    by_kind = {}
+    for expected in truth:
+        (hole,) = [h for h in detection.holes if np.linalg.norm(np.subtract(h.center, expected["center"])) < 0.5]
+        assert hole.type == expected["kind"]
+        by_kind[hole.type] = (hole, expected)
+    hole, expected = by_kind["countersunk"]
+    assert abs(hole.countersink.angle_deg - expected["countersink_angle_deg"]) < 0.1
+    assert abs(hole.countersink.diameter - expected["countersink_diameter"]) < 0.005
+    assert abs(hole.countersink.depth - expected["countersink_depth"]) < 0.01
+    half = np.radians(hole.countersink.angle_deg / 2)
+    assert hole.countersink.diameter_at_depth == pytest.approx(hole.countersink.diameter - 2 * 0.5 * np.tan(half))
+    assert hole.perpendicularity_deg < 0.1
+    hole, expected = by_kind["counterbored"]
+    assert abs(hole.counterbore.depth - expected["counterbore_depth"]) < 0.005
+    hole, expected = by_kind["blind"]
+    assert abs(hole.bore.floor_depth - expected["floor_depth"]) < 0.005
+    hole, _ = by_kind["through"]
+    assert hole.bore.diameter is None and {w.code for w in hole.warnings} == {"bore_not_seen", "axis_not_measured"}
+    paper = detect_file(repo_root / "sample_clouds" / "table1.ply", method="paper").holes[0]
+    assert paper.type is None and paper.bore is None and paper.warnings == ()

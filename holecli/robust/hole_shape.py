@@ -241,7 +241,7 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
         # The floor's depth along the axis: where the axis through c meets the floor's plane.
         along_axis = float((c - floor_point) @ floor_normal) / float(axis @ floor_normal)
         if kind == "blind":
-            bore = Bore(**{**bore.__dict__, "floor_depth": along_axis})
+            bore = Bore(**{**bore.__dict__, "floor_depth": along_axis, "floor_rms": floor_rms})
         else:
             counterbore = Counterbore(**{**counterbore.__dict__, "depth": along_axis})
     if axis is None:

@@ -151,6 +151,7 @@ def test_a_blind_hole_gives_its_floor_depth_and_axis_from_the_floor(tilt):
     shape = _measure(np.vstack([_surface(2.0), floor]), 2.0)
     assert shape.type == "blind"
     assert abs(shape.bore.floor_depth - 1.5) < 1e-6
+    assert shape.bore.floor_rms < 1e-9
     assert abs(shape.perpendicularity_deg - tilt) < 1e-3
 
 
