@@ -44,6 +44,7 @@ from holecli.pipeline import detect  # noqa: E402
 from holecli.simulation.panel import FeatureSpec, PanelSpec, build_panel, panel_truth  # noqa: E402
 from holecli.simulation.profiler import ProfilerSpec  # noqa: E402
 from holecli.simulation.scan_part import scan_part  # noqa: E402
+from realistic import robot_frame  # noqa: E402  (benchmarks/, the script's folder, is on the path)
 
 CLASSES = ("cs82", "cs90", "cs100", "cs110", "counterbored", "blind", "through", "curved", "robot_frame", "mesh")
 EXPECTED_TYPE = {"counterbored": "counterbored", "blind": "blind", "through": "through"}
@@ -70,12 +71,7 @@ def scene(kind, seed, drill_tilt=None):
         if kind == "curved":
             curvature, radius = str(rng.choice(["convex", "concave"])), float(rng.uniform(500.0, 2000.0))
         else:
-            a, b = rng.uniform(0, 2 * np.pi), rng.uniform(-np.pi / 4, np.pi / 4)
-            rotation = _rotation(a, b)
-            frame = np.eye(4)
-            frame[:3, :3] = rotation
-            frame[:3, 3] = rng.uniform(-1500.0, 1500.0, 3) + [0.0, 0.0, 1000.0]
-            frame, scale = tuple(map(tuple, frame)), 1e-3
+            frame, scale = robot_frame(rng, np.pi / 4)
         kind = str(rng.choice(CLASSES[:7]))
     drawn_tilt = float(rng.choice([0.0, 2.0, 5.0]))
     drill_tilt = drawn_tilt if drill_tilt is None else drill_tilt
@@ -120,11 +116,6 @@ def scene(kind, seed, drill_tilt=None):
     description = dict(pitch=pitch, noise=noise, diameter=diameter, drill_tilt=drill_tilt,
                        view_tilt=math.degrees(view_tilt), kind=kind, curvature=curvature, unit_scale=scale)
     return panel, spec, description
-
-
-def _rotation(a, b):
-    ca, sa, cb, sb = math.cos(a), math.sin(a), math.cos(b), math.sin(b)
-    return np.array([[ca, -sa, 0.0], [sa, ca, 0.0], [0.0, 0.0, 1.0]]) @ np.array([[1, 0, 0], [0, cb, -sb], [0, sb, cb]])
 
 
 def errors_of(hole, truth, scale=1.0):

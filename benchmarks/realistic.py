@@ -87,12 +87,7 @@ def scene(kind, seed):
         # any heading, tilted up to 60 deg: the sensor stays on the +z side of the base frame, which is
         # where holecli looks for it (see the README's sign convention; a part seen from below is not
         # in this benchmark)
-        a, b = rng.uniform(0, 2 * np.pi), rng.uniform(-np.pi / 3, np.pi / 3)
-        rotation = _rotation(a, b)
-        frame = np.eye(4)
-        frame[:3, :3] = rotation
-        frame[:3, 3] = rng.uniform(-1500.0, 1500.0, 3) + [0.0, 0.0, 1000.0]
-        frame, scale = tuple(map(tuple, frame)), 1e-3
+        frame, scale = robot_frame(rng, np.pi / 3)
     reach = 5.0 * diameter * (2.0 if feature_kind == "slot" else 1.0)
     spec = ProfilerSpec(target=(0.0, 0.0, 0.0), standoff=100.0, view=view, line=line, line_length=reach,
                         scan_length=reach, point_pitch=pitch, line_pitch=pitch, fan=bool(rng.integers(2)),
@@ -122,6 +117,16 @@ def sample_surface(vertices, triangles, spacing, region, rng):
     points = a[pick] + u[:, None] * (b[pick] - a[pick]) + v[:, None] * (c[pick] - a[pick])
     points = points[np.all(np.abs(points[:, :2]) < region, axis=1)]
     return points.astype(np.float32).astype(np.float64)
+
+
+def robot_frame(rng, max_tilt):
+    """(frame, unit scale) of a scan in metres in a robot's base frame: any heading, tilted up to
+    ``max_tilt`` radians, 1 to 2 m from the origin (``ProfilerSpec.frame`` and ``unit_scale``)."""
+    a, b = rng.uniform(0, 2 * np.pi), rng.uniform(-max_tilt, max_tilt)
+    frame = np.eye(4)
+    frame[:3, :3] = _rotation(a, b)
+    frame[:3, 3] = rng.uniform(-1500.0, 1500.0, 3) + [0.0, 0.0, 1000.0]
+    return tuple(map(tuple, frame)), 1e-3
 
 
 def _rotation(a, b):

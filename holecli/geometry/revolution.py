@@ -169,6 +169,13 @@ def _trimmed(residuals_of, start, steps, local, floor, trim_sigmas, rounds):
     return p, residuals, kept, rms
 
 
+def _reference_frame(points, origin, direction, radius):
+    """The fit's frame (rows: two axes, then ``direction``), the points in it, the finite-difference step."""
+    rotation = frame_about(direction)
+    local = (np.asarray(points, dtype=np.float64) - origin) @ rotation.T
+    return rotation, local, max(1e-7 * radius, 1e-12)
+
+
 def _to_world(origin, rotation, x, y, a, b):
     point = origin + rotation.T @ np.array([x, y, 0.0])
     axis = rotation.T @ _axis_of(a, b)
@@ -203,9 +210,7 @@ def fit_cylinder(points, origin, direction, radius, *, fixed_axis=False, floor=0
     -------
     Cylinder
     """
-    rotation = frame_about(direction)
-    local = (np.asarray(points, dtype=np.float64) - origin) @ rotation.T
-    step = max(1e-7 * radius, 1e-12)
+    rotation, local, step = _reference_frame(points, origin, direction, radius)
     if fixed_axis:
         def residuals_of(q, pts):
             return _cylinder_residuals((q[0], q[1], 0.0, 0.0, q[2]), pts)
@@ -240,9 +245,7 @@ def fit_cone(points, origin, direction, radius, half_angle, *, floor=0.0, trim_s
     -------
     Cone
     """
-    rotation = frame_about(direction)
-    local = (np.asarray(points, dtype=np.float64) - origin) @ rotation.T
-    step = max(1e-7 * radius, 1e-12)
+    rotation, local, step = _reference_frame(points, origin, direction, radius)
     p, residuals, kept, rms = _trimmed(_cone_residuals, (0.0, 0.0, 0.0, 0.0, radius, half_angle),
                                        (step, step, 1e-7, 1e-7, step, 1e-7), local, floor, trim_sigmas, rounds)
     x, y, a, b, r0, theta = p
