@@ -225,10 +225,9 @@ class RobustSettings:
     cone_min_bin_points: int = 3
     # --- The whole hole below its edge (holecli.robust.hole_shape) ---
     # A point is below the surface when it lies more than shape_below_sigmas surface-noise sigmas
-    # (and at least shape_below_radii of the edge radius) under it; the points are gathered within
+    # under it (the noise of the surface ring around the hole); the points are gathered within
     # shape_search_radii edge radii of the axis and shape_depth_radii edge radii deep.
     shape_below_sigmas: float = 4.0
-    shape_below_radii: float = 0.005
     shape_search_radii: float = 1.3
     shape_depth_radii: float = 4.0
     # A cone, wall or floor is measured from at least shape_min_points points spread over at least
@@ -316,7 +315,7 @@ _RANGES = (
     ("cone_below_sigmas", 0.0, _INF), ("cone_inner_widths", 0.0, _INF), ("cone_trim_sigmas", 0.0, _INF),
     ("cone_trim_rounds", 1, 1000), ("cone_edge_steps", 2, 10 ** 6), ("cone_depth_bins", 2, 10 ** 6),
     ("cone_min_bin_points", 1, 10 ** 9),
-    ("shape_below_sigmas", 0.0, _INF), ("shape_below_radii", 0.0, _INF), ("shape_search_radii", 1.0, _INF),
+    ("shape_below_sigmas", 0.0, _INF), ("shape_search_radii", 1.0, _INF),
     ("shape_depth_radii", 0.0, _INF), ("shape_min_points", 7, 10 ** 9), ("shape_min_arc_deg", 0.0, 360.0),
     ("shape_axis_min_span", 0.0, _INF), ("shape_trim_sigmas", 0.0, _INF), ("shape_floor_fraction", 0.0, 1.0),
     ("shape_floor_center_radii", 0.0, 1.0), ("shape_floor_min_width", 0.0, _INF), ("shape_max_axis_change_deg", 0.0, 180.0),

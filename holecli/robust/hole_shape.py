@@ -11,7 +11,7 @@ out of the material: the side without the points below the surface):
 
 1. Gather the points within ``shape_search_radii`` edge radii of the axis through ``c`` along ``n``
    and at most ``shape_depth_radii`` radii deep; a point is *below* when it lies more than
-   ``shape_below_sigmas`` surface-noise sigmas under the surface.
+   ``shape_below_sigmas`` sigmas of the surface ring's noise under the surface.
 2. A countersunk hole (the robust method accepted a cone at the edge, see
    :mod:`holecli.robust.countersink`): the cone is fitted to the points below near the hinge the
    edge fit found, then again to every point within four rms of the first fit. Its diameter is taken
@@ -172,7 +172,7 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
     near = (rho < settings.shape_search_radii * R) & (np.abs(height) < settings.shape_depth_radii * R)
     pts, height, rho = np.asarray(points, dtype=np.float64)[near], height[near], rho[near]
     height, noise = _from_local_surface(pts - c, height, rho, n, R, noise, spacing, settings)
-    threshold = max(settings.shape_below_sigmas * noise, settings.shape_below_radii * R)
+    threshold = settings.shape_below_sigmas * max(noise, 1e-9 * R)
     # Out of the material: the side of the surface without the points inside the edge off it.
     inner = rho < R
     if np.count_nonzero(inner & (height > threshold)) > np.count_nonzero(inner & (height < -threshold)):
@@ -264,12 +264,7 @@ def _countersink(pts, rho, depth, below, c, n, R, slope, noise, spacing, gauge_d
         warnings.append(_warning("cone_few_points", f"{np.count_nonzero(guess)} < {settings.shape_min_points}"))
         return empty, None, guess
     half = float(np.arctan(1.0 / slope))
-    # The first fit on the cone's outer three quarters: the bore wall, seen from a tilted view over
-    # much of its depth, stands at the cone's inner end, within the hinge's band there.
-    inner = float(np.percentile(rho[guess], 5.0))
-    outer_part = guess & (rho >= inner + 0.25 * (R - inner))
-    first = outer_part if np.count_nonzero(outer_part) >= settings.shape_min_points else guess
-    cone = fit_cone(pts[first], c, n, R, half, floor=noise, trim_sigmas=settings.shape_trim_sigmas)
+    cone = fit_cone(pts[guess], c, n, R, half, floor=noise, trim_sigmas=settings.shape_trim_sigmas)
     # Once more on every point near the first fit: the first guess's band is a hinge's, not the cone's.
     crp, crt = _about(pts, cone.point, cone.axis)
     residual = (crp - cone.radius_at(crt)) * np.cos(cone.half_angle)

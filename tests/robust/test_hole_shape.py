@@ -330,3 +330,41 @@ def test_the_countersunk_sample_with_outliers_gives_its_cone_and_bore(repo_root)
     assert abs(hole.bore.diameter - truth["bore_diameter"]) < 0.005
     assert hole.countersink.depth_from == "bore"
     assert abs(hole.countersink.depth - (truth["diameter"] - truth["bore_diameter"]) / 2 / np.tan(np.radians(50))) < 0.005
+
+
+def test_float32_round_off_of_a_noise_free_scan_is_not_taken_for_points_below():
+    """The noise is the surface ring's own: a noise-free scan 1 m from the origin in float32 has
+    heights rounded by about 3e-5 mm, far above the scan's noise estimate of zero; with that estimate
+    the surface just outside the edge would be a 'bore wall' at no depth."""
+    offset = np.array([1000.0, -400.0, 700.0])
+    normal = _axis(20.0, 70.0)  # a tilted part: every coordinate is rounded
+    surface = (_in_axis_frame(_surface(2.0), normal) + offset).astype(np.float32).astype(np.float64)
+    shape = measure_hole_shape(surface, offset, normal, 2.0, noise=0.0, spacing=PITCH)
+    assert shape.type == "through" and shape.bore.points == 0
+
+
+def test_stray_points_near_the_cone_are_trimmed():
+    """shape_trim_sigmas: reflections under the cone's surface (within the hinge's band, all on one
+    side: they would tilt its angle) are left out of its fit."""
+    rng = np.random.default_rng(4)
+    points, _, _, slope = _countersunk(angle=100.0)
+    points = points + rng.normal(0.0, 0.003, points.shape)
+    annulus = 2.0 + 1.5 * rng.random((3000, 1))
+    theta = rng.uniform(0, 2 * np.pi, (3000, 1))
+    depth = (3.5 - annulus) * slope + rng.uniform(0.02, 0.3, (3000, 1))
+    stray = np.hstack([annulus * np.cos(theta), annulus * np.sin(theta), -depth])
+    shape = _measure(np.vstack([points, stray]), 3.5, cone_slope=slope, noise=0.003)
+    assert abs(shape.countersink.angle_deg - 100.0) < 0.05
+    assert abs(shape.countersink.diameter - 7.0) < 2e-3
+
+
+def test_on_a_curved_panel_the_noise_is_the_surface_ring_s_not_the_scan_s():
+    """The scan's height noise of a curved panel holds the sheet's sag across the scan (0.05 mm here),
+    which would widen every band; the ring's quadric leaves the real noise (here none), and the cone
+    and the bore seen from a tilted view come out exact."""
+    points, _, depth, slope = _countersunk(angle=90.0, wall_angles=(0.0, np.pi))
+    surface = points[:, 2] == 0.0
+    points[surface, 2] = -(points[surface, 0] ** 2 + points[surface, 1] ** 2) / (2 * 500.0)
+    shape = _measure(points, 3.5, cone_slope=slope, noise=0.05)
+    assert abs(shape.countersink.angle_deg - 90.0) < 0.01
+    assert abs(shape.countersink.depth - depth) < 1e-3
