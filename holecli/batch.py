@@ -57,7 +57,7 @@ class ResumeError(HoleCliError, ValueError):
 # Finding the files
 
 
-def find_scans(paths, recursive=False, pattern=None, exclude=()) -> list:
+def find_scans(paths, recursive=False, pattern=None, exclude=(), input_format=None) -> list:
     """The point-cloud files to measure, sorted, each once.
 
     Parameters
@@ -65,8 +65,9 @@ def find_scans(paths, recursive=False, pattern=None, exclude=()) -> list:
     paths : sequence of str
         Files and folders. A file is taken as it is (a file holecli cannot read gives an error record
         later). A folder contributes the files directly in it whose extension (any case) is one
-        holecli reads; with ``recursive`` also those in its subfolders. Hidden files and folders (a
-        name starting with ``.``) are skipped, and symbolic links to folders are not followed.
+        holecli reads (with ``input_format``: every file, whatever its extension); with ``recursive``
+        also those in its subfolders. Hidden files and folders (a name starting with ``.``) are
+        skipped, and symbolic links to folders are not followed.
     recursive : bool
         Also look in subfolders.
     pattern : str, optional
@@ -74,6 +75,9 @@ def find_scans(paths, recursive=False, pattern=None, exclude=()) -> list:
         name, or against the path below the given folder when the pattern holds a ``/``.
     exclude : iterable of str
         Files to leave out (the batch's own output file).
+    input_format : str, optional
+        The format every file will be read in (``--input-format``): the extension then no longer
+        selects the files of a folder, only ``pattern`` does.
 
     Returns
     -------
@@ -91,7 +95,7 @@ def find_scans(paths, recursive=False, pattern=None, exclude=()) -> list:
     for path in paths:
         path = os.fspath(path)
         if os.path.isdir(path):
-            found.extend(_scan_folder(path, recursive, pattern))
+            found.extend(_scan_folder(path, recursive, pattern, any_extension=input_format is not None))
         elif os.path.exists(path):
             found.append(path)
         else:
@@ -105,12 +109,14 @@ def find_scans(paths, recursive=False, pattern=None, exclude=()) -> list:
     return unique
 
 
-def _scan_folder(folder, recursive, pattern):
+def _scan_folder(folder, recursive, pattern, any_extension=False):
     pattern = pattern.lower() if pattern else None
     for root, folders, names in os.walk(folder):
         folders[:] = sorted(name for name in folders if not name.startswith("."))
         for name in names:
-            if name.startswith(".") or os.path.splitext(name)[1].lower() not in SUPPORTED_EXTENSIONS:
+            if name.startswith("."):
+                continue
+            if not any_extension and os.path.splitext(name)[1].lower() not in SUPPORTED_EXTENSIONS:
                 continue
             path = os.path.join(root, name)
             if pattern:
@@ -168,7 +174,8 @@ def measure_record(path, options, spec=None, explain=False) -> dict:
     path : str
         The point-cloud file.
     options : dict
-        Keyword arguments of :func:`holecli.detect`.
+        Keyword arguments of :func:`holecli.detect_file`: those of :func:`holecli.detect`, and
+        ``input_format``.
     spec : holecli.tolerance.Spec, optional
         Tolerances to check the holes against.
     explain : bool
@@ -273,7 +280,7 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
     paths : sequence of str
         The files, measured in this order (records come in the order they finish).
     options : dict
-        Keyword arguments of :func:`holecli.detect`.
+        Keyword arguments of :func:`holecli.detect_file` (see :func:`measure_record`).
     spec : holecli.tolerance.Spec, optional
         Tolerances checked in the workers.
     jobs : int
@@ -304,7 +311,8 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
     suspects = deque()  # files in flight when a worker died: each is run alone to find the culprit
     alone = set()
     context = _pool_context()
-    preload = ("open3d",) if any(_is_compressed_pcd(path) for path in paths) else ()
+    input_format = options.get("input_format")
+    preload = ("open3d",) if any(_is_compressed_pcd(path, input_format) for path in paths) else ()
     while waiting or suspects:
         executor = ProcessPoolExecutor(max_workers=max(1, min(jobs, len(waiting) + len(suspects))),
                                        mp_context=context, initializer=_start_worker,
@@ -378,8 +386,8 @@ def _end_pool(executor, graceful):
     executor.shutdown(wait=True, cancel_futures=True)
 
 
-def _is_compressed_pcd(path) -> bool:
-    if not str(path).lower().endswith(".pcd"):
+def _is_compressed_pcd(path, input_format=None) -> bool:
+    if (input_format or os.path.splitext(str(path))[1].lower()[1:]) != "pcd":
         return False
     try:
         if not stat.S_ISREG(os.stat(path).st_mode):

@@ -4,7 +4,8 @@
   :mod:`holecli.robust`); it does no IO.
 * :func:`detect_file` reads a point-cloud file (:func:`holecli.io.read_cloud`, which drops the
   non-finite rows) and runs :func:`detect` on its points: what ``holecli detect`` and every worker of
-  ``holecli batch`` do with one file.
+  ``holecli batch`` do with one file; :func:`detect_cloud` does the same with a cloud already read
+  (``holecli detect -``: standard input, :func:`holecli.io.read_stream`).
 """
 
 from __future__ import annotations
@@ -171,7 +172,7 @@ def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_hol
                      rejected=rejected)
 
 
-def detect_file(path, **options) -> Detection:
+def detect_file(path, *, input_format=None, **options) -> Detection:
     """Read a point-cloud file and find the holes in it.
 
     The one sequence of ``holecli detect`` and of every file of ``holecli batch``: read the file with
@@ -182,7 +183,9 @@ def detect_file(path, **options) -> Detection:
     ----------
     path : str or os.PathLike
         A ``.ply``, ``.pcd``, ``.csv``, ``.txt`` or ``.xyz`` file; its extension (any case) selects the
-        format.
+        format, unless ``input_format`` is given.
+    input_format : {"ply", "pcd", "csv", "txt", "xyz"}, optional
+        Read the file in this format, whatever its extension (``scan.asc`` as ``"xyz"``).
     **options
         Keyword arguments of :func:`detect`: ``method``, ``view_dir``, ``min_diameter``,
         ``max_holes``, ``full_only``, ``gauge_depth``, ``settings``, ``rng``.
@@ -229,6 +232,30 @@ def detect_file(path, **options) -> Detection:
         ...
     holecli.errors.LoadError: sample_clouds/missing.ply: file not found
     """
-    cloud = read_cloud(path)
+    return detect_cloud(read_cloud(path, input_format=input_format), **options)
+
+
+def detect_cloud(cloud, **options) -> Detection:
+    """Find the holes in a cloud already read (:func:`holecli.io.read_cloud`,
+    :func:`holecli.io.read_stream`).
+
+    Parameters
+    ----------
+    cloud : holecli.io.Cloud
+        Its points, dropped rows and file name.
+    **options
+        Keyword arguments of :func:`detect`.
+
+    Returns
+    -------
+    Detection
+        What :func:`detect` returns, with ``file`` (``cloud.path``) and ``dropped_points``
+        (``cloud.dropped``) filled in.
+
+    Raises
+    ------
+    PointsError, TypeError
+        As :func:`detect_file`.
+    """
     detection = detect(cloud.points, **options)
-    return replace(detection, file=str(path), dropped_points=cloud.dropped)
+    return replace(detection, file=str(cloud.path), dropped_points=cloud.dropped)

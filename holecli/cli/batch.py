@@ -12,10 +12,11 @@ import time
 
 import click
 
-from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_FILE_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_NO_HOLE,
-                               EXIT_OK, EXIT_OUT_OF_TOLERANCE, Failure, run_guarded, write_stdout)
-from holecli.cli.options import (detection_option_decorators, detection_options, nominal_from_options, read_spec,
-                                 tolerance_option_decorators)
+from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_BROKEN_PIPE, EXIT_FILE_FAILED, EXIT_INPUT,
+                               EXIT_INTERRUPTED, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, Failure, broken_pipe,
+                               run_guarded, write_stdout)
+from holecli.cli.options import (detection_option_decorators, detection_options, input_format_option,
+                                 nominal_from_options, read_spec, tolerance_option_decorators)
 from holecli.cli.progress import BatchDisplay, batch_summary
 from holecli.errors import LoadError
 
@@ -103,10 +104,13 @@ def batch_exit_code(tally):
 @click.option("--pattern", metavar="GLOB", default=None,
               help="Take only the clouds in folders whose name matches GLOB (case-insensitive; a GLOB with "
                    "a / is matched against the path below the folder), e.g. 'part7_*'.")
+@input_format_option("Read every file in this format, whatever its extension; a folder then contributes "
+                     "every file (that --pattern matches), e.g. --input-format xyz --pattern '*.asc'.")
 @click.option("--format", "fmt", type=click.Choice(["jsonl", "csv"]), default="jsonl", show_default=True,
               help="JSON Lines (one detect record per file) or CSV (one row per hole).")
-@click.option("--output", "-o", type=click.Path(dir_okay=False, path_type=str), default=None,
-              help="Write the records to this file (each as soon as its file is measured) instead of stdout.")
+@click.option("--output", "-o", type=click.Path(dir_okay=False, allow_dash=True, path_type=str), default=None,
+              help="Write the records to this file (each as soon as its file is measured; - is stdout) instead "
+                   "of stdout.")
 @click.option("--jobs", "-j", type=click.IntRange(min=1), default=None, metavar="N",
               help="Worker processes [default: the number of cores].")
 @click.option("--resume", is_flag=True,
@@ -116,8 +120,8 @@ def batch_exit_code(tally):
                    "(\"rejected\"; JSON Lines only).")
 @detection_option_decorators
 @tolerance_option_decorators
-def batch(paths, recursive, pattern, fmt, output, jobs, resume, explain, method, view_dir, min_diameter, max_holes,
-          full_only, gauge_depth, spec_file, **nominal_options):
+def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, explain, method, view_dir, min_diameter,
+          max_holes, full_only, gauge_depth, spec_file, **nominal_options):
     """Measure every point cloud in the folders and files PATH.
 
     A folder contributes the .ply, .pcd, .csv, .txt and .xyz files directly in it (any case; with
@@ -133,14 +137,19 @@ def batch(paths, recursive, pattern, fmt, output, jobs, resume, explain, method,
       holecli batch scans/ --spec part.toml --jobs 4 -o shift.jsonl
       holecli batch scans/ --spec part.toml -o shift.jsonl --resume
       holecli batch scans/*.ply --nominal-diameter 3 --tolerance 0.02 | jq -c 'select(.verdict.in_tolerance | not)'
+      holecli batch scans/ --input-format xyz --pattern '*.asc' -o -
     """
     options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
+    if input_format is not None:
+        options["input_format"] = input_format
     # the tolerance options (--nominal-diameter, ..., --max-perpendicularity) by their parameter names
     nominal = nominal_from_options(spec_file, **nominal_options)
     if resume and (output is None or output == "-"):
         raise click.UsageError("--resume needs --output (the file to go on with)")
     if explain and fmt == "csv":
         raise click.UsageError("--explain needs --format jsonl (CSV has one row per hole)")
+    if output == "-":  # stdout, as without --output
+        output = None
 
     def body(stop):
         from holecli import batch as batching
@@ -149,15 +158,17 @@ def batch(paths, recursive, pattern, fmt, output, jobs, resume, explain, method,
         spec = read_spec(spec_file) if spec_file is not None else nominal
         try:
             files = batching.find_scans(paths, recursive=recursive, pattern=pattern,
-                                        exclude=[output] if output else ())
+                                        exclude=[output] if output else (),
+                                        input_format=input_format)
         except LoadError as error:
             raise Failure(str(error), EXIT_INPUT) from None
         if not files:
-            raise Failure(f"{', '.join(paths)}: no point-cloud files ({', '.join(SUPPORTED_EXTENSIONS)})"
-                          + (f" matching {pattern!r}" if pattern else "") + " found", EXIT_INPUT)
+            what = "files" if input_format else f"point-cloud files ({', '.join(SUPPORTED_EXTENSIONS)})"
+            raise Failure(f"{', '.join(paths)}: no {what}" + (f" matching {pattern!r}" if pattern else "") + " found",
+                          EXIT_INPUT)
         output_file = None
         try:
-            if output is not None and output != "-":
+            if output is not None:
                 try:
                     output_file = batching.BatchOutput(output, fmt, resume=resume)
                 except (batching.ResumeError, batching.OutputBusyError) as error:
@@ -189,7 +200,7 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
     todo : list of str
         The files to measure in this run.
     options : dict
-        Keyword arguments of :func:`holecli.detect`.
+        Keyword arguments of :func:`holecli.detect_file`.
     spec : holecli.tolerance.Spec or None
         Tolerances to check.
     jobs : int
@@ -213,7 +224,9 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
     Returns
     -------
     int
-        The exit code: :data:`EXIT_INTERRUPTED` when a signal stopped the run before its end, else
+        The exit code: :data:`EXIT_INTERRUPTED` when a signal stopped the run before its end,
+        :data:`EXIT_BROKEN_PIPE` when the reader of the output went away (the run stops as when
+        interrupted: the workers are ended, the records written so far are whole), else
         :func:`batch_exit_code`.
 
     Raises
@@ -221,7 +234,7 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
     Failure
         With the input-error code, when a record cannot be written.
     BrokenPipeError
-        When the reader of stdout went away (handled by :func:`run_guarded`).
+        When the reader of stdout went away before the first record (handled by :func:`run_guarded`).
     """
     from contextlib import closing
 
@@ -248,6 +261,7 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
     stop.defer()
     records = batching.measure_all(todo, options, spec, jobs=min(jobs, max(1, len(todo))), should_stop=should_stop,
                                    explain=explain)
+    reader_gone = False
     with display, closing(records):
         for record in records:
             try:
@@ -258,7 +272,10 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
                                                               f"report it): the record cannot be written: {error}"}
                     writer.write(record)
             except BrokenPipeError:
-                raise
+                # The reader of the output went away (`| head -1`): stop as when interrupted (the
+                # workers are ended as the loop is left; every record written so far is whole).
+                reader_gone = True
+                break
             except OSError as error:
                 raise failed_write(error) from None
             measured_now += 1
@@ -266,6 +283,12 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
             if "error" in record:
                 display.message(f"holecli: failed: {record['error']}")
     summary = batch_summary(tally, time.monotonic() - started, spec is not None, len(earlier), output)
+    if reader_gone:
+        name = output or "stdout"
+        broken_pipe(name, f"Error: {name}: broken pipe (its reader stopped reading): holecli batch stopped after "
+                          f"{measured_now} of {len(todo)} files ({summary})")
+        # (a signal that came meanwhile still decides the code: 130 comes before 141)
+        return EXIT_INTERRUPTED if stop.signal is not None else EXIT_BROKEN_PIPE
     if stop.signal is not None and measured_now < len(todo):
         display.message(f"holecli batch: interrupted after {measured_now} of {len(todo)} files ({summary})."
                         + (f" The finished records are in {output}: run again with --resume to measure the rest."

@@ -2,16 +2,22 @@
 
 from __future__ import annotations
 
+import errno
 import io as _stringio
+import os
 import sys
 
 import click
 
 from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, Failure,
                                run_guarded, write_stdout)
-from holecli.cli.options import (detection_option_decorators, detection_options, nominal_from_options, read_spec,
-                                 tolerance_option_decorators)
+from holecli.cli.options import (INPUT_FORMATS, detection_option_decorators, detection_options, input_format_option,
+                                 nominal_from_options, read_spec, tolerance_option_decorators)
 from holecli.errors import HoleCliError
+
+
+# The SCAN that means standard input.
+STDIN = "-"
 
 
 def measure_file(path, options):
@@ -20,9 +26,11 @@ def measure_file(path, options):
     Parameters
     ----------
     path : str
-        The point-cloud file.
+        The point-cloud file; ``-`` is standard input (:func:`read_stdin`).
     options : dict
-        Keyword arguments of :func:`holecli.detect` (see :func:`detection_options`).
+        Keyword arguments of :func:`holecli.detect_file`: those of :func:`holecli.detect` (see
+        :func:`detection_options`) and, with ``--input-format``, ``input_format`` (needed for
+        standard input).
 
     Returns
     -------
@@ -36,12 +44,53 @@ def measure_file(path, options):
         (the message of :func:`holecli.batch.failure_message`, as ``holecli batch`` records it).
     """
     from holecli.batch import failure_message
-    from holecli.pipeline import detect_file
+    from holecli.pipeline import detect_cloud, detect_file
 
     try:
+        if path == STDIN:
+            from holecli.io import STDIN_NAME
+
+            path = STDIN_NAME
+            options = dict(options)
+            return detect_cloud(read_stdin(options.pop("input_format")), **options)
         return detect_file(path, **options)
     except HoleCliError as error:
         raise Failure(failure_message(path, error), EXIT_INPUT) from None
+
+
+def read_stdin(input_format):
+    """The cloud on standard input (``holecli detect -``), read by :func:`holecli.io.read_stream`.
+
+    Parameters
+    ----------
+    input_format : str
+        ``--input-format``.
+
+    Returns
+    -------
+    holecli.io.Cloud
+        Named ``<stdin>``.
+
+    Raises
+    ------
+    LoadError
+        When stdin is a terminal (nothing is piped in: reading would wait for typing), is too long
+        (:data:`holecli.io.MAX_STREAM_BYTES`) or holds no valid cloud of the format.
+    """
+    from holecli.errors import LoadError
+    from holecli.io import STDIN_NAME, read_stream
+
+    stream = getattr(sys.stdin, "buffer", sys.stdin)  # the bytes: binary PLY and PCD
+    if stream is None:  # started with stdin closed (<&-)
+        raise LoadError(STDIN_NAME, "closed: there is no standard input to read")
+    try:
+        terminal = os.isatty(stream.fileno())
+    except (OSError, ValueError):  # no descriptor (a test's stream): not a terminal
+        terminal = False
+    if terminal:
+        raise LoadError(STDIN_NAME, f"is a terminal: pipe or redirect a cloud into it "
+                                    f"(holecli detect - --input-format {input_format} < scan.{input_format})")
+    return read_stream(stream, input_format)
 
 
 def render(records, fmt):
@@ -233,24 +282,27 @@ def emit(text, output):
 
     try:
         write_text(output, text)
+    except BrokenPipeError:  # a FIFO whose reader went away (see run_guarded)
+        raise BrokenPipeError(errno.EPIPE, os.strerror(errno.EPIPE), output) from None
     except OSError as error:
         raise Failure(f"{output}: cannot write output: {error.strerror or error}", EXIT_INPUT) from None
 
 
 @click.command(epilog=EXIT_CODES_HELP)
-@click.argument("scan", type=click.Path(path_type=str))
+@click.argument("scan", type=click.Path(allow_dash=True, path_type=str))
+@input_format_option("Read SCAN in this format, whatever its extension (scan.asc as xyz); needed for - (stdin).")
 @click.option("--format", "fmt", type=click.Choice(["json", "csv", "table"]), default="json", show_default=True,
               help="Output format: JSON record, CSV (one row per hole) or a table for people.")
-@click.option("--output", "-o", type=click.Path(dir_okay=False, path_type=str),
+@click.option("--output", "-o", type=click.Path(dir_okay=False, allow_dash=True, path_type=str),
               help="Write the result to this file (a regular file atomically; - is stdout) instead of stdout.")
 @click.option("--explain", is_flag=True,
               help="Also list every candidate that is not a hole, with the check that refused it "
                    "(\"rejected\" in JSON, a second table with --format table).")
 @detection_option_decorators
 @tolerance_option_decorators
-def detect(scan, fmt, output, explain, method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file,
+def detect(scan, input_format, fmt, output, explain, method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file,
            **nominal_options):
-    """Measure the holes in SCAN (.ply, .pcd, .csv, .txt or .xyz).
+    """Measure the holes in SCAN (.ply, .pcd, .csv, .txt or .xyz; - reads it from stdin, with --input-format).
 
     Prints center, diameter and normal of every hole as JSON (units those of the file). With
     tolerance options or --spec, every checked hole also gets its deviations and "in_tolerance",
@@ -269,10 +321,17 @@ def detect(scan, fmt, output, explain, method, view_dir, min_diameter, max_holes
       holecli detect scan.ply --gauge-depth 0.5
       holecli detect scan.ply --spec part.toml --format table
       holecli detect scan.ply --explain --format table
+      cat scan.ply | holecli detect - --input-format ply -o -
+      holecli detect scan.asc --input-format xyz
     """
+    if scan == STDIN and input_format is None:
+        raise click.UsageError(f"SCAN - (stdin) needs --input-format {'|'.join(INPUT_FORMATS)}: "
+                               "a stream has no extension to tell its format")
     if explain and fmt == "csv":
         raise click.UsageError("--explain needs --format json or table (CSV has one row per hole)")
     options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
+    if input_format is not None:
+        options["input_format"] = input_format
     # the tolerance options (--nominal-diameter, ..., --max-perpendicularity) by their parameter names
     nominal = nominal_from_options(spec_file, **nominal_options)
 
@@ -288,7 +347,7 @@ def detect(scan, fmt, output, explain, method, view_dir, min_diameter, max_holes
 
     record = run_guarded(body)
     if not record["holes"]:
-        click.echo(f"holecli: no hole found in {scan}", err=True)
+        click.echo(f"holecli: no hole found in {record['file']}", err=True)
     verdict = record.get("verdict")
     if verdict is not None and not verdict["in_tolerance"]:
         missing = f", missing: {', '.join(str(name) for name in verdict['missing'])}" if verdict["missing"] else ""
@@ -296,6 +355,6 @@ def detect(scan, fmt, output, explain, method, view_dir, min_diameter, max_holes
                            for hole in record["holes"])
         unmeasured = f" ({not_measured} with a check not measured)" if not_measured else ""
         click.echo(f"holecli: out of tolerance: {verdict['out_of_tolerance']} of {verdict['checked']} checked "
-                   f"holes{unmeasured}{missing} in {scan}", err=True)
+                   f"holes{unmeasured}{missing} in {record['file']}", err=True)
         sys.exit(EXIT_OUT_OF_TOLERANCE)
     sys.exit(EXIT_OK if record["holes"] else EXIT_NO_HOLE)

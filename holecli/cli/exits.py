@@ -2,8 +2,9 @@
 
 Every command runs its body in :func:`run_guarded`: an expected failure becomes one line
 ``Error: <message>`` on stderr and its exit code, Ctrl-C and SIGTERM the exit with 130 (after the body
-cleaned up), a closed stdout (``| head``) a quiet exit. The codes are documented here, in every
-``--help`` (:data:`EXIT_CODES_HELP`, :data:`BATCH_EXIT_CODES_HELP`) and in the README.
+cleaned up), a reader of stdout that stopped reading (``| head -1``) the exit with 141
+(:func:`broken_pipe`). The codes are documented here, in every ``--help`` (:data:`EXIT_CODES_HELP`,
+:data:`BATCH_EXIT_CODES_HELP`) and in the README.
 """
 
 from __future__ import annotations
@@ -22,6 +23,9 @@ EXIT_NO_HOLE = 4
 EXIT_OUT_OF_TOLERANCE = 5
 EXIT_FILE_FAILED = 6
 EXIT_INTERRUPTED = 130
+# 128 + SIGPIPE (13), what a shell reports for a program killed by SIGPIPE (`yes | head -1` under
+# `set -o pipefail`): the reader of the output stopped reading before its end.
+EXIT_BROKEN_PIPE = 141
 
 EXIT_CODES_HELP = (
     "\b\nExit codes:\n"
@@ -34,13 +38,16 @@ EXIT_CODES_HELP = (
     "  5  out of tolerance: a checked hole is out of tolerance or has a check not measured, or a\n"
     "     nominal hole is missing (the record is still printed; takes precedence over 4)\n"
     "  6  holecli batch only: some file could not be measured\n"
-    "  130  interrupted (Ctrl-C or SIGTERM)"
+    "  130  interrupted (Ctrl-C or SIGTERM)\n"
+    "  141  broken pipe: the reader of the output (| head -1) stopped reading before its end"
 )
 
 BATCH_EXIT_CODES_HELP = (
     "\b\nExit codes (the first that applies):\n"
     "  130  interrupted (Ctrl-C or SIGTERM): the finished records are written, none cut;\n"
     "       run again with --resume to measure the rest\n"
+    "  141  broken pipe: the reader of the output (| head -1) stopped reading; the batch stopped\n"
+    "       as when interrupted\n"
     "  2    usage error (bad option or argument)\n"
     "  3    input error: a PATH is missing or holds no point cloud, the --spec file is unreadable\n"
     "       or invalid, the output cannot be written or resumed\n"
@@ -106,8 +113,8 @@ def run_guarded(function, *args, **kwargs):
     ------
     SystemExit
         With the code of a :class:`Failure` (after ``Error: <message>`` on stderr), with
-        :data:`EXIT_INTERRUPTED` after a signal (``Error: interrupted``), or with :data:`EXIT_OK`
-        when stdout's reader went away.
+        :data:`EXIT_INTERRUPTED` after a signal (``Error: interrupted``), or with
+        :data:`EXIT_BROKEN_PIPE` when the reader of the output went away (see :func:`broken_pipe`).
     Exception
         Anything else ``function`` raises without a signal: a bug, shown with its traceback.
     """
@@ -122,11 +129,10 @@ def run_guarded(function, *args, **kwargs):
         _interrupted()
     except KeyboardInterrupt:
         _interrupted()
-    except BrokenPipeError:
-        # The reader of stdout went away (e.g. `| head`): nothing more to say to it.
-        _detach_stdout()
-        sys.stderr.close()
-        sys.exit(EXIT_OK)
+    except BrokenPipeError as error:
+        # The reader of the output went away (e.g. `| head -1`): nothing more to say to it.
+        broken_pipe(error.filename or "stdout")
+        sys.exit(EXIT_BROKEN_PIPE)
     except Exception:
         # A signal's KeyboardInterrupt can come out as another exception (an ImportError, when it hit
         # a C extension's initialisation inside an import): after a signal, that is the interrupt.
@@ -189,12 +195,41 @@ def write_stdout(text):
         raise Failure(f"stdout: cannot write output: {error.strerror or error}", EXIT_INPUT) from None
 
 
+def broken_pipe(name, message=None):
+    """Deal with a reader of the output that went away: stdout pointed at /dev/null, one line on stderr.
+
+    Afterwards nothing that stdout still buffers can fail again at the interpreter's exit (no
+    ``Exception ignored ... BrokenPipeError``); when stderr is that pipe too (``2>&1 | head -1``),
+    the line is dropped and stderr is pointed at /dev/null as well.
+
+    Parameters
+    ----------
+    name : str
+        The output whose reader went away (``"stdout"``, or a FIFO given as ``--output``).
+    message : str, optional
+        The line to print instead of ``Error: <name>: broken pipe (...)``.
+
+    Returns
+    -------
+    None
+    """
+    _detach_stdout()
+    try:
+        click.echo(message or f"Error: {name}: broken pipe (its reader stopped reading before the end)", err=True)
+    except (OSError, ValueError):
+        _detach(sys.stderr)
+
+
 def _detach_stdout():
     # What stdout still buffers would be flushed again at exit, and fail again, with a traceback
     # of the interpreter's own: point the descriptor at /dev/null instead.
+    _detach(sys.stdout)
+
+
+def _detach(stream):
     try:
         devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
+        os.dup2(devnull, stream.fileno())
         os.close(devnull)
     except (OSError, ValueError, AttributeError):
         pass

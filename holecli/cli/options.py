@@ -5,7 +5,8 @@
 * the detection options (``--method``, ``--view-dir``, ...): :func:`detection_option_decorators` and
   their ``detect`` keyword arguments, :func:`detection_options`;
 * the tolerance options (``--nominal-diameter``, ``--spec``, ...): :func:`tolerance_option_decorators`,
-  :func:`nominal_from_options` and :func:`read_spec`.
+  :func:`nominal_from_options` and :func:`read_spec`;
+* ``--input-format``: :func:`input_format_option`.
 
 Nothing heavy is imported at module level: ``holecli --help`` builds these options.
 """
@@ -81,6 +82,29 @@ class ToleranceBand(click.ParamType):
             return parse_band(value)
         except SpecError as error:
             self.fail(str(error), param, ctx)
+
+
+# The formats of --input-format: holecli.io.INPUT_FORMATS, spelled out here so that building the
+# options does not import the readers (numpy); a test keeps the two equal.
+INPUT_FORMATS = ("ply", "pcd", "csv", "txt", "xyz")
+
+
+def input_format_option(help_text):
+    """The ``--input-format`` option of ``detect`` and ``batch``.
+
+    Parameters
+    ----------
+    help_text : str
+        Its help, which says what it applies to for the command.
+
+    Returns
+    -------
+    callable
+        The click option decorator (parameter ``input_format``: one of :data:`INPUT_FORMATS`, or
+        None).
+    """
+    return click.option("--input-format", type=click.Choice(INPUT_FORMATS, case_sensitive=False), default=None,
+                        help=help_text)
 
 
 def detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth=None):

@@ -2,7 +2,8 @@
 
 :func:`load_points` turns a file into an ``(n, 3)`` float64 array of finite points; :func:`read_cloud`
 also tells how many rows were dropped because a coordinate was NaN or infinite; :func:`save_points`
-writes an array back. Supported formats, chosen by the extension (any case):
+writes an array back; :func:`read_stream` reads a cloud from a stream (standard input). Supported
+formats, chosen by the extension (any case) or given as ``input_format``:
 
 ========  ==================================================================================
 ``.ply``  ascii, binary_little_endian, binary_big_endian; any element layout and property types
@@ -14,9 +15,10 @@ writes an array back. Supported formats, chosen by the extension (any case):
 
 Where each thing happens:
 
-- this module: :class:`Cloud`, :func:`read_cloud`, :func:`load_points`, :func:`save_points`, the
-  checks every file goes through (exists, a regular file, a supported extension, not empty), the
-  dispatch by extension, and dropping the non-finite rows;
+- this module: :class:`Cloud`, :func:`read_cloud`, :func:`read_stream`, :func:`load_points`,
+  :func:`save_points`, the checks every file goes through (exists, a regular file, a supported
+  extension, not empty), the dispatch by extension (or by ``input_format``), and dropping the
+  non-finite rows;
 - :mod:`holecli.io.ply`: PLY reading and writing;
 - :mod:`holecli.io.pcd`: PCD reading (ascii, binary, binary_compressed/LZF, old PCL padding) and writing;
 - :mod:`holecli.io.text`: CSV, TXT and XYZ tables, reading and writing;
@@ -55,6 +57,7 @@ import csv
 import os
 import stat
 import struct
+import tempfile
 from dataclasses import dataclass
 
 import numpy as np
@@ -66,9 +69,18 @@ from holecli.io.pcd import encode_pcd, read_pcd
 from holecli.io.ply import encode_ply, read_ply
 from holecli.io.text import encode_table, read_table
 
-__all__ = ["SUPPORTED_EXTENSIONS", "Cloud", "load_points", "read_cloud", "save_points"]
+__all__ = ["INPUT_FORMATS", "MAX_STREAM_BYTES", "STDIN_NAME", "SUPPORTED_EXTENSIONS", "Cloud", "load_points",
+           "read_cloud", "read_stream", "save_points"]
 
 SUPPORTED_EXTENSIONS = (".ply", ".pcd", ".csv", ".txt", ".xyz")
+# The formats by name (``input_format``, ``--input-format``): the extensions without their dot.
+INPUT_FORMATS = tuple(extension[1:] for extension in SUPPORTED_EXTENSIONS)
+# What messages and records call standard input.
+STDIN_NAME = "<stdin>"
+# The most :func:`read_stream` reads: a stream has no size to check beforehand and may never end
+# (``cat /dev/zero |``). 2 GiB is some 89 million points of a binary PLY with double x, y, z, far
+# beyond a scan of one part; a larger cloud can still be read from a file.
+MAX_STREAM_BYTES = 2 << 30
 _TEXT_EXTENSIONS = (".csv", ".txt", ".xyz")
 _EXPECTED = ".ply, .pcd, .csv, .txt or .xyz"
 
@@ -93,13 +105,15 @@ class Cloud:
     path: str
 
 
-def read_cloud(path) -> Cloud:
+def read_cloud(path, input_format=None) -> Cloud:
     """Read the points of a PLY, PCD, CSV, TXT or XYZ file.
 
     Parameters
     ----------
     path : str or os.PathLike
-        The file; its extension (any case) selects the format.
+        The file; its extension (any case) selects the format, unless ``input_format`` is given.
+    input_format : {"ply", "pcd", "csv", "txt", "xyz"}, optional
+        The format to read the file in, whatever its extension (``scan.asc`` as ``"xyz"``).
 
     Returns
     -------
@@ -111,17 +125,113 @@ def read_cloud(path) -> Cloud:
     LoadError
         For any problem with the file: missing, a directory, unsupported extension, empty, garbled
         or truncated, no x, y, z coordinates, a non-numeric value, or no finite point at all.
+    ValueError
+        When ``input_format`` is not one of :data:`INPUT_FORMATS`.
     """
     name = os.fspath(path)
+    extension = _extension(name, input_format)
+    return _finite_cloud(_read_checked(name, extension, name), name)
+
+
+def read_stream(stream, input_format, name=STDIN_NAME, max_bytes=None) -> Cloud:
+    """Read the points of a cloud from a binary stream (standard input: ``sys.stdin.buffer``).
+
+    The stream is copied, up to ``max_bytes``, into a temporary file (in :func:`tempfile.gettempdir`,
+    removed before this returns, whatever happens), which is then read and checked exactly as
+    :func:`read_cloud` reads and checks a file of that format: damaged data is refused alike.
+
+    Parameters
+    ----------
+    stream : binary file object
+        Read to its end (``read`` returning ``b""``).
+    input_format : {"ply", "pcd", "csv", "txt", "xyz"}
+        Its format: a stream has no extension.
+    name : str
+        What messages and :attr:`Cloud.path` call the stream.
+    max_bytes : int, optional
+        The most that is read (default :data:`MAX_STREAM_BYTES`); a longer stream is refused (it is
+        read no further).
+
+    Returns
+    -------
+    Cloud
+        As :func:`read_cloud`, with ``path`` ``name``.
+
+    Raises
+    ------
+    LoadError
+        Named ``name``: the stream is longer than ``max_bytes``, cannot be read, or holds no valid
+        cloud of that format (as :func:`read_cloud`), or the temporary file cannot be written.
+    ValueError
+        When ``input_format`` is not one of :data:`INPUT_FORMATS`.
+
+    Examples
+    --------
+    >>> import io
+    >>> from holecli.io import read_stream
+    >>> read_stream(io.BytesIO(b"x,y,z\\n0,0,0\\n1,0,0\\n0,1,0\\n"), "csv").points.shape
+    (3, 3)
+    >>> read_stream(io.BytesIO(b""), "ply")
+    Traceback (most recent call last):
+        ...
+    holecli.errors.LoadError: <stdin>: empty file
+    """
+    extension = _extension("", input_format)
+    max_bytes = MAX_STREAM_BYTES if max_bytes is None else max_bytes
     try:
-        raw = _read_raw(name)
+        descriptor, temporary = tempfile.mkstemp(prefix="holecli-stdin-", suffix=extension)
+    except OSError as exc:
+        raise LoadError(name, f"cannot make a temporary file to read it into ({_describe(exc)})") from None
+    try:
+        with os.fdopen(descriptor, "wb") as copy:
+            _copy_stream(stream, copy, max_bytes, name)
+        return _finite_cloud(_read_checked(temporary, extension, name), name)
+    finally:
+        try:
+            os.unlink(temporary)
+        except OSError:
+            pass
+
+
+def _copy_stream(stream, copy, max_bytes, name):
+    """Copy ``stream`` to the file ``copy``, refusing more than ``max_bytes``."""
+    copied = 0
+    while True:
+        try:
+            chunk = stream.read(min(1 << 20, max_bytes + 1 - copied))
+        except OSError as exc:
+            raise LoadError(name, f"cannot read ({_describe(exc)})") from None
+        if not chunk:
+            return
+        copied += len(chunk)
+        if copied > max_bytes:
+            raise LoadError(name, f"more than {max_bytes} bytes: too large to read from a stream "
+                                  f"(give the file's name instead)")
+        try:
+            copy.write(chunk)
+        except OSError as exc:
+            raise LoadError(name, f"cannot copy it into a temporary file ({_describe(exc)})") from None
+
+
+def _extension(name, input_format):
+    """The extension that selects the reader: ``.FORMAT``, else the file's own (lower case)."""
+    if input_format is None:
+        return os.path.splitext(name)[1].lower()
+    if input_format not in INPUT_FORMATS:
+        raise ValueError(f"input_format must be one of {INPUT_FORMATS}, got {input_format!r}")
+    return "." + input_format
+
+
+def _read_checked(path, extension, name):
+    """:func:`_read_raw`, its problems raised as LoadError named ``name``."""
+    try:
+        return _read_raw(path, extension)
     except _BadFile as exc:
         raise LoadError(name, str(exc)) from None
     except (OSError, ValueError, struct.error, csv.Error, OverflowError, MemoryError) as exc:
         # Every known bad input is reported above with its own message; this is the safety net
         # that keeps an unforeseen one a one-line error instead of a traceback.
         raise LoadError(name, f"unreadable file ({_describe(exc)})") from exc
-    return _finite_cloud(raw, name)
 
 
 def load_points(path) -> np.ndarray:
@@ -205,8 +315,9 @@ def save_points(path, points, float32=False) -> None:
 # --- checks every file goes through, and the dispatch by extension ----------------------------
 
 
-def _read_raw(name: str) -> np.ndarray:
-    """All coordinate rows of the file, non-finite ones included, as (n, 3) float64."""
+def _read_raw(name: str, extension: str) -> np.ndarray:
+    """All coordinate rows of the file, non-finite ones included, as (n, 3) float64; ``extension``
+    (``.ply``, ...; the file's own or the one of the format asked for) selects the reader."""
     try:
         info = os.stat(name)
     except FileNotFoundError:
@@ -220,7 +331,6 @@ def _read_raw(name: str) -> np.ndarray:
     if not stat.S_ISREG(info.st_mode):
         # Decided before opening: opening a FIFO blocks until a writer comes, and a device never ends.
         raise _BadFile(f"not a regular file ({file_kind(info.st_mode)})")
-    extension = os.path.splitext(name)[1].lower()
     if extension not in SUPPORTED_EXTENSIONS:
         shown = repr(extension) if extension else "(none)"
         raise _BadFile(f"unsupported extension {shown} (expected {_EXPECTED})")
