@@ -171,7 +171,7 @@ def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_hol
                      rejected=rejected)
 
 
-def detect_file(path, **options) -> Detection:
+def detect_file(path, scan=None, **options) -> Detection:
     """Read a point-cloud file and find the holes in it.
 
     The one sequence of ``holecli detect`` and of every file of ``holecli batch``: read the file with
@@ -181,8 +181,11 @@ def detect_file(path, **options) -> Detection:
     Parameters
     ----------
     path : str or os.PathLike
-        A ``.ply``, ``.pcd``, ``.csv``, ``.txt`` or ``.xyz`` file; its extension (any case) selects the
-        format.
+        A ``.ply``, ``.pcd``, ``.csv``, ``.txt``, ``.xyz``, ``.e57``, ``.las`` or ``.laz`` file; its
+        extension (any case) selects the format.
+    scan : int, optional
+        The scan of an E57 file to measure, from 0; by default every scan, merged (see
+        :func:`holecli.io.read_cloud`).
     **options
         Keyword arguments of :func:`detect`: ``method``, ``view_dir``, ``min_diameter``,
         ``max_holes``, ``full_only``, ``gauge_depth``, ``settings``, ``rng``.
@@ -190,14 +193,15 @@ def detect_file(path, **options) -> Detection:
     Returns
     -------
     Detection
-        What :func:`detect` returns, with ``file`` (``str(path)``) and ``dropped_points`` (the rows
-        dropped as non-finite) filled in. ``elapsed_ms`` is the time of the detection, as
+        What :func:`detect` returns, with ``file`` (``str(path)``), ``dropped_points`` (the rows
+        dropped as non-finite or flagged invalid) and ``units`` (what the format declares) filled in. ``elapsed_ms`` is the time of the detection, as
         :func:`detect` measures it (reading the file is not counted).
 
     Raises
     ------
     LoadError
-        When the file cannot be read (missing, unsupported extension, malformed, no finite point).
+        When the file cannot be read (missing, unsupported extension, malformed, no finite point,
+        no scan ``scan``, the optional extra of its format not installed).
     PointsError
         When its points are too few for the pipeline, an option is invalid or ``method`` is unknown
         (see :func:`detect`).
@@ -229,6 +233,6 @@ def detect_file(path, **options) -> Detection:
         ...
     holecli.errors.LoadError: sample_clouds/missing.ply: file not found
     """
-    cloud = read_cloud(path)
+    cloud = read_cloud(path, scan=scan)
     detection = detect(cloud.points, **options)
-    return replace(detection, file=str(path), dropped_points=cloud.dropped)
+    return replace(detection, file=str(path), dropped_points=cloud.dropped, units=cloud.units)

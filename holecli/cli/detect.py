@@ -9,12 +9,12 @@ import click
 
 from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, Failure,
                                run_guarded, write_stdout)
-from holecli.cli.options import (detection_option_decorators, detection_options, nominal_from_options, read_spec,
-                                 tolerance_option_decorators)
+from holecli.cli.options import (detection_option_decorators, detection_options, nominal_from_options,
+                                 reading_option_decorators, read_spec, tolerance_option_decorators, unit_choice)
 from holecli.errors import HoleCliError
 
 
-def measure_file(path, options):
+def measure_file(path, options, scan=None):
     """:func:`holecli.detect_file` for the command line: its errors phrased for the user.
 
     Parameters
@@ -23,6 +23,8 @@ def measure_file(path, options):
         The point-cloud file.
     options : dict
         Keyword arguments of :func:`holecli.detect` (see :func:`detection_options`).
+    scan : int, optional
+        ``--scan``: the scan of an E57 file (default: every scan).
 
     Returns
     -------
@@ -39,7 +41,7 @@ def measure_file(path, options):
     from holecli.pipeline import detect_file
 
     try:
-        return detect_file(path, **options)
+        return detect_file(path, **({} if scan is None else {"scan": scan}), **options)
     except HoleCliError as error:
         raise Failure(failure_message(path, error), EXIT_INPUT) from None
 
@@ -90,16 +92,22 @@ def render_table(records):
 
     buffer = _stringio.StringIO()
     console = Console(file=buffer, width=140, force_terminal=False, color_system=None)
+    from holecli.units import table_decimals
+
     for record in records:
         plane = record["plane"]
         verdict = record.get("verdict")
-        caption = f"plane rms {plane['rms']:.4g}, {record['elapsed_ms']:.1f} ms"
+        unit = record.get("units")
+        digits = table_decimals(unit)
+        caption = (f"plane rms {plane['rms']:.{digits}f} {unit}" if unit else f"plane rms {plane['rms']:.4g}") \
+            + f", {record['elapsed_ms']:.1f} ms"
         if verdict is not None:
             caption += (f"; {'IN' if verdict['in_tolerance'] else 'OUT OF'} TOLERANCE: {verdict['checked']} "
                         f"checked, {verdict['out_of_tolerance']} out")
             if verdict["missing"]:
                 caption += ", missing: " + ", ".join(str(name) for name in verdict["missing"])
-        table = Table(title=f"{record['file']}  ({record['points']} points, method {record['method']})",
+        units_note = f", lengths in {unit}" if unit else ""
+        table = Table(title=f"{record['file']}  ({record['points']} points, method {record['method']}{units_note})",
                       caption=caption)
         columns = ["hole", "center x", "center y", "center z", "diameter", "normal", "rim pts", "fit rms", "partial"]
         if verdict is not None:
@@ -108,9 +116,10 @@ def render_table(records):
             table.add_column(column, justify="right")
         for hole in record["holes"]:
             cells = [
-                str(hole["index"]), *(f"{v:.4f}" for v in hole["center"]), f"{hole['diameter']:.4f}",
+                str(hole["index"]), *(f"{v:.{digits}f}" for v in hole["center"]), f"{hole['diameter']:.{digits}f}",
                 "(" + ", ".join(f"{v:.4f}" for v in hole["normal"]) + ")", str(hole["rim_points"]),
-                f"{hole['fit_rms']:.2g}", "yes" if hole.get("partial") else "no",
+                f"{hole['fit_rms']:.{digits}f}" if unit else f"{hole['fit_rms']:.2g}",
+                "yes" if hole.get("partial") else "no",
             ]
             if verdict is not None:
                 cells.append(verdict_cell(hole))
@@ -119,17 +128,18 @@ def render_table(records):
             table.add_row("-", "", "", "", "no hole found", *[""] * (len(columns) - 5))
         console.print(table)
         if any(hole.get("type") for hole in record["holes"]):
-            console.print(_shape_table(record["holes"]))
+            console.print(_shape_table(record["holes"], digits))
         if "rejected" in record:
-            console.print(_rejected_table(record["rejected"]))
+            console.print(_rejected_table(record["rejected"], digits))
     return buffer.getvalue()
 
 
-def _shape_table(holes):
-    """The table of what each hole shows below its edge: type, countersink, counterbore, bore, axis."""
+def _shape_table(holes, length_digits=4):
+    """The table of what each hole shows below its edge: type, countersink, counterbore, bore, axis
+    (lengths with ``length_digits`` decimals)."""
     from rich.table import Table
 
-    def number(value, digits=4):
+    def number(value, digits=length_digits):
         return "-" if value is None else f"{value:.{digits}f}"
 
     table = Table(title="below the edge")
@@ -190,7 +200,7 @@ def verdict_cell(hole):
     return name + "OUT: " + ", ".join(failures)
 
 
-def _rejected_table(rejected):
+def _rejected_table(rejected, digits=4):
     from rich.table import Table
 
     def number(value):
@@ -200,7 +210,8 @@ def _rejected_table(rejected):
     for column in ("check", "center x", "center y", "center z", "size", "value", "limit", "why"):
         table.add_column(column, justify="left" if column in ("check", "why") else "right")
     for rejection in rejected:
-        table.add_row(rejection["check"], *(f"{v:.4f}" for v in rejection["center"]), f"{rejection['diameter']:.4f}",
+        table.add_row(rejection["check"], *(f"{v:.{digits}f}" for v in rejection["center"]),
+                      f"{rejection['diameter']:.{digits}f}",
                       number(rejection["value"]), number(rejection["limit"]), rejection["reason"])
     return table
 
@@ -246,15 +257,16 @@ def emit(text, output):
 @click.option("--explain", is_flag=True,
               help="Also list every candidate that is not a hole, with the check that refused it "
                    "(\"rejected\" in JSON, a second table with --format table).")
+@reading_option_decorators
 @detection_option_decorators
 @tolerance_option_decorators
-def detect(scan, fmt, output, explain, method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file,
-           **nominal_options):
-    """Measure the holes in SCAN (.ply, .pcd, .csv, .txt or .xyz).
+def detect(scan, fmt, output, explain, scan_index, units, output_units, method, view_dir, min_diameter, max_holes,
+           full_only, gauge_depth, spec_file, **nominal_options):
+    """Measure the holes in SCAN (.ply, .pcd, .csv, .txt, .xyz, .e57, .las or .laz).
 
-    Prints center, diameter and normal of every hole as JSON (units those of the file). With
-    tolerance options or --spec, every checked hole also gets its deviations and "in_tolerance",
-    and the record a "verdict".
+    Prints center, diameter and normal of every hole as JSON (units those of the file, or
+    --output-units). With tolerance options or --spec, every checked hole also gets its deviations
+    and "in_tolerance", and the record a "verdict".
 
     \b
     Examples:
@@ -269,10 +281,15 @@ def detect(scan, fmt, output, explain, method, view_dir, min_diameter, max_holes
       holecli detect scan.ply --gauge-depth 0.5
       holecli detect scan.ply --spec part.toml --format table
       holecli detect scan.ply --explain --format table
+      holecli detect site.e57 --scan 1 --output-units mm
+      holecli detect scan.ply --units m --output-units mm --nominal-diameter 3 --tolerance 0.02
     """
     if explain and fmt == "csv":
         raise click.UsageError("--explain needs --format json or table (CSV has one row per hole)")
-    options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
+    choice = unit_choice(units, output_units, [scan])
+    # lengths on the command line are in the output unit: the pipeline wants the file's
+    options = detection_options(method, view_dir, choice.to_file_units(min_diameter), max_holes, full_only,
+                                choice.to_file_units(gauge_depth))
     # the tolerance options (--nominal-diameter, ..., --max-perpendicularity) by their parameter names
     nominal = nominal_from_options(spec_file, **nominal_options)
 
@@ -280,7 +297,9 @@ def detect(scan, fmt, output, explain, method, view_dir, min_diameter, max_holes
         from holecli.tolerance import check
 
         spec = read_spec(spec_file) if spec_file is not None else nominal
-        record = measure_file(scan, options).to_dict(explain=explain)
+        detection = measure_file(scan, options, scan_index)
+        # in the output unit before the check: tolerances are in it too
+        record = choice.express(detection.to_dict(explain=explain), detection.units)
         if spec is not None:
             record = check(record, spec)
         emit(render([record], fmt), output)

@@ -2,7 +2,8 @@
 
 :func:`load_points` turns a file into an ``(n, 3)`` float64 array of finite points; :func:`read_cloud`
 also tells how many rows were dropped because a coordinate was NaN or infinite; :func:`save_points`
-writes an array back. Supported formats, chosen by the extension (any case):
+writes an array back (in the formats of :data:`WRITE_EXTENSIONS`). Supported formats, chosen by
+the extension (any case):
 
 ========  ==================================================================================
 ``.ply``  ascii, binary_little_endian, binary_big_endian; any element layout and property types
@@ -10,6 +11,9 @@ writes an array back. Supported formats, chosen by the extension (any case):
 ``.csv``  comma, semicolon, tab or whitespace separated; optional header naming x, y, z
 ``.txt``  same as ``.csv``
 ``.xyz``  same as ``.csv``
+``.e57``  ASTM E57, every scan moved by its pose (or one scan); metres; needs the ``e57`` extra
+``.las``  ASPRS LAS 1.0 to 1.4, scaled integer coordinates; needs the ``las`` extra
+``.laz``  LAS compressed (LASzip); needs the ``las`` extra (laspy with the lazrs backend)
 ========  ==================================================================================
 
 Where each thing happens:
@@ -20,6 +24,8 @@ Where each thing happens:
 - :mod:`holecli.io.ply`: PLY reading and writing;
 - :mod:`holecli.io.pcd`: PCD reading (ascii, binary, binary_compressed/LZF, old PCL padding) and writing;
 - :mod:`holecli.io.text`: CSV, TXT and XYZ tables, reading and writing;
+- :mod:`holecli.io.e57`: E57 reading (pye57, imported when an E57 file is read);
+- :mod:`holecli.io.las`: LAS and LAZ reading (laspy, imported when one is read);
 - :mod:`holecli.io._common`: what the readers share: the error they raise, the phrases of its
   messages, the header size limit, x, y, z from binary records, and the ascii body reader of PLY
   and PCD;
@@ -56,6 +62,7 @@ import os
 import stat
 import struct
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -66,11 +73,16 @@ from holecli.io.pcd import encode_pcd, read_pcd
 from holecli.io.ply import encode_ply, read_ply
 from holecli.io.text import encode_table, read_table
 
-__all__ = ["SUPPORTED_EXTENSIONS", "Cloud", "load_points", "read_cloud", "save_points"]
+__all__ = ["SUPPORTED_EXTENSIONS", "WRITE_EXTENSIONS", "Cloud", "load_points", "read_cloud", "save_points"]
 
-SUPPORTED_EXTENSIONS = (".ply", ".pcd", ".csv", ".txt", ".xyz")
+# What read_cloud reads, and what save_points writes.
+SUPPORTED_EXTENSIONS = (".ply", ".pcd", ".csv", ".txt", ".xyz", ".e57", ".las", ".laz")
+WRITE_EXTENSIONS = (".ply", ".pcd", ".csv", ".txt", ".xyz")
 _TEXT_EXTENSIONS = (".csv", ".txt", ".xyz")
-_EXPECTED = ".ply, .pcd, .csv, .txt or .xyz"
+_EXPECTED = ".ply, .pcd, .csv, .txt, .xyz, .e57, .las or .laz"
+_WRITE_EXPECTED = ".ply, .pcd, .csv, .txt or .xyz"
+# The first bytes the E57 and LAS readers check their signature in.
+_SIGNATURE_BYTES = 8
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,45 +95,58 @@ class Cloud:
         The finite points, C-contiguous, in file units, in file order; n >= 1.
     dropped : int
         Rows of the file dropped because a coordinate was NaN or infinite (the empty cells of an
-        organized cloud, for example).
+        organized cloud, for example), or because the file flags the point invalid (E57).
     path : str
         The file the points were read from.
+    units : str or None
+        The length unit the format itself declares: ``"m"`` for E57 (the standard's unit); None
+        for every other format, whose files do not say.
     """
 
     points: np.ndarray
     dropped: int
     path: str
+    units: Optional[str] = None
 
 
-def read_cloud(path) -> Cloud:
-    """Read the points of a PLY, PCD, CSV, TXT or XYZ file.
+def read_cloud(path, scan=None) -> Cloud:
+    """Read the points of a PLY, PCD, CSV, TXT, XYZ, E57, LAS or LAZ file.
 
     Parameters
     ----------
     path : str or os.PathLike
         The file; its extension (any case) selects the format.
+    scan : int, optional
+        The scan to read, from 0, of an E57 file that holds several; by default every scan, each
+        moved into the file's common frame by its pose, merged into one cloud. A file of any other
+        format holds one scan, 0.
 
     Returns
     -------
     Cloud
-        The finite points of the file and the number of rows dropped as non-finite.
+        The finite points of the file and the number of rows dropped as non-finite (or flagged
+        invalid by an E57 file).
 
     Raises
     ------
     LoadError
         For any problem with the file: missing, a directory, unsupported extension, empty, garbled
-        or truncated, no x, y, z coordinates, a non-numeric value, or no finite point at all.
+        or truncated, no x, y, z coordinates, a non-numeric value, or no finite point at all; a
+        ``scan`` the file does not have; an E57, LAS or LAZ file when the optional extra that reads
+        it is not installed.
     """
     name = os.fspath(path)
+    if scan is not None and (isinstance(scan, bool) or int(scan) != scan or scan < 0):
+        raise ValueError(f"scan must be a whole number >= 0, got {scan!r}")
     try:
-        raw = _read_raw(name)
+        raw, flagged, units = _read_raw(name, scan)
     except _BadFile as exc:
         raise LoadError(name, str(exc)) from None
     except (OSError, ValueError, struct.error, csv.Error, OverflowError, MemoryError) as exc:
         # Every known bad input is reported above with its own message; this is the safety net
         # that keeps an unforeseen one a one-line error instead of a traceback.
         raise LoadError(name, f"unreadable file ({_describe(exc)})") from exc
-    return _finite_cloud(raw, name)
+    return _finite_cloud(raw, name, flagged, units)
 
 
 def load_points(path) -> np.ndarray:
@@ -130,7 +155,8 @@ def load_points(path) -> np.ndarray:
     Parameters
     ----------
     path : str or os.PathLike
-        A ``.ply``, ``.pcd``, ``.csv``, ``.txt`` or ``.xyz`` file.
+        A ``.ply``, ``.pcd``, ``.csv``, ``.txt``, ``.xyz``, ``.e57``, ``.las`` or ``.laz`` file (an
+        E57's scans merged, see :func:`read_cloud`).
 
     Returns
     -------
@@ -190,8 +216,8 @@ def save_points(path, points, float32=False) -> None:
     """
     name = os.fspath(path)
     extension = os.path.splitext(name)[1].lower()
-    if extension not in SUPPORTED_EXTENSIONS:
-        raise ValueError(f"cannot save {name!r}: unsupported extension {extension!r} (expected {_EXPECTED})")
+    if extension not in WRITE_EXTENSIONS:
+        raise ValueError(f"cannot save {name!r}: unsupported extension {extension!r} (expected {_WRITE_EXPECTED})")
     array = _as_points(points)
     if extension == ".ply":
         payload = encode_ply(array, float32)
@@ -205,8 +231,9 @@ def save_points(path, points, float32=False) -> None:
 # --- checks every file goes through, and the dispatch by extension ----------------------------
 
 
-def _read_raw(name: str) -> np.ndarray:
-    """All coordinate rows of the file, non-finite ones included, as (n, 3) float64."""
+def _read_raw(name: str, scan=None):
+    """All coordinate rows of the file, non-finite ones included, as (n, 3) float64; the points
+    left out because the file flags them invalid; the unit the format declares (or None)."""
     try:
         info = os.stat(name)
     except FileNotFoundError:
@@ -226,15 +253,31 @@ def _read_raw(name: str) -> np.ndarray:
         raise _BadFile(f"unsupported extension {shown} (expected {_EXPECTED})")
     if info.st_size == 0:
         raise _BadFile("empty file")
+    if extension == ".e57":
+        from holecli.io.e57 import E57_UNITS, read_e57
+
+        points, flagged = read_e57(name, _head(name), scan)
+        return points, flagged, E57_UNITS
+    if scan is not None and scan != 0:
+        raise _BadFile(f"scan {scan} is out of range: a {extension} file holds 1 scan (scan 0)")
+    if extension in (".las", ".laz"):
+        from holecli.io.las import read_las
+
+        return read_las(name, _head(name)), 0, None
     if extension in _TEXT_EXTENSIONS:
-        return read_table(name)
+        return read_table(name), 0, None
     with open(name, "rb") as stream:
         data = stream.read()
     if data.isspace():
         raise _BadFile("empty file")
     if extension == ".ply":
-        return read_ply(name, data)
-    return read_pcd(name, data)
+        return read_ply(name, data), 0, None
+    return read_pcd(name, data), 0, None
+
+
+def _head(name: str) -> bytes:
+    with open(name, "rb") as stream:
+        return stream.read(_SIGNATURE_BYTES)
 
 
 def file_kind(mode: int) -> str:
@@ -263,16 +306,20 @@ def file_kind(mode: int) -> str:
     return f"file type {stat.S_IFMT(mode):#o}"
 
 
-def _finite_cloud(raw: np.ndarray, name: str) -> Cloud:
-    """Drop the rows with a non-finite coordinate and refuse a cloud with no point left."""
+def _finite_cloud(raw: np.ndarray, name: str, flagged: int = 0, units=None) -> Cloud:
+    """Drop the rows with a non-finite coordinate and refuse a cloud with no point left (``flagged``:
+    the points the reader left out as flagged invalid, counted as dropped too)."""
     finite = np.isfinite(raw).all(axis=1)
     kept = int(np.count_nonzero(finite))
     if kept == 0:
-        if len(raw) == 0:
+        if len(raw) == 0 and flagged == 0:
             raise LoadError(name, "no points")
+        if flagged:
+            raise LoadError(name, f"no valid points (all {len(raw) + flagged} points are flagged invalid "
+                                  "or have a NaN or infinite coordinate)")
         raise LoadError(name, f"no finite points (all {len(raw)} rows have a NaN or infinite coordinate)")
     points = raw if kept == len(raw) else raw[finite]
-    return Cloud(np.ascontiguousarray(points, dtype=np.float64), len(raw) - kept, name)
+    return Cloud(np.ascontiguousarray(points, dtype=np.float64), len(raw) - kept + flagged, name, units)
 
 
 def _as_points(points) -> np.ndarray:
