@@ -166,7 +166,7 @@ def failure_message(path, error) -> str:
     return " ".join(message.splitlines())
 
 
-def measure_record(path, options, spec=None, explain=False) -> dict:
+def measure_record(path, options, spec=None, explain=False, scan=None, units=None) -> dict:
     """The record of one file.
 
     Parameters
@@ -180,6 +180,12 @@ def measure_record(path, options, spec=None, explain=False) -> dict:
         Tolerances to check the holes against.
     explain : bool
         Also give the record ``rejected``, the candidates that are not holes (``detect --explain``).
+    scan : int, optional
+        The scan of an E57 file (default: every scan, merged).
+    units : holecli.units.UnitChoice, optional
+        The file's unit and the record's (``--units``, ``--output-units``): the record is converted
+        (:meth:`holecli.units.UnitChoice.express`) before the tolerance check, whose values are in
+        the output unit.
 
     Returns
     -------
@@ -192,10 +198,11 @@ def measure_record(path, options, spec=None, explain=False) -> dict:
     """
     from holecli import tolerance
     from holecli.pipeline import detect_file
+    from holecli.units import UnitChoice
 
     resolved = resolved_path(path)
     try:
-        detection = detect_file(path, **options)
+        detection = detect_file(path, **({} if scan is None else {"scan": scan}), **options)
     except HoleCliError as error:
         return {"file": str(path), "path": resolved, "error": failure_message(path, error)}
     except Exception as error:  # noqa: BLE001 - a bug in one file must not stop the batch
@@ -203,7 +210,10 @@ def measure_record(path, options, spec=None, explain=False) -> dict:
         return {"file": str(path), "path": resolved,
                 "error": f"{path}: internal error (a bug: please report it; holecli detect shows the "
                          f"traceback): {problem}"}
-    record = detection.to_dict(explain=explain)
+    try:
+        record = (units or UnitChoice()).express(detection.to_dict(explain=explain), detection.units)
+    except ValueError as error:  # an output unit without the file's
+        return {"file": str(path), "path": resolved, "error": f"{path}: {error}"}
     record["path"] = resolved
     return tolerance.check(record, spec) if spec is not None else record
 
@@ -232,9 +242,10 @@ PARENT_ONLY_DESCRIPTORS = set()
 _PR_SET_PDEATHSIG = 1
 
 
-def _start_worker(options, spec, preload, parent, explain=False):
+def _start_worker(options, spec, preload, parent, explain=False, reading=None):
     """Pool initializer: runs once in every worker process (``parent``: the batch's process id;
-    ``explain``: records with their ``rejected`` list)."""
+    ``explain``: records with their ``rejected`` list; ``reading``: the ``scan`` and ``units`` keyword
+    arguments of :func:`measure_record` that are given)."""
     # The parent handles Ctrl-C and SIGTERM and then ends the workers; a worker must not die of the
     # terminal's SIGINT on its own (it would break the pool and lose its record).
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -252,7 +263,7 @@ def _start_worker(options, spec, preload, parent, explain=False):
             importlib.import_module(name)
         except (ImportError, OSError):
             pass  # the file that needs it reports the problem itself
-    _WORKER.update(options=options, spec=spec, explain=explain)
+    _WORKER.update(options=options, spec=spec, explain=explain, reading=reading or {})
 
 
 def _die_with_parent(parent):
@@ -269,10 +280,11 @@ def _die_with_parent(parent):
 
 
 def _measure_in_worker(path):
-    return measure_record(path, _WORKER["options"], _WORKER["spec"], _WORKER["explain"])
+    return measure_record(path, _WORKER["options"], _WORKER["spec"], _WORKER["explain"], **_WORKER["reading"])
 
 
-def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_seconds=0.2, explain=False):
+def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_seconds=0.2, explain=False, scan=None,
+                units=None):
     """Measure ``paths`` in ``jobs`` worker processes and yield each record as its file finishes.
 
     Parameters
@@ -295,6 +307,10 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
         See ``should_stop``.
     explain : bool
         Records with their ``rejected`` list (see :func:`measure_record`).
+    scan : int, optional
+        The scan of each E57 file (see :func:`measure_record`).
+    units : holecli.units.UnitChoice, optional
+        The file's and the record's units (see :func:`measure_record`).
 
     Yields
     ------
@@ -313,10 +329,13 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
     context = _pool_context()
     input_format = options.get("input_format")
     preload = ("open3d",) if any(_is_compressed_pcd(path, input_format) for path in paths) else ()
+    # --scan and --units/--output-units, passed on only when given
+    reading = {key: value for key, value in (("scan", scan), ("units", units)) if value is not None}
     while waiting or suspects:
         executor = ProcessPoolExecutor(max_workers=max(1, min(jobs, len(waiting) + len(suspects))),
                                        mp_context=context, initializer=_start_worker,
-                                       initargs=(options, spec, preload, os.getpid(), explain))
+                                       initargs=(options, spec, preload, os.getpid(), explain)
+                                       + ((reading,) if reading else ()))
         in_flight = {}
         finished = False
         try:

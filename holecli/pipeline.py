@@ -172,7 +172,7 @@ def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_hol
                      rejected=rejected)
 
 
-def detect_file(path, *, input_format=None, **options) -> Detection:
+def detect_file(path, scan=None, *, input_format=None, **options) -> Detection:
     """Read a point-cloud file and find the holes in it.
 
     The one sequence of ``holecli detect`` and of every file of ``holecli batch``: read the file with
@@ -182,9 +182,12 @@ def detect_file(path, *, input_format=None, **options) -> Detection:
     Parameters
     ----------
     path : str or os.PathLike
-        A ``.ply``, ``.pcd``, ``.csv``, ``.txt`` or ``.xyz`` file; its extension (any case) selects the
-        format, unless ``input_format`` is given.
-    input_format : {"ply", "pcd", "csv", "txt", "xyz"}, optional
+        A ``.ply``, ``.pcd``, ``.csv``, ``.txt``, ``.xyz``, ``.e57``, ``.las`` or ``.laz`` file; its
+        extension (any case) selects the format, unless ``input_format`` is given.
+    scan : int, optional
+        The scan of an E57 file to measure, from 0; by default every scan, merged (see
+        :func:`holecli.io.read_cloud`).
+    input_format : {"ply", "pcd", "csv", "txt", "xyz", "e57", "las", "laz"}, optional
         Read the file in this format, whatever its extension (``scan.asc`` as ``"xyz"``).
     **options
         Keyword arguments of :func:`detect`: ``method``, ``view_dir``, ``min_diameter``,
@@ -193,14 +196,15 @@ def detect_file(path, *, input_format=None, **options) -> Detection:
     Returns
     -------
     Detection
-        What :func:`detect` returns, with ``file`` (``str(path)``) and ``dropped_points`` (the rows
-        dropped as non-finite) filled in. ``elapsed_ms`` is the time of the detection, as
+        What :func:`detect` returns, with ``file`` (``str(path)``), ``dropped_points`` (the rows
+        dropped as non-finite or flagged invalid) and ``units`` (what the format declares) filled in. ``elapsed_ms`` is the time of the detection, as
         :func:`detect` measures it (reading the file is not counted).
 
     Raises
     ------
     LoadError
-        When the file cannot be read (missing, unsupported extension, malformed, no finite point).
+        When the file cannot be read (missing, unsupported extension, malformed, no finite point,
+        no scan ``scan``, the optional extra of its format not installed).
     PointsError
         When its points are too few for the pipeline, an option is invalid or ``method`` is unknown
         (see :func:`detect`).
@@ -232,7 +236,7 @@ def detect_file(path, *, input_format=None, **options) -> Detection:
         ...
     holecli.errors.LoadError: sample_clouds/missing.ply: file not found
     """
-    return detect_cloud(read_cloud(path, input_format=input_format), **options)
+    return detect_cloud(read_cloud(path, scan=scan, input_format=input_format), **options)
 
 
 def detect_cloud(cloud, **options) -> Detection:
@@ -242,15 +246,15 @@ def detect_cloud(cloud, **options) -> Detection:
     Parameters
     ----------
     cloud : holecli.io.Cloud
-        Its points, dropped rows and file name.
+        Its points, dropped rows, file name and declared unit.
     **options
         Keyword arguments of :func:`detect`.
 
     Returns
     -------
     Detection
-        What :func:`detect` returns, with ``file`` (``cloud.path``) and ``dropped_points``
-        (``cloud.dropped``) filled in.
+        What :func:`detect` returns, with ``file`` (``cloud.path``), ``dropped_points``
+        (``cloud.dropped``) and ``units`` (``cloud.units``) filled in.
 
     Raises
     ------
@@ -258,4 +262,4 @@ def detect_cloud(cloud, **options) -> Detection:
         As :func:`detect_file`.
     """
     detection = detect(cloud.points, **options)
-    return replace(detection, file=str(cloud.path), dropped_points=cloud.dropped)
+    return replace(detection, file=str(cloud.path), dropped_points=cloud.dropped, units=cloud.units)

@@ -296,6 +296,10 @@ class Detection:
     rejected : tuple of Rejection
         The candidate voids that are not holes, largest first (``robust`` only; empty for
         ``paper``, which has one candidate).
+    units : str or None
+        The length unit the file's format declares (``"m"`` for E57, see
+        :attr:`holecli.io.Cloud.units`); not in :meth:`to_dict`, whose caller decides what the
+        record says (:class:`holecli.units.UnitChoice`).
     """
 
     holes: tuple[Hole, ...]
@@ -306,6 +310,7 @@ class Detection:
     dropped_points: int = 0
     elapsed_ms: float = 0.0
     rejected: tuple[Rejection, ...] = ()
+    units: Optional[str] = None
 
     def to_dict(self, explain=False) -> dict:
         """The JSON record of the command line (see the README for the contract).

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Set up holecli in ./.venv on a fresh Debian machine: the system library open3d needs (libusb-1.0),
-# a virtual environment, and the project with its test extra. Safe to run again: it only does what is
+# a virtual environment, and the project with its test extra and the extras of the optional formats
+# (e57, las), so that their readers are tested. Safe to run again: it only does what is
 # missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -26,8 +27,8 @@ if [ ! -x .venv/bin/python ]; then
     echo "setup: creating .venv" >&2
     "$python" -m venv .venv
 fi
-if [ ! -x .venv/bin/holecli ] || ! .venv/bin/python -c "import open3d, pytest" >/dev/null 2>&1; then
+if [ ! -x .venv/bin/holecli ] || ! .venv/bin/python -c "import open3d, pytest, pye57, laspy, lazrs" >/dev/null 2>&1; then
     echo "setup: installing holecli and its dependencies into .venv" >&2
     # (pip's notes about local package indexes that this machine lacks are noise: filtered out)
-    .venv/bin/python -m pip install --quiet -e '.[test]' 2> >(grep -v 'is ignored: it is neither a file nor a directory' >&2)
+    .venv/bin/python -m pip install --quiet -e '.[test,e57,las]' 2> >(grep -v 'is ignored: it is neither a file nor a directory' >&2)
 fi

@@ -13,10 +13,11 @@ import time
 import click
 
 from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_BROKEN_PIPE, EXIT_FILE_FAILED, EXIT_INPUT,
-                               EXIT_INTERRUPTED, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, Failure, broken_pipe,
-                               run_guarded, write_stdout)
+                               EXIT_INTERRUPTED, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_USAGE, Failure,
+                               broken_pipe, run_guarded, write_stdout)
 from holecli.cli.options import (detection_option_decorators, detection_options, input_format_option,
-                                 nominal_from_options, read_spec, tolerance_option_decorators)
+                                 nominal_from_options, read_spec, reading_option_decorators, tolerance_option_decorators,
+                                 unit_choice)
 from holecli.cli.progress import BatchDisplay, batch_summary
 from holecli.errors import LoadError
 
@@ -118,13 +119,14 @@ def batch_exit_code(tally):
 @click.option("--explain", is_flag=True,
               help="Records also list every candidate that is not a hole, with the check that refused it "
                    "(\"rejected\"; JSON Lines only).")
+@reading_option_decorators
 @detection_option_decorators
 @tolerance_option_decorators
-def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, explain, method, view_dir, min_diameter,
-          max_holes, full_only, gauge_depth, spec_file, **nominal_options):
+def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, explain, scan_index, units, output_units,
+          method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, **nominal_options):
     """Measure every point cloud in the folders and files PATH.
 
-    A folder contributes the .ply, .pcd, .csv, .txt and .xyz files directly in it (any case; with
+    A folder contributes the .ply, .pcd, .csv, .txt, .xyz, .e57, .las and .laz files directly in it (any case; with
     --recursive also those below it), in sorted order; a file named on the command line is measured
     as it is. Each record (the JSON of holecli detect) is written as soon as its file is measured; a
     file that cannot be measured gives {"file": ..., "error": ...} and the batch goes on. Progress and
@@ -139,6 +141,8 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
       holecli batch scans/*.ply --nominal-diameter 3 --tolerance 0.02 | jq -c 'select(.verdict.in_tolerance | not)'
       holecli batch scans/ --input-format xyz --pattern '*.asc' -o -
     """
+    # --output-units without --units is checked on the files found, in the body (all E57 is fine)
+    choice = unit_choice(units, output_units if units is not None else None)
     options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
     if input_format is not None:
         options["input_format"] = input_format
@@ -166,6 +170,15 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
             what = "files" if input_format else f"point-cloud files ({', '.join(SUPPORTED_EXTENSIONS)})"
             raise Failure(f"{', '.join(paths)}: no {what}" + (f" matching {pattern!r}" if pattern else "") + " found",
                           EXIT_INPUT)
+        units_now = choice
+        if output_units is not None and units is None:
+            try:
+                units_now = unit_choice(None, output_units, files)
+            except click.UsageError as error:
+                raise Failure(f"{error.message}; not every file is .e57", EXIT_USAGE) from None
+        # lengths on the command line are in the output unit: the pipeline wants the file's
+        options_now = dict(options, min_diameter=units_now.to_file_units(min_diameter),
+                           gauge_depth=units_now.to_file_units(gauge_depth)) if method != "paper" else options
         output_file = None
         try:
             if output is not None:
@@ -180,8 +193,9 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
             else:
                 write, earlier, header = write_stdout, [], True
             todo = batching.files_to_do(files, earlier)
-            return run_batch(batching, todo, options, spec, jobs or batching.default_jobs(), write, fmt, header,
-                             earlier, output, stop, explain)
+            return run_batch(batching, todo, options_now, spec, jobs or batching.default_jobs(), write, fmt, header,
+                             earlier, output, stop, explain, scan=scan_index,
+                             units=units_now if units_now.file or units_now.output else None)
         finally:
             if output_file is not None:
                 output_file.close()
@@ -190,7 +204,8 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
         sys.exit(run_guarded(body, stop))
 
 
-def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False):
+def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False, scan=None,
+              units=None):
     """The measuring loop of ``holecli batch``: records out, progress and summary on stderr.
 
     Parameters
@@ -220,6 +235,10 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         The signal handling of the command; deferred here, checked between records.
     explain : bool
         Records with their ``rejected`` list.
+    scan : int, optional
+        ``--scan``: the scan of each E57 file (default: every scan).
+    units : holecli.units.UnitChoice, optional
+        ``--units`` and ``--output-units``.
 
     Returns
     -------
@@ -260,7 +279,7 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
 
     stop.defer()
     records = batching.measure_all(todo, options, spec, jobs=min(jobs, max(1, len(todo))), should_stop=should_stop,
-                                   explain=explain)
+                                   explain=explain, scan=scan, units=units)
     reader_gone = False
     with display, closing(records):
         for record in records:

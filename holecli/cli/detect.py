@@ -12,7 +12,8 @@ import click
 from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, Failure,
                                run_guarded, write_stdout)
 from holecli.cli.options import (INPUT_FORMATS, detection_option_decorators, detection_options, input_format_option,
-                                 nominal_from_options, read_spec, tolerance_option_decorators)
+                                 nominal_from_options, read_spec, reading_option_decorators, tolerance_option_decorators,
+                                 unit_choice)
 from holecli.errors import HoleCliError
 
 
@@ -20,7 +21,7 @@ from holecli.errors import HoleCliError
 STDIN = "-"
 
 
-def measure_file(path, options):
+def measure_file(path, options, scan=None):
     """:func:`holecli.detect_file` for the command line: its errors phrased for the user.
 
     Parameters
@@ -31,6 +32,8 @@ def measure_file(path, options):
         Keyword arguments of :func:`holecli.detect_file`: those of :func:`holecli.detect` (see
         :func:`detection_options`) and, with ``--input-format``, ``input_format`` (needed for
         standard input).
+    scan : int, optional
+        ``--scan``: the scan of an E57 file (default: every scan).
 
     Returns
     -------
@@ -52,19 +55,21 @@ def measure_file(path, options):
 
             path = STDIN_NAME
             options = dict(options)
-            return detect_cloud(read_stdin(options.pop("input_format")), **options)
-        return detect_file(path, **options)
+            return detect_cloud(read_stdin(options.pop("input_format"), scan), **options)
+        return detect_file(path, **({} if scan is None else {"scan": scan}), **options)
     except HoleCliError as error:
         raise Failure(failure_message(path, error), EXIT_INPUT) from None
 
 
-def read_stdin(input_format):
+def read_stdin(input_format, scan=None):
     """The cloud on standard input (``holecli detect -``), read by :func:`holecli.io.read_stream`.
 
     Parameters
     ----------
     input_format : str
         ``--input-format``.
+    scan : int, optional
+        ``--scan`` (an E57 stream's scan).
 
     Returns
     -------
@@ -90,7 +95,7 @@ def read_stdin(input_format):
     if terminal:
         raise LoadError(STDIN_NAME, f"is a terminal: pipe or redirect a cloud into it "
                                     f"(holecli detect - --input-format {input_format} < scan.{input_format})")
-    return read_stream(stream, input_format)
+    return read_stream(stream, input_format, scan=scan)
 
 
 def render(records, fmt):
@@ -139,16 +144,22 @@ def render_table(records):
 
     buffer = _stringio.StringIO()
     console = Console(file=buffer, width=140, force_terminal=False, color_system=None)
+    from holecli.units import table_decimals
+
     for record in records:
         plane = record["plane"]
         verdict = record.get("verdict")
-        caption = f"plane rms {plane['rms']:.4g}, {record['elapsed_ms']:.1f} ms"
+        unit = record.get("units")
+        digits = table_decimals(unit)
+        caption = (f"plane rms {plane['rms']:.{digits}f} {unit}" if unit else f"plane rms {plane['rms']:.4g}") \
+            + f", {record['elapsed_ms']:.1f} ms"
         if verdict is not None:
             caption += (f"; {'IN' if verdict['in_tolerance'] else 'OUT OF'} TOLERANCE: {verdict['checked']} "
                         f"checked, {verdict['out_of_tolerance']} out")
             if verdict["missing"]:
                 caption += ", missing: " + ", ".join(str(name) for name in verdict["missing"])
-        table = Table(title=f"{record['file']}  ({record['points']} points, method {record['method']})",
+        units_note = f", lengths in {unit}" if unit else ""
+        table = Table(title=f"{record['file']}  ({record['points']} points, method {record['method']}{units_note})",
                       caption=caption)
         columns = ["hole", "center x", "center y", "center z", "diameter", "normal", "rim pts", "fit rms", "partial"]
         if verdict is not None:
@@ -157,9 +168,10 @@ def render_table(records):
             table.add_column(column, justify="right")
         for hole in record["holes"]:
             cells = [
-                str(hole["index"]), *(f"{v:.4f}" for v in hole["center"]), f"{hole['diameter']:.4f}",
+                str(hole["index"]), *(f"{v:.{digits}f}" for v in hole["center"]), f"{hole['diameter']:.{digits}f}",
                 "(" + ", ".join(f"{v:.4f}" for v in hole["normal"]) + ")", str(hole["rim_points"]),
-                f"{hole['fit_rms']:.2g}", "yes" if hole.get("partial") else "no",
+                f"{hole['fit_rms']:.{digits}f}" if unit else f"{hole['fit_rms']:.2g}",
+                "yes" if hole.get("partial") else "no",
             ]
             if verdict is not None:
                 cells.append(verdict_cell(hole))
@@ -168,17 +180,18 @@ def render_table(records):
             table.add_row("-", "", "", "", "no hole found", *[""] * (len(columns) - 5))
         console.print(table)
         if any(hole.get("type") for hole in record["holes"]):
-            console.print(_shape_table(record["holes"]))
+            console.print(_shape_table(record["holes"], digits))
         if "rejected" in record:
-            console.print(_rejected_table(record["rejected"]))
+            console.print(_rejected_table(record["rejected"], digits))
     return buffer.getvalue()
 
 
-def _shape_table(holes):
-    """The table of what each hole shows below its edge: type, countersink, counterbore, bore, axis."""
+def _shape_table(holes, length_digits=4):
+    """The table of what each hole shows below its edge: type, countersink, counterbore, bore, axis
+    (lengths with ``length_digits`` decimals)."""
     from rich.table import Table
 
-    def number(value, digits=4):
+    def number(value, digits=length_digits):
         return "-" if value is None else f"{value:.{digits}f}"
 
     table = Table(title="below the edge")
@@ -239,7 +252,7 @@ def verdict_cell(hole):
     return name + "OUT: " + ", ".join(failures)
 
 
-def _rejected_table(rejected):
+def _rejected_table(rejected, digits=4):
     from rich.table import Table
 
     def number(value):
@@ -249,7 +262,8 @@ def _rejected_table(rejected):
     for column in ("check", "center x", "center y", "center z", "size", "value", "limit", "why"):
         table.add_column(column, justify="left" if column in ("check", "why") else "right")
     for rejection in rejected:
-        table.add_row(rejection["check"], *(f"{v:.4f}" for v in rejection["center"]), f"{rejection['diameter']:.4f}",
+        table.add_row(rejection["check"], *(f"{v:.{digits}f}" for v in rejection["center"]),
+                      f"{rejection['diameter']:.{digits}f}",
                       number(rejection["value"]), number(rejection["limit"]), rejection["reason"])
     return table
 
@@ -298,15 +312,17 @@ def emit(text, output):
 @click.option("--explain", is_flag=True,
               help="Also list every candidate that is not a hole, with the check that refused it "
                    "(\"rejected\" in JSON, a second table with --format table).")
+@reading_option_decorators
 @detection_option_decorators
 @tolerance_option_decorators
-def detect(scan, input_format, fmt, output, explain, method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file,
-           **nominal_options):
-    """Measure the holes in SCAN (.ply, .pcd, .csv, .txt or .xyz; - reads it from stdin, with --input-format).
+def detect(scan, input_format, fmt, output, explain, scan_index, units, output_units, method, view_dir, min_diameter,
+           max_holes, full_only, gauge_depth, spec_file, **nominal_options):
+    """Measure the holes in SCAN (.ply, .pcd, .csv, .txt, .xyz, .e57, .las or .laz; - reads it from
+    stdin, with --input-format).
 
-    Prints center, diameter and normal of every hole as JSON (units those of the file). With
-    tolerance options or --spec, every checked hole also gets its deviations and "in_tolerance",
-    and the record a "verdict".
+    Prints center, diameter and normal of every hole as JSON (units those of the file, or
+    --output-units). With tolerance options or --spec, every checked hole also gets its deviations
+    and "in_tolerance", and the record a "verdict".
 
     \b
     Examples:
@@ -323,13 +339,18 @@ def detect(scan, input_format, fmt, output, explain, method, view_dir, min_diame
       holecli detect scan.ply --explain --format table
       cat scan.ply | holecli detect - --input-format ply -o -
       holecli detect scan.asc --input-format xyz
+      holecli detect site.e57 --scan 1 --output-units mm
+      holecli detect scan.ply --units m --output-units mm --nominal-diameter 3 --tolerance 0.02
     """
     if scan == STDIN and input_format is None:
         raise click.UsageError(f"SCAN - (stdin) needs --input-format {'|'.join(INPUT_FORMATS)}: "
                                "a stream has no extension to tell its format")
     if explain and fmt == "csv":
         raise click.UsageError("--explain needs --format json or table (CSV has one row per hole)")
-    options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
+    choice = unit_choice(units, output_units, [scan])
+    # lengths on the command line are in the output unit: the pipeline wants the file's
+    options = detection_options(method, view_dir, choice.to_file_units(min_diameter), max_holes, full_only,
+                                choice.to_file_units(gauge_depth))
     if input_format is not None:
         options["input_format"] = input_format
     # the tolerance options (--nominal-diameter, ..., --max-perpendicularity) by their parameter names
@@ -339,7 +360,9 @@ def detect(scan, input_format, fmt, output, explain, method, view_dir, min_diame
         from holecli.tolerance import check
 
         spec = read_spec(spec_file) if spec_file is not None else nominal
-        record = measure_file(scan, options).to_dict(explain=explain)
+        detection = measure_file(scan, options, scan_index)
+        # in the output unit before the check: tolerances are in it too
+        record = choice.express(detection.to_dict(explain=explain), detection.units)
         if spec is not None:
             record = check(record, spec)
         emit(render([record], fmt), output)

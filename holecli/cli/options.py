@@ -161,18 +161,81 @@ def detection_option_decorators(function):
                      help="Sensor viewing direction: slide points along it onto the plane instead of "
                           "projecting orthogonally (e.g. 0,0,1)."),
         click.option("--min-diameter", type=Decimal(min=0), default=None,
-                     help="Smallest hole diameter reported, file units [default: 6 gap scales of the "
-                          "sampling, see README]."),
+                     help="Smallest hole diameter reported, file units (or --output-units) [default: 6 gap "
+                          "scales of the sampling, see README]."),
         click.option("--max-holes", type=click.IntRange(min=1), default=None,
                      help="Report at most N holes (the largest)."),
         click.option("--full-only", is_flag=True, help="Leave out holes cut by the border of the scan."),
         click.option("--gauge-depth", type=Decimal(min=0), default=None, metavar="DEPTH",
                      help="Also give each countersink's diameter at DEPTH below the surface "
-                          "(countersink.diameter_at_depth, what a countersink gauge reads), file units."),
+                          "(countersink.diameter_at_depth, what a countersink gauge reads), file units (or "
+                          "--output-units)."),
     ]
     for option in reversed(options):
         function = option(function)
     return function
+
+
+UNIT_NAMES = ("mm", "m", "in")
+
+
+def reading_option_decorators(function):
+    """The options of ``detect`` and ``batch`` about the file: ``--scan``, ``--units``, ``--output-units``.
+
+    Parameters
+    ----------
+    function : callable
+        A click command's function (it gets ``scan_index``, ``units`` and ``output_units``).
+
+    Returns
+    -------
+    callable
+        ``function`` with the options applied.
+    """
+    options = [
+        click.option("--scan", "scan_index", type=click.IntRange(min=0), default=None, metavar="N",
+                     help="Measure scan N (from 0) of a multi-scan E57 file [default: every scan, each moved "
+                          "by its pose, merged]; any other file holds one scan, 0."),
+        click.option("--units", type=click.Choice(UNIT_NAMES), default=None,
+                     help="The unit of the file's coordinates [default: unspecified; E57: m]."),
+        click.option("--output-units", type=click.Choice(UNIT_NAMES), default=None,
+                     help="Give every length of the record in this unit (needs the file's: --units, or E57); "
+                          "length options and tolerances are then in it too."),
+    ]
+    for option in reversed(options):
+        function = option(function)
+    return function
+
+
+def unit_choice(units, output_units, files=None):
+    """The :class:`holecli.units.UnitChoice` of ``--units`` and ``--output-units``.
+
+    Parameters
+    ----------
+    units, output_units : str or None
+        The options.
+    files : sequence of str, optional
+        The files to measure, when known: ``--output-units`` without ``--units`` is allowed when
+        they are all E57 (whose unit is metres by the standard).
+
+    Returns
+    -------
+    holecli.units.UnitChoice
+
+    Raises
+    ------
+    click.UsageError
+        ``--output-units`` without ``--units`` for files whose unit is not known.
+    """
+    from holecli.units import UnitChoice
+
+    if output_units is not None and units is None:
+        if files is not None and files and all(os.path.splitext(str(path))[1].lower() == ".e57" for path in files):
+            units = "m"
+        else:
+            raise click.UsageError("--output-units needs --units, the unit of the file's coordinates "
+                                   "(only E57 files declare theirs, metres)")
+    return UnitChoice(units, output_units)
 
 
 # What messages call the values of holecli.tolerance.nominal_spec on the command line.

@@ -132,12 +132,12 @@ def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pat
         import json
         from pathlib import Path
 
-        from holecli.io import SUPPORTED_EXTENSIONS, save_points
+        from holecli.io import WRITE_EXTENSIONS, save_points
         from holecli.io.outfile import write_text
         from holecli.simulation import synth
 
-        if Path(output).suffix.lower() not in SUPPORTED_EXTENSIONS:
-            raise Failure(f"{output}: unsupported extension (expected {', '.join(SUPPORTED_EXTENSIONS)})",
+        if Path(output).suffix.lower() not in WRITE_EXTENSIONS:
+            raise Failure(f"{output}: unsupported extension (expected {', '.join(WRITE_EXTENSIONS)})",
                           EXIT_INPUT)
         specs = () if no_hole else holes or ((center[0], center[1], diameter),)
         try:
@@ -193,7 +193,7 @@ def _simulate_part(ctx, output, panel_file, mesh_file, truth_path, seed):
     import numpy as np
 
     from holecli.errors import SpecError
-    from holecli.io import SUPPORTED_EXTENSIONS, save_points
+    from holecli.io import WRITE_EXTENSIONS, save_points
     from holecli.io.outfile import write_text
 
     p = ctx.params
@@ -203,8 +203,8 @@ def _simulate_part(ctx, output, panel_file, mesh_file, truth_path, seed):
     if synthetic:
         raise click.UsageError(f"{', '.join(_option_name(name) for name in synthetic)} cannot be used with "
                                f"{'--panel' if panel_file else '--mesh'} (they describe a synthetic scene)")
-    if Path(output).suffix.lower() not in SUPPORTED_EXTENSIONS:
-        raise Failure(f"{output}: unsupported extension (expected {', '.join(SUPPORTED_EXTENSIONS)})", EXIT_INPUT)
+    if Path(output).suffix.lower() not in WRITE_EXTENSIONS:
+        raise Failure(f"{output}: unsupported extension (expected {', '.join(WRITE_EXTENSIONS)})", EXIT_INPUT)
     source = panel_file or mesh_file
     try:
         vertices, triangles, features, part = _load_part(panel_file, mesh_file, p["view"])

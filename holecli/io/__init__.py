@@ -2,8 +2,9 @@
 
 :func:`load_points` turns a file into an ``(n, 3)`` float64 array of finite points; :func:`read_cloud`
 also tells how many rows were dropped because a coordinate was NaN or infinite; :func:`save_points`
-writes an array back; :func:`read_stream` reads a cloud from a stream (standard input). Supported
-formats, chosen by the extension (any case) or given as ``input_format``:
+writes an array back (in the formats of :data:`WRITE_EXTENSIONS`); :func:`read_stream` reads a cloud
+from a stream (standard input). Supported formats, chosen by the extension (any case) or given as
+``input_format``:
 
 ========  ==================================================================================
 ``.ply``  ascii, binary_little_endian, binary_big_endian; any element layout and property types
@@ -11,17 +12,21 @@ formats, chosen by the extension (any case) or given as ``input_format``:
 ``.csv``  comma, semicolon, tab or whitespace separated; optional header naming x, y, z
 ``.txt``  same as ``.csv``
 ``.xyz``  same as ``.csv``
+``.e57``  ASTM E57, every scan moved by its pose (or one scan); metres; needs the ``e57`` extra
+``.las``  ASPRS LAS 1.0 to 1.4, scaled integer coordinates; needs the ``las`` extra
+``.laz``  LAS compressed (LASzip); needs the ``las`` extra (laspy with the lazrs backend)
 ========  ==================================================================================
 
 Where each thing happens:
 
-- this module: :class:`Cloud`, :func:`read_cloud`, :func:`read_stream`, :func:`load_points`,
-  :func:`save_points`, the checks every file goes through (exists, a regular file, a supported
-  extension, not empty), the dispatch by extension (or by ``input_format``), and dropping the
-  non-finite rows;
+- this module: :class:`Cloud`, :func:`read_cloud`, :func:`read_stream`, :func:`load_points`, :func:`save_points`, the
+  checks every file goes through (exists, a regular file, a supported extension, not empty), the
+  dispatch by extension, and dropping the non-finite rows;
 - :mod:`holecli.io.ply`: PLY reading and writing;
 - :mod:`holecli.io.pcd`: PCD reading (ascii, binary, binary_compressed/LZF, old PCL padding) and writing;
 - :mod:`holecli.io.text`: CSV, TXT and XYZ tables, reading and writing;
+- :mod:`holecli.io.e57`: E57 reading (pye57, imported when an E57 file is read);
+- :mod:`holecli.io.las`: LAS and LAZ reading (laspy, imported when one is read);
 - :mod:`holecli.io._common`: what the readers share: the error they raise, the phrases of its
   messages, the header size limit, x, y, z from binary records, and the ascii body reader of PLY
   and PCD;
@@ -57,8 +62,8 @@ import csv
 import os
 import stat
 import struct
-import tempfile
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -69,10 +74,12 @@ from holecli.io.pcd import encode_pcd, read_pcd
 from holecli.io.ply import encode_ply, read_ply
 from holecli.io.text import encode_table, read_table
 
-__all__ = ["INPUT_FORMATS", "MAX_STREAM_BYTES", "STDIN_NAME", "SUPPORTED_EXTENSIONS", "Cloud", "load_points",
-           "read_cloud", "read_stream", "save_points"]
+__all__ = ["INPUT_FORMATS", "MAX_STREAM_BYTES", "STDIN_NAME", "SUPPORTED_EXTENSIONS", "WRITE_EXTENSIONS", "Cloud",
+           "load_points", "read_cloud", "read_stream", "save_points"]
 
-SUPPORTED_EXTENSIONS = (".ply", ".pcd", ".csv", ".txt", ".xyz")
+# What read_cloud reads, and what save_points writes.
+SUPPORTED_EXTENSIONS = (".ply", ".pcd", ".csv", ".txt", ".xyz", ".e57", ".las", ".laz")
+WRITE_EXTENSIONS = (".ply", ".pcd", ".csv", ".txt", ".xyz")
 # The formats by name (``input_format``, ``--input-format``): the extensions without their dot.
 INPUT_FORMATS = tuple(extension[1:] for extension in SUPPORTED_EXTENSIONS)
 # What messages and records call standard input.
@@ -82,7 +89,10 @@ STDIN_NAME = "<stdin>"
 # beyond a scan of one part; a larger cloud can still be read from a file.
 MAX_STREAM_BYTES = 2 << 30
 _TEXT_EXTENSIONS = (".csv", ".txt", ".xyz")
-_EXPECTED = ".ply, .pcd, .csv, .txt or .xyz"
+_EXPECTED = ".ply, .pcd, .csv, .txt, .xyz, .e57, .las or .laz"
+_WRITE_EXPECTED = ".ply, .pcd, .csv, .txt or .xyz"
+# The first bytes the E57 and LAS readers check their signature in.
+_SIGNATURE_BYTES = 8
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,45 +105,58 @@ class Cloud:
         The finite points, C-contiguous, in file units, in file order; n >= 1.
     dropped : int
         Rows of the file dropped because a coordinate was NaN or infinite (the empty cells of an
-        organized cloud, for example).
+        organized cloud, for example), or because the file flags the point invalid (E57).
     path : str
         The file the points were read from.
+    units : str or None
+        The length unit the format itself declares: ``"m"`` for E57 (the standard's unit); None
+        for every other format, whose files do not say.
     """
 
     points: np.ndarray
     dropped: int
     path: str
+    units: Optional[str] = None
 
 
-def read_cloud(path, input_format=None) -> Cloud:
-    """Read the points of a PLY, PCD, CSV, TXT or XYZ file.
+def read_cloud(path, scan=None, input_format=None) -> Cloud:
+    """Read the points of a PLY, PCD, CSV, TXT, XYZ, E57, LAS or LAZ file.
 
     Parameters
     ----------
     path : str or os.PathLike
         The file; its extension (any case) selects the format, unless ``input_format`` is given.
-    input_format : {"ply", "pcd", "csv", "txt", "xyz"}, optional
+    scan : int, optional
+        The scan to read, from 0, of an E57 file that holds several; by default every scan, each
+        moved into the file's common frame by its pose, merged into one cloud. A file of any other
+        format holds one scan, 0.
+    input_format : {"ply", "pcd", "csv", "txt", "xyz", "e57", "las", "laz"}, optional
         The format to read the file in, whatever its extension (``scan.asc`` as ``"xyz"``).
 
     Returns
     -------
     Cloud
-        The finite points of the file and the number of rows dropped as non-finite.
+        The finite points of the file and the number of rows dropped as non-finite (or flagged
+        invalid by an E57 file).
 
     Raises
     ------
     LoadError
         For any problem with the file: missing, a directory, unsupported extension, empty, garbled
-        or truncated, no x, y, z coordinates, a non-numeric value, or no finite point at all.
+        or truncated, no x, y, z coordinates, a non-numeric value, or no finite point at all; a
+        ``scan`` the file does not have; an E57, LAS or LAZ file when the optional extra that reads
+        it is not installed.
     ValueError
-        When ``input_format`` is not one of :data:`INPUT_FORMATS`.
+        When ``input_format`` is not one of :data:`INPUT_FORMATS` or ``scan`` is not a whole number >= 0.
     """
     name = os.fspath(path)
+    _check_scan(scan)
     extension = _extension(name, input_format)
-    return _finite_cloud(_read_checked(name, extension, name), name)
+    raw, flagged, units = _read_checked(name, extension, name, scan)
+    return _finite_cloud(raw, name, flagged, units)
 
 
-def read_stream(stream, input_format, name=STDIN_NAME, max_bytes=None) -> Cloud:
+def read_stream(stream, input_format, name=STDIN_NAME, max_bytes=None, scan=None) -> Cloud:
     """Read the points of a cloud from a binary stream (standard input: ``sys.stdin.buffer``).
 
     The stream is copied, up to ``max_bytes``, into a temporary file (in :func:`tempfile.gettempdir`,
@@ -151,6 +174,8 @@ def read_stream(stream, input_format, name=STDIN_NAME, max_bytes=None) -> Cloud:
     max_bytes : int, optional
         The most that is read (default :data:`MAX_STREAM_BYTES`); a longer stream is refused (it is
         read no further).
+    scan : int, optional
+        As for :func:`read_cloud` (an E57 stream's scan).
 
     Returns
     -------
@@ -176,6 +201,7 @@ def read_stream(stream, input_format, name=STDIN_NAME, max_bytes=None) -> Cloud:
         ...
     holecli.errors.LoadError: <stdin>: empty file
     """
+    _check_scan(scan)
     extension = _extension("", input_format)
     max_bytes = MAX_STREAM_BYTES if max_bytes is None else max_bytes
     try:
@@ -185,7 +211,8 @@ def read_stream(stream, input_format, name=STDIN_NAME, max_bytes=None) -> Cloud:
     try:
         with os.fdopen(descriptor, "wb") as copy:
             _copy_stream(stream, copy, max_bytes, name)
-        return _finite_cloud(_read_checked(temporary, extension, name), name)
+        raw, flagged, units = _read_checked(temporary, extension, name, scan)
+        return _finite_cloud(raw, name, flagged, units)
     finally:
         try:
             os.unlink(temporary)
@@ -222,10 +249,15 @@ def _extension(name, input_format):
     return "." + input_format
 
 
-def _read_checked(path, extension, name):
+def _check_scan(scan):
+    if scan is not None and (isinstance(scan, bool) or int(scan) != scan or scan < 0):
+        raise ValueError(f"scan must be a whole number >= 0, got {scan!r}")
+
+
+def _read_checked(path, extension, name, scan=None):
     """:func:`_read_raw`, its problems raised as LoadError named ``name``."""
     try:
-        return _read_raw(path, extension)
+        return _read_raw(path, extension, scan)
     except _BadFile as exc:
         raise LoadError(name, str(exc)) from None
     except (OSError, ValueError, struct.error, csv.Error, OverflowError, MemoryError) as exc:
@@ -240,7 +272,8 @@ def load_points(path) -> np.ndarray:
     Parameters
     ----------
     path : str or os.PathLike
-        A ``.ply``, ``.pcd``, ``.csv``, ``.txt`` or ``.xyz`` file.
+        A ``.ply``, ``.pcd``, ``.csv``, ``.txt``, ``.xyz``, ``.e57``, ``.las`` or ``.laz`` file (an
+        E57's scans merged, see :func:`read_cloud`).
 
     Returns
     -------
@@ -300,8 +333,8 @@ def save_points(path, points, float32=False) -> None:
     """
     name = os.fspath(path)
     extension = os.path.splitext(name)[1].lower()
-    if extension not in SUPPORTED_EXTENSIONS:
-        raise ValueError(f"cannot save {name!r}: unsupported extension {extension!r} (expected {_EXPECTED})")
+    if extension not in WRITE_EXTENSIONS:
+        raise ValueError(f"cannot save {name!r}: unsupported extension {extension!r} (expected {_WRITE_EXPECTED})")
     array = _as_points(points)
     if extension == ".ply":
         payload = encode_ply(array, float32)
@@ -315,9 +348,10 @@ def save_points(path, points, float32=False) -> None:
 # --- checks every file goes through, and the dispatch by extension ----------------------------
 
 
-def _read_raw(name: str, extension: str) -> np.ndarray:
-    """All coordinate rows of the file, non-finite ones included, as (n, 3) float64; ``extension``
-    (``.ply``, ...; the file's own or the one of the format asked for) selects the reader."""
+def _read_raw(name: str, extension: str, scan=None):
+    """All coordinate rows of the file, non-finite ones included, as (n, 3) float64; the points
+    left out because the file flags them invalid; the unit the format declares (or None).
+    ``extension`` (``.ply``, ...; the file's own or the one of the format asked for) selects the reader."""
     try:
         info = os.stat(name)
     except FileNotFoundError:
@@ -336,15 +370,31 @@ def _read_raw(name: str, extension: str) -> np.ndarray:
         raise _BadFile(f"unsupported extension {shown} (expected {_EXPECTED})")
     if info.st_size == 0:
         raise _BadFile("empty file")
+    if extension == ".e57":
+        from holecli.io.e57 import E57_UNITS, read_e57
+
+        points, flagged = read_e57(name, _head(name), scan)
+        return points, flagged, E57_UNITS
+    if scan is not None and scan != 0:
+        raise _BadFile(f"scan {scan} is out of range: a {extension} file holds 1 scan (scan 0)")
+    if extension in (".las", ".laz"):
+        from holecli.io.las import read_las
+
+        return read_las(name, _head(name)), 0, None
     if extension in _TEXT_EXTENSIONS:
-        return read_table(name)
+        return read_table(name), 0, None
     with open(name, "rb") as stream:
         data = stream.read()
     if data.isspace():
         raise _BadFile("empty file")
     if extension == ".ply":
-        return read_ply(name, data)
-    return read_pcd(name, data)
+        return read_ply(name, data), 0, None
+    return read_pcd(name, data), 0, None
+
+
+def _head(name: str) -> bytes:
+    with open(name, "rb") as stream:
+        return stream.read(_SIGNATURE_BYTES)
 
 
 def file_kind(mode: int) -> str:
@@ -373,16 +423,20 @@ def file_kind(mode: int) -> str:
     return f"file type {stat.S_IFMT(mode):#o}"
 
 
-def _finite_cloud(raw: np.ndarray, name: str) -> Cloud:
-    """Drop the rows with a non-finite coordinate and refuse a cloud with no point left."""
+def _finite_cloud(raw: np.ndarray, name: str, flagged: int = 0, units=None) -> Cloud:
+    """Drop the rows with a non-finite coordinate and refuse a cloud with no point left (``flagged``:
+    the points the reader left out as flagged invalid, counted as dropped too)."""
     finite = np.isfinite(raw).all(axis=1)
     kept = int(np.count_nonzero(finite))
     if kept == 0:
-        if len(raw) == 0:
+        if len(raw) == 0 and flagged == 0:
             raise LoadError(name, "no points")
+        if flagged:
+            raise LoadError(name, f"no valid points (all {len(raw) + flagged} points are flagged invalid "
+                                  "or have a NaN or infinite coordinate)")
         raise LoadError(name, f"no finite points (all {len(raw)} rows have a NaN or infinite coordinate)")
     points = raw if kept == len(raw) else raw[finite]
-    return Cloud(np.ascontiguousarray(points, dtype=np.float64), len(raw) - kept, name)
+    return Cloud(np.ascontiguousarray(points, dtype=np.float64), len(raw) - kept + flagged, name, units)
 
 
 def _as_points(points) -> np.ndarray:

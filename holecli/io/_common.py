@@ -229,3 +229,21 @@ def _ascii_value(token: bytes, number: int, what: str) -> float:
         raise _BadFile(
             f"malformed ascii {what}: non-numeric value {_quote(token)} in line {number}"
         ) from None
+
+
+def _need_extra(extension: str, extra: str) -> _BadFile:
+    """The error for a format whose optional extra is not installed (``pip install 'holecli[e57]'``).
+
+    Parameters
+    ----------
+    extension : str
+        The file's extension, lowercase with its dot (``".e57"``).
+    extra : str
+        The extra that brings the reader's library (``"e57"``, ``"las"``).
+
+    Returns
+    -------
+    _BadFile
+        To raise: ``reading .e57 needs the optional extra: pip install 'holecli[e57]'``.
+    """
+    return _BadFile(f"reading {extension} needs the optional extra: pip install 'holecli[{extra}]'")

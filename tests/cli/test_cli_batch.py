@@ -208,7 +208,7 @@ def test_batch_exit_6_failed_before_4_no_hole(run, good_scans, tmp_path):
     "args, message",
     [
         (["{folder}/missing"], "missing: no such file or folder"),
-        (["{empty}"], "no point-cloud files (.ply, .pcd, .csv, .txt, .xyz) found"),
+        (["{empty}"], "no point-cloud files (.ply, .pcd, .csv, .txt, .xyz, .e57, .las, .laz) found"),
         (["{folder}", "--pattern", "zzz*"], "matching 'zzz*' found"),
         (["{folder}", "--spec", "{folder}/missing.toml"], "missing.toml: cannot read: No such file or directory"),
         (["{folder}", "--output", "{folder}/no/such/out.jsonl"], "cannot write output"),

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from holecli.errors import LoadError
-from holecli.io import SUPPORTED_EXTENSIONS, Cloud, load_points, read_cloud, save_points
+from holecli.io import WRITE_EXTENSIONS, Cloud, load_points, read_cloud, save_points
 
 
 def _realdata_folder():
@@ -155,7 +155,7 @@ def _check_cloud(cloud, expected, dropped=0):
 # --- round trips ------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("extension", [*SUPPORTED_EXTENSIONS, ".PLY", ".Csv"])
+@pytest.mark.parametrize("extension", [*WRITE_EXTENSIONS, ".PLY", ".Csv"])
 def test_round_trip_is_exact(tmp_path, extension):
     points = _points(200)
     points[0] = (0.1, 1e-300, -1e300)  # digits that only a full-precision writer keeps
@@ -167,7 +167,7 @@ def test_round_trip_is_exact(tmp_path, extension):
     np.testing.assert_array_equal(load_points(str(path)), points)
 
 
-@pytest.mark.parametrize("extension", SUPPORTED_EXTENSIONS)
+@pytest.mark.parametrize("extension", WRITE_EXTENSIONS)
 def test_round_trip_drops_and_counts_non_finite_rows(tmp_path, extension):
     points = _points(10)
     points[2, 0] = np.nan
@@ -480,7 +480,7 @@ def _cut(content, nbytes):
 
 _BAD_FILES = [
     # name, content, problem pattern
-    ("a.obj", "v 1 2 3\n", r"unsupported extension '\.obj' \(expected \.ply, \.pcd, \.csv, \.txt or \.xyz\)$"),
+    ("a.obj", "v 1 2 3\n", r"unsupported extension '\.obj' \(expected \.ply, \.pcd, \.csv, \.txt, \.xyz, \.e57, \.las or \.laz\)$"),
     ("noext", "1 2 3\n", r"unsupported extension \(none\)"),
     ("a.ply", b"", r"empty file$"),
     ("a.pcd", b"", r"empty file$"),
