@@ -68,12 +68,13 @@ if [ ! -x .venv/bin/python ]; then
     say "creating .venv with $python ($("$python" --version 2>&1))"
     make_venv "$python"
     if [ -z "${PYTHON:-}" ] && ! open3d_wheel .venv/bin/python; then
+        say "$python ($("$python" --version 2>&1)) is older than 3.11 or has no open3d wheel on PyPI"
         found=""
         for candidate in python3.13 python3.12 python3.11; do
             if command -v "$candidate" >/dev/null && open3d_wheel "$candidate"; then found=$candidate; break; fi
         done
         if [ -z "$found" ]; then
-            say "open3d has no wheel for $($python --version 2>&1) and no python3.13/3.12/3.11 is on PATH: asking uv for Python 3.12"
+            say "no python3.13, python3.12 or python3.11 with an open3d wheel is on PATH: asking uv for Python 3.12"
             [ -x .venv-uv/bin/uv ] || { "$python" -m venv .venv-uv && pip_quiet .venv-uv/bin/python -m pip install --quiet uv; }
             .venv-uv/bin/uv python find 3.12 >/dev/null 2>&1 || .venv-uv/bin/uv python install 3.12 || {
                 say "uv could not download Python 3.12 (it comes from GitHub, not from PyPI);"
@@ -83,7 +84,7 @@ if [ ! -x .venv/bin/python ]; then
             }
             found=$(.venv-uv/bin/uv python find 3.12)
         fi
-        say "open3d has no wheel for $($python --version 2>&1): using $found ($("$found" --version 2>&1)) instead"
+        say "holecli needs Python 3.11 or newer, and open3d a wheel for it: using $found ($("$found" --version 2>&1)) instead"
         rm -rf .venv
         make_venv "$found"
     fi
