@@ -86,7 +86,7 @@ class ToleranceBand(click.ParamType):
 
 # The formats of --input-format: holecli.io.INPUT_FORMATS, spelled out here so that building the
 # options does not import the readers (numpy); a test keeps the two equal.
-INPUT_FORMATS = ("ply", "pcd", "csv", "txt", "xyz")
+INPUT_FORMATS = ("ply", "pcd", "csv", "txt", "xyz", "e57", "las", "laz")
 
 
 def input_format_option(help_text):

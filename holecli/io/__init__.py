@@ -62,6 +62,7 @@ import csv
 import os
 import stat
 import struct
+import tempfile
 from dataclasses import dataclass
 from typing import Optional
 

@@ -1,0 +1,48 @@
+"""The installed package: what `import holecli` finds, and what a wheel built from the checkout holds."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import holecli
+
+PACKAGE = Path(holecli.__file__).resolve().parent
+
+
+def _run(args, cwd):
+    return subprocess.run([sys.executable, *args], capture_output=True, text=True, cwd=cwd, timeout=120)
+
+
+def test_import_from_the_folder_that_holds_a_clone_named_holecli(tmp_path):
+    # From the parent of a clone named holecli/ the current folder (first on sys.path) holds a folder
+    # holecli/ without __init__.py. With setuptools' default editable install (a finder consulted after
+    # sys.path) that folder was imported as an empty namespace package: holecli.__file__ None, every
+    # command broken. The path-based editable install of scripts/setup.sh (or a plain install) wins.
+    (tmp_path / "holecli" / "sample_clouds").mkdir(parents=True)
+    (tmp_path / "holecli" / "README.md").write_text("a clone, seen from its parent folder\n")
+    result = _run(["-c", "import holecli; print(holecli.__file__)"], tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() != "None", "holecli was imported as a namespace package from the current folder"
+    assert Path(result.stdout.strip()).resolve() == PACKAGE / "__init__.py"
+    result = _run(["-m", "holecli", "--version"], tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert holecli.__version__ in result.stdout
+
+
+def test_every_folder_of_the_package_is_a_regular_package():
+    # pyproject.toml takes the packages that setuptools finds (`holecli*`): a folder of modules
+    # without __init__.py would be left out of the wheel (and of `pip install .`).
+    missing = [str(folder.relative_to(PACKAGE.parent)) for folder, _, files in os.walk(PACKAGE)
+               for folder in [Path(folder)] if folder.name != "__pycache__"
+               and any(name.endswith(".py") for name in files) and "__init__.py" not in files]
+    assert missing == []
+
+
+def test_the_package_has_no_data_files():
+    # Nothing but modules: a data file added to holecli/ needs [tool.setuptools.package-data] in
+    # pyproject.toml to reach the wheel (and then this test needs updating).
+    data = [str(path.relative_to(PACKAGE.parent)) for path in PACKAGE.rglob("*")
+            if path.is_file() and "__pycache__" not in path.parts and path.suffix not in {".py", ".pyi"}
+            and path.name != "py.typed"]
+    assert data == []
