@@ -9,7 +9,7 @@ import pytest
 from holecli.errors import PointsError
 from holecli.geometry.plane import orient_normal
 from holecli.pipeline import MIN_POINTS, detect, validate_points
-from holecli.results import Detection, Hole, Plane
+from holecli.results import Detection, Hole, Plane, Timing
 from holecli.simulation import synth
 
 PLANE_KEYS = {"point", "normal", "rms", "inliers"}
@@ -18,7 +18,8 @@ HOLE_KEYS = {
     "bias_correction", "partial", "arc_deg", "scan_lines", "type", "countersink", "counterbore", "bore", "axis",
     "perpendicularity_deg", "warnings",
 }  # fmt: skip
-RECORD_KEYS = {"file", "points", "dropped_points", "method", "plane", "holes", "elapsed_ms"}
+RECORD_KEYS = {"schema_version", "holecli_version", "file", "points", "dropped_points", "method", "options", "scales",
+               "candidates", "plane", "holes", "timing"}
 
 
 def _angle_deg(a, b):
@@ -99,7 +100,7 @@ def test_to_dict_is_json_ready_with_plain_types(table1_paper):
     # Plain Python types (not numpy scalars): the CSV writer prints floats by repr.
     for value in (*hole["center"], *hole["normal"], hole["diameter"], hole["fit_rms"], hole["max_residual"],
                   hole["roundness"], hole["bias_correction"], hole["arc_deg"], *plane["point"], *plane["normal"],
-                  plane["rms"], record["elapsed_ms"]):
+                  plane["rms"], record["timing"]["elapsed_ms"]):
         assert type(value) is float
     for value in (hole["index"], hole["rim_points"], plane["inliers"], record["points"], record["dropped_points"]):
         assert type(value) is int
@@ -245,7 +246,7 @@ def test_flat_points_on_a_line_raise():
 
 
 def _without_timing(detection):
-    return dataclasses.replace(detection, elapsed_ms=0.0)
+    return dataclasses.replace(detection, timing=Timing())
 
 
 def test_detect_file_is_detect_on_the_files_finite_points(table1_files, tmp_path):
@@ -294,7 +295,7 @@ def test_the_command_line_and_the_batch_workers_measure_with_detect_file(table1_
     record = batch.measure_record(path, {"method": "paper"})
     assert calls == [(path, {"method": "paper"}), (path, {"method": "paper"})]
     cli_record = json.loads(result.stdout)
-    for key in ("elapsed_ms", "path"):
+    for key in ("timing", "path"):
         cli_record.pop(key, None)
         record.pop(key, None)
     assert cli_record == record

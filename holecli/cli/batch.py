@@ -14,9 +14,10 @@ import click
 
 from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_FILE_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_NO_HOLE,
                                EXIT_OK, EXIT_OUT_OF_TOLERANCE, Failure, run_guarded, write_stdout)
-from holecli.cli.options import (detection_option_decorators, detection_options, nominal_from_options, read_spec,
-                                 tolerance_option_decorators)
-from holecli.cli.progress import BatchDisplay, batch_summary
+from holecli.cli.options import (check_verbosity, detection_option_decorators, detection_options,
+                                 nominal_from_options, read_spec, tolerance_option_decorators,
+                                 verbosity_option_decorators)
+from holecli.cli.progress import BatchDisplay, batch_summary, verbose_text
 from holecli.errors import LoadError
 
 
@@ -116,8 +117,9 @@ def batch_exit_code(tally):
                    "(\"rejected\"; JSON Lines only).")
 @detection_option_decorators
 @tolerance_option_decorators
+@verbosity_option_decorators
 def batch(paths, recursive, pattern, fmt, output, jobs, resume, explain, method, view_dir, min_diameter, max_holes,
-          full_only, gauge_depth, spec_file, **nominal_options):
+          full_only, gauge_depth, spec_file, quiet, verbose, **nominal_options):
     """Measure every point cloud in the folders and files PATH.
 
     A folder contributes the .ply, .pcd, .csv, .txt and .xyz files directly in it (any case; with
@@ -133,7 +135,9 @@ def batch(paths, recursive, pattern, fmt, output, jobs, resume, explain, method,
       holecli batch scans/ --spec part.toml --jobs 4 -o shift.jsonl
       holecli batch scans/ --spec part.toml -o shift.jsonl --resume
       holecli batch scans/*.ply --nominal-diameter 3 --tolerance 0.02 | jq -c 'select(.verdict.in_tolerance | not)'
+      holecli batch scans/ -q -o results.jsonl
     """
+    check_verbosity(quiet, verbose)
     options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
     # the tolerance options (--nominal-diameter, ..., --max-perpendicularity) by their parameter names
     nominal = nominal_from_options(spec_file, **nominal_options)
@@ -170,7 +174,7 @@ def batch(paths, recursive, pattern, fmt, output, jobs, resume, explain, method,
                 write, earlier, header = write_stdout, [], True
             todo = batching.files_to_do(files, earlier)
             return run_batch(batching, todo, options, spec, jobs or batching.default_jobs(), write, fmt, header,
-                             earlier, output, stop, explain)
+                             earlier, output, stop, explain, quiet=quiet, verbose=verbose)
         finally:
             if output_file is not None:
                 output_file.close()
@@ -179,7 +183,8 @@ def batch(paths, recursive, pattern, fmt, output, jobs, resume, explain, method,
         sys.exit(run_guarded(body, stop))
 
 
-def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False):
+def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False, *,
+              quiet=False, verbose=False):
     """The measuring loop of ``holecli batch``: records out, progress and summary on stderr.
 
     Parameters
@@ -209,6 +214,11 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         The signal handling of the command; deferred here, checked between records.
     explain : bool
         Records with their ``rejected`` list.
+    quiet : bool
+        ``--quiet``: no progress bar and no summary; only the files that failed and an interruption
+        are said.
+    verbose : bool
+        ``--verbose``: the scales and stage times of every file (:func:`verbose_text`).
 
     Returns
     -------
@@ -237,7 +247,7 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         raise
     except OSError as error:
         raise failed_write(error) from None
-    display = BatchDisplay(len(todo), spec is not None)
+    display = BatchDisplay(len(todo), spec is not None, quiet=quiet)
     started = time.monotonic()
     measured_now = 0
 
@@ -264,12 +274,14 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
             measured_now += 1
             tally.add(record)
             if "error" in record:
-                display.message(f"holecli: failed: {record['error']}")
+                display.message(f"holecli: failed: {record['error']}", error=True)
+            elif verbose:
+                display.message(verbose_text(record).rstrip("\n"))
     summary = batch_summary(tally, time.monotonic() - started, spec is not None, len(earlier), output)
     if stop.signal is not None and measured_now < len(todo):
         display.message(f"holecli batch: interrupted after {measured_now} of {len(todo)} files ({summary})."
                         + (f" The finished records are in {output}: run again with --resume to measure the rest."
-                           if output else ""))
+                           if output else ""), error=True)
         return EXIT_INTERRUPTED
     display.message(f"holecli batch: {summary}")
     return batch_exit_code(tally)

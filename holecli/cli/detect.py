@@ -9,8 +9,9 @@ import click
 
 from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, Failure,
                                run_guarded, write_stdout)
-from holecli.cli.options import (detection_option_decorators, detection_options, nominal_from_options, read_spec,
-                                 tolerance_option_decorators)
+from holecli.cli.options import (check_verbosity, detection_option_decorators, detection_options,
+                                 nominal_from_options, read_spec, tolerance_option_decorators,
+                                 verbosity_option_decorators)
 from holecli.errors import HoleCliError
 
 
@@ -93,7 +94,7 @@ def render_table(records):
     for record in records:
         plane = record["plane"]
         verdict = record.get("verdict")
-        caption = f"plane rms {plane['rms']:.4g}, {record['elapsed_ms']:.1f} ms"
+        caption = f"plane rms {plane['rms']:.4g}, {record['timing']['elapsed_ms']:.1f} ms"
         if verdict is not None:
             caption += (f"; {'IN' if verdict['in_tolerance'] else 'OUT OF'} TOLERANCE: {verdict['checked']} "
                         f"checked, {verdict['out_of_tolerance']} out")
@@ -248,8 +249,9 @@ def emit(text, output):
                    "(\"rejected\" in JSON, a second table with --format table).")
 @detection_option_decorators
 @tolerance_option_decorators
+@verbosity_option_decorators
 def detect(scan, fmt, output, explain, method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file,
-           **nominal_options):
+           quiet, verbose, **nominal_options):
     """Measure the holes in SCAN (.ply, .pcd, .csv, .txt or .xyz).
 
     Prints center, diameter and normal of every hole as JSON (units those of the file). With
@@ -269,7 +271,9 @@ def detect(scan, fmt, output, explain, method, view_dir, min_diameter, max_holes
       holecli detect scan.ply --gauge-depth 0.5
       holecli detect scan.ply --spec part.toml --format table
       holecli detect scan.ply --explain --format table
+      holecli detect scan.ply -v
     """
+    check_verbosity(quiet, verbose)
     if explain and fmt == "csv":
         raise click.UsageError("--explain needs --format json or table (CSV has one row per hole)")
     options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
@@ -277,20 +281,29 @@ def detect(scan, fmt, output, explain, method, view_dir, min_diameter, max_holes
     nominal = nominal_from_options(spec_file, **nominal_options)
 
     def body():
+        from holecli.cli.progress import DetectStatus
         from holecli.tolerance import check
 
         spec = read_spec(spec_file) if spec_file is not None else nominal
-        record = measure_file(scan, options).to_dict(explain=explain)
+        with DetectStatus(scan, quiet=quiet) as status:
+            detection = measure_file(scan, {**options, "progress": status.stage} if status.shown else options)
+        record = detection.to_dict(explain=explain)
         if spec is not None:
             record = check(record, spec)
         emit(render([record], fmt), output)
         return record
 
     record = run_guarded(body)
-    if not record["holes"]:
+    if verbose:
+        from holecli.cli.progress import verbose_text
+
+        click.echo(verbose_text(record), err=True, nl=False)
+    if not quiet and not record["holes"]:
         click.echo(f"holecli: no hole found in {scan}", err=True)
     verdict = record.get("verdict")
     if verdict is not None and not verdict["in_tolerance"]:
+        if quiet:
+            sys.exit(EXIT_OUT_OF_TOLERANCE)
         missing = f", missing: {', '.join(str(name) for name in verdict['missing'])}" if verdict["missing"] else ""
         not_measured = sum(any(check.endswith("_not_measured") for check in hole.get("failed_checks") or ())
                            for hole in record["holes"])
