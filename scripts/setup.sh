@@ -26,7 +26,7 @@ if [ ! -x .venv/bin/python ]; then
     echo "setup: creating .venv" >&2
     "$python" -m venv .venv
 fi
-if [ ! -x .venv/bin/holecli ] || ! .venv/bin/python -c "import open3d, pytest" >/dev/null 2>&1; then
+if [ ! -x .venv/bin/holecli ] || ! .venv/bin/python -c "import open3d, pytest, jsonschema" >/dev/null 2>&1; then
     echo "setup: installing holecli and its dependencies into .venv" >&2
     # (pip's notes about local package indexes that this machine lacks are noise: filtered out)
     .venv/bin/python -m pip install --quiet -e '.[test]' 2> >(grep -v 'is ignored: it is neither a file nor a directory' >&2)
