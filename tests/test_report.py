@@ -43,8 +43,11 @@ def _record(holes=2, file="scans/part 7, left.ply"):
     return detection.to_dict()
 
 
-def test_csv_columns_are_the_documented_ones():
+def test_csv_columns_are_the_documented_ones(repo_root):
     assert list(report.CSV_COLUMNS) == DOCUMENTED_COLUMNS
+    readme = (repo_root / "README.md").read_text(encoding="utf-8")
+    headers = [line.strip("`") for line in readme.splitlines() if line.startswith("`file,hole,")]
+    assert headers == [",".join(DOCUMENTED_COLUMNS)]
 
 
 def test_to_json_round_trips_at_full_precision():
