@@ -32,13 +32,16 @@ from dataclasses import dataclass
 
 from holecli.errors import HoleCliError, LoadError
 from holecli.io import SUPPORTED_EXTENSIONS
-from holecli.report import BATCH_CSV_COLUMNS, csv_text, to_json_line
+from holecli.report import BATCH_CSV_COLUMNS, CSV_COLUMNS, csv_text, to_json_line
 
 __all__ = ["FORMATS", "BatchOutput", "FileSummary", "OutputBusyError", "RecordWriter", "ResumeError", "Tally",
-           "default_jobs", "failure_message", "files_to_do", "find_scans", "measure_all", "measure_record",
+           "default_jobs", "error_record", "failure_message", "files_to_do", "find_scans", "measure_all", "measure_record",
            "resolved_path"]
 
 FORMATS = ("jsonl", "csv")
+
+# The batch CSV header before the provenance columns (schema 1, records without schema_version).
+_SCHEMA_1_COLUMNS = CSV_COLUMNS[:CSV_COLUMNS.index("schema_version")] + ("error", "path")
 
 # Files handed to the pool ahead of the free workers, per worker: enough to keep every worker busy
 # while the parent writes, few enough that an interrupt has little queued work to throw away.
@@ -204,18 +207,41 @@ def measure_record(path, options, spec=None, explain=False, scan=None, units=Non
     try:
         detection = detect_file(path, **({} if scan is None else {"scan": scan}), **options)
     except HoleCliError as error:
-        return {"file": str(path), "path": resolved, "error": failure_message(path, error)}
+        return error_record(path, failure_message(path, error), resolved)
     except Exception as error:  # noqa: BLE001 - a bug in one file must not stop the batch
         problem = " ".join(f"{type(error).__name__}: {error}".splitlines())
-        return {"file": str(path), "path": resolved,
-                "error": f"{path}: internal error (a bug: please report it; holecli detect shows the "
-                         f"traceback): {problem}"}
+        return error_record(path, f"{path}: internal error (a bug: please report it; holecli detect shows the "
+                                  f"traceback): {problem}", resolved)
     try:
         record = (units or UnitChoice()).express(detection.to_dict(explain=explain), detection.units)
     except ValueError as error:  # an output unit without the file's
-        return {"file": str(path), "path": resolved, "error": f"{path}: {error}"}
+        return error_record(path, f"{path}: {error}", resolved)
     record["path"] = resolved
     return tolerance.check(record, spec) if spec is not None else record
+
+
+def error_record(path, message, resolved=None) -> dict:
+    """The record of a file that could not be measured.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    message : str
+        Why, in one line.
+    resolved : str, optional
+        Its :func:`resolved_path` (computed when not given).
+
+    Returns
+    -------
+    dict
+        ``{"schema_version", "holecli_version", "file", "path", "error"}``.
+    """
+    from holecli import __version__
+    from holecli.results import SCHEMA_VERSION
+
+    return {"schema_version": SCHEMA_VERSION, "holecli_version": __version__, "file": str(path),
+            "path": resolved_path(path) if resolved is None else resolved, "error": message}
 
 
 def resolved_path(path) -> str:
@@ -368,10 +394,9 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
                     in_flight.clear()
                     for path in sorted(broken):
                         if path in alone:
-                            yield {"file": str(path), "path": resolved_path(path),
-                                   "error": f"{path}: the worker process measuring this file died twice, "
-                                            f"the second time measuring it alone (a crash in a library, "
-                                            f"or out of memory)"}
+                            yield error_record(path, f"{path}: the worker process measuring this file died twice, "
+                                                     f"the second time measuring it alone (a crash in a library, "
+                                                     f"or out of memory)")
                         else:
                             suspects.append(path)
                             alone.add(path)
@@ -582,10 +607,15 @@ def _earlier_records(path, complete, fmt):
         return [], True
     rows = list(csv.reader(io.StringIO(text)))
     if tuple(rows[0]) != BATCH_CSV_COLUMNS:
-        older = tuple(rows[0]) == BATCH_CSV_COLUMNS[:-1]
+        header = tuple(rows[0])
+        if header == _SCHEMA_1_COLUMNS[:-1]:
+            why = " (it was written by holecli 0.1, without the path column: start a new output)"
+        elif header == _SCHEMA_1_COLUMNS:
+            why = " (it was written before schema 2.0, without the provenance columns: start a new output)"
+        else:
+            why = ""
         raise ResumeError(f"{path}: cannot resume: its header is not the header of holecli batch --format csv"
-                          + (" (it was written by holecli 0.1, without the path column: start a new output)"
-                             if older else ""))
+                          + why)
     by_file = {}
     for row in rows[1:]:
         if len(row) != len(BATCH_CSV_COLUMNS):

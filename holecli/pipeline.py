@@ -18,7 +18,8 @@ import numpy as np
 from holecli.errors import PointsError
 from holecli.io import read_cloud
 from holecli.paper.method import detect_paper
-from holecli.results import Detection
+from holecli.results import Detection, Options, Timing
+from holecli.stages import StageClock
 from holecli.threads import single_blas_thread
 
 METHODS = ("paper", "robust")
@@ -82,8 +83,25 @@ def _check_options(view_dir, min_diameter, max_holes, gauge_depth=None):
     return view_dir
 
 
+def _settings_changed(settings, defaults):
+    """The (name, value) pairs of ``settings`` that differ from ``defaults``, in field order."""
+    from dataclasses import fields
+
+    return tuple((field.name, getattr(settings, field.name)) for field in fields(settings)
+                 if getattr(settings, field.name) != getattr(defaults, field.name))
+
+
+def _plain(value):
+    """A number or a tuple of numbers as plain Python floats (for the record's ``options``)."""
+    if value is None:
+        return None
+    if np.ndim(value):
+        return tuple(float(v) for v in np.asarray(value, dtype=np.float64).reshape(-1))
+    return float(value)
+
+
 def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_holes=None, full_only=False,
-           gauge_depth=None, settings=None, rng=0):
+           gauge_depth=None, settings=None, rng=0, progress=None):
     """Find the holes in a scan of a nearly flat surface.
 
     Parameters
@@ -111,12 +129,19 @@ def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_hol
         Tunables of the robust method.
     rng : int or numpy.random.Generator
         Seed of the plane's RANSAC hypotheses (results do not depend on it beyond round-off).
+    progress : callable, optional
+        Called with the name of each stage as it starts (``validate``, ``imports``, then ``plane``, ``frame``,
+        ``sampling``, ``grid``, ``candidates``, ``shape`` or ``paper``): what the command line's
+        status line shows. It must be cheap and must not raise.
 
     Returns
     -------
     Detection
-        The holes found (possibly none), the fitted plane and the point count. ``file`` and
-        ``dropped_points`` are left for the caller that read the file to fill in.
+        The holes found (possibly none), the fitted plane and the point count, the measured
+        ``scales``, the ``options`` it ran with, the number of ``candidates`` examined and the
+        ``timing`` of every stage. ``file``, ``dropped_points`` and ``timing.read_ms`` are left for
+        the caller that read the file to fill in; tolerances are not the pipeline's
+        (:func:`holecli.tolerance.check` adds them to the record).
 
     Raises
     ------
@@ -148,8 +173,11 @@ def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_hol
     if method not in METHODS:
         raise PointsError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     started = time.perf_counter()
+    clock = StageClock(progress)
+    clock.start("validate")
     points = validate_points(points)
     view_dir = _check_options(view_dir, min_diameter, max_holes, gauge_depth)
+    clock.start("imports")  # the method's modules: paid by the first detection of a process only
     if method == "robust":
         # Before the limit: importing it loads scipy's own BLAS, which the limit must see.
         from holecli.robust.method import detect_robust
@@ -160,16 +188,27 @@ def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_hol
                     or gauge_depth is not None):
                 raise PointsError("the paper method takes no options (view_dir, min_diameter, max_holes, full_only, "
                                   "gauge_depth)")
-            plane, holes = detect_paper(points)
-            rejected = ()
+            clock.start("paper")
+            plane, holes, scales = detect_paper(points)
+            rejected, candidates, stages = (), 1, clock.stop()
+            used = Options(method="paper", rng=None, settings=None)
         else:
-            plane, holes, rejected = detect_robust(points, view_dir=view_dir, min_diameter=min_diameter,
-                                                   max_holes=max_holes, full_only=full_only,
-                                                   gauge_depth=gauge_depth, settings=settings or DEFAULT_SETTINGS,
-                                                   rng=rng)
+            settings = settings or DEFAULT_SETTINGS
+            validated = clock.stop()
+            result = detect_robust(points, view_dir=view_dir, min_diameter=min_diameter, max_holes=max_holes,
+                                   full_only=full_only, gauge_depth=gauge_depth, settings=settings, rng=rng,
+                                   progress=progress)
+            plane, holes, rejected, scales = result.plane, result.holes, result.rejected, result.scales
+            candidates, stages = result.candidates, validated + result.stages
+            used = Options(method="robust", view_dir=_plain(view_dir), min_diameter=_plain(min_diameter),
+                           max_holes=None if max_holes is None else int(max_holes), full_only=bool(full_only),
+                           gauge_depth=_plain(gauge_depth),
+                           rng=int(rng) if isinstance(rng, (int, np.integer)) else None,
+                           settings=_settings_changed(settings, DEFAULT_SETTINGS))
     elapsed_ms = (time.perf_counter() - started) * 1000.0
-    return Detection(holes=holes, plane=plane, points=len(points), method=method, elapsed_ms=elapsed_ms,
-                     rejected=rejected)
+    return Detection(holes=holes, plane=plane, points=len(points), method=method,
+                     timing=Timing(elapsed_ms=elapsed_ms, stages=stages), rejected=rejected, scales=scales,
+                     options=used, candidates=candidates)
 
 
 def detect_file(path, scan=None, *, input_format=None, **options) -> Detection:
@@ -191,14 +230,15 @@ def detect_file(path, scan=None, *, input_format=None, **options) -> Detection:
         Read the file in this format, whatever its extension (``scan.asc`` as ``"xyz"``).
     **options
         Keyword arguments of :func:`detect`: ``method``, ``view_dir``, ``min_diameter``,
-        ``max_holes``, ``full_only``, ``gauge_depth``, ``settings``, ``rng``.
+        ``max_holes``, ``full_only``, ``gauge_depth``, ``settings``, ``rng``, ``progress``.
 
     Returns
     -------
     Detection
         What :func:`detect` returns, with ``file`` (``str(path)``), ``dropped_points`` (the rows
-        dropped as non-finite or flagged invalid) and ``units`` (what the format declares) filled in. ``elapsed_ms`` is the time of the detection, as
-        :func:`detect` measures it (reading the file is not counted).
+        dropped as non-finite or flagged invalid), ``units`` (what the format declares) and
+        ``timing.read_ms`` (the time to read it) filled in. ``timing.elapsed_ms`` is the time of the
+        detection, as :func:`detect` measures it (reading the file is not counted).
 
     Raises
     ------
@@ -236,7 +276,11 @@ def detect_file(path, scan=None, *, input_format=None, **options) -> Detection:
         ...
     holecli.errors.LoadError: sample_clouds/missing.ply: file not found
     """
-    return detect_cloud(read_cloud(path, scan=scan, input_format=input_format), **options)
+    started = time.perf_counter()
+    cloud = read_cloud(path, scan=scan, input_format=input_format)
+    read_ms = (time.perf_counter() - started) * 1000.0
+    detection = detect_cloud(cloud, **options)
+    return replace(detection, timing=replace(detection.timing, read_ms=read_ms))
 
 
 def detect_cloud(cloud, **options) -> Detection:

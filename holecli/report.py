@@ -18,7 +18,23 @@ CSV_COLUMNS = (
     "countersink_diameter_deviation", "countersink_angle_deviation", "countersink_depth_deviation",
     "bore_diameter_deviation",
     "in_tolerance", "failed_checks",
+) + (
+    # The provenance of the row's record (the same in every row of a record): its schema and holecli
+    # version, the options in effect, the tolerances' source, the measured scales. Columns rather than
+    # a sidecar file or comment lines: every row stays self-contained (a CSV read from stdout, one
+    # appended to by batch --resume, one filtered by grep), and a CSV reader needs nothing special.
+    "schema_version", "holecli_version", "method", "view_dir", "min_diameter", "min_diameter_effective",
+    "max_holes", "full_only", "gauge_depth", "rng", "settings", "spec_file", "spec_sha256", "nominal",
+    "point_spacing", "gap_scale", "line_pitch", "period", "lattice", "height_noise", "triangle_area_bound",
+    "candidates",
 )
+
+# The columns of the provenance that come from the record's options and scales.
+_OPTION_COLUMNS = ("method", "view_dir", "min_diameter", "min_diameter_effective", "max_holes", "full_only",
+                   "gauge_depth", "rng", "settings")
+_TOLERANCE_COLUMNS = ("spec_file", "spec_sha256", "nominal")
+_SCALE_COLUMNS = ("point_spacing", "gap_scale", "line_pitch", "period", "lattice", "height_noise",
+                  "triangle_area_bound")
 
 # ``holecli batch`` adds the message of a file that could not be measured, and the file's resolved
 # absolute path (what --resume matches on).
@@ -75,9 +91,25 @@ def _cell(value):
     if isinstance(value, float):
         return repr(value)
     if isinstance(value, (list, tuple)):
-        # failed_checks, warnings: a few words, never holding the separator
-        return ";".join(str(item) for item in value)
+        # failed_checks, warnings, view_dir: a few words or numbers, never holding the separator
+        return ";".join(repr(item) if isinstance(item, float) else str(item) for item in value)
+    if isinstance(value, dict):
+        # settings, nominal: compact JSON in one cell
+        return json.dumps(value, separators=(",", ":"), allow_nan=False)
     return str(value)
+
+
+def _provenance(record):
+    """The provenance cells of a record by column name (:data:`CSV_COLUMNS`)."""
+    options = record.get("options") or {}
+    tolerances = options.get("tolerances") or {}
+    scales = record.get("scales") or {}
+    values = {"schema_version": record.get("schema_version"), "holecli_version": record.get("holecli_version"),
+              "candidates": record.get("candidates")}
+    values.update((name, options.get(name)) for name in _OPTION_COLUMNS)
+    values.update((name, tolerances.get(name)) for name in _TOLERANCE_COLUMNS)
+    values.update((name, scales.get(name)) for name in _SCALE_COLUMNS)
+    return values
 
 
 def csv_rows(record, columns=CSV_COLUMNS):
@@ -101,9 +133,10 @@ def csv_rows(record, columns=CSV_COLUMNS):
         booleans, floats by ``repr``, lists joined with ``;``.
     """
     file, path = record.get("file"), record.get("path")
+    provenance = _provenance(record)
     rows = []
     for hole in record.get("holes", []):
-        values = dict(hole, file=file, path=path, hole=hole.get("index"))
+        values = dict(hole, **provenance, file=file, path=path, hole=hole.get("index"))
         for axis, name in enumerate("xyz"):
             values[f"center_{name}"] = hole["center"][axis]
             values[f"normal_{name}"] = hole["normal"][axis]
@@ -124,9 +157,9 @@ def csv_rows(record, columns=CSV_COLUMNS):
         values["position_along_normal"] = position.get("along_normal")
         rows.append(values)
     for name in record.get("verdict", {}).get("missing", []):
-        rows.append({"file": file, "path": path, "name": name, "in_tolerance": False})
+        rows.append({**provenance, "file": file, "path": path, "name": name, "in_tolerance": False})
     if not rows:
-        rows.append({"file": file, "path": path, "error": record.get("error")})
+        rows.append({**provenance, "file": file, "path": path, "error": record.get("error")})
     return [[_cell(values.get(column)) for column in columns] for values in rows]
 
 

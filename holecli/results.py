@@ -273,6 +273,114 @@ class Rejection:
         return out
 
 
+# The version of the record's layout (``schema_version``): MAJOR.MINOR. MINOR grows when a key is
+# added (a reader may ignore keys it does not know); MAJOR when a key is removed, renamed or moved or
+# its type or meaning changes. The README documents the rule; holecli/schema/record.schema.json
+# describes this version.
+SCHEMA_VERSION = "2.0"
+
+
+@dataclass(frozen=True)
+class Scales:
+    """The scales the pipeline measured on the scan and derived its thresholds from (file units).
+
+    Attributes
+    ----------
+    point_spacing : float or None
+        Median nearest-neighbour distance of the surface points (h); None from ``paper``.
+    gap_scale : float or None
+        90th percentile of the empty-circle radii in the material (g); the robust method's thresholds
+        are multiples of it. None from ``paper``.
+    line_pitch : float or None
+        Distance between neighbouring scan lines; None when the points lie on no stripes.
+    period : float or None
+        Across-line period of a regular pattern (the line pitch, or the spacing of a square grid);
+        None on irregular sampling.
+    lattice : bool or None
+        True when the points sit on a square grid; None from ``paper``.
+    height_noise : float or None
+        Robust standard deviation of the surface points' heights above the plane; None from ``paper``.
+    min_diameter : float or None
+        The smallest diameter reported, as used: the one given, else ``min_diameter_gaps`` (6) gap
+        scales; None from ``paper``, which has no minimum.
+    triangle_area_bound : float or None
+        ``paper`` only: the bound of Eq. (12) above which a Delaunay triangle is a hole triangle
+        (file units squared); None from ``robust``.
+    """
+
+    point_spacing: Optional[float] = None
+    gap_scale: Optional[float] = None
+    line_pitch: Optional[float] = None
+    period: Optional[float] = None
+    lattice: Optional[bool] = None
+    height_noise: Optional[float] = None
+    min_diameter: Optional[float] = None
+    triangle_area_bound: Optional[float] = None
+
+
+@dataclass(frozen=True)
+class Timing:
+    """Where the time of one detection went (the record's ``timing``: drop it to diff two runs).
+
+    Attributes
+    ----------
+    elapsed_ms : float
+        Wall time of :func:`holecli.detect`, milliseconds (reading the file not counted).
+    stages : tuple of (str, float)
+        Milliseconds of each stage of the method, in the order they ran (``robust``: ``validate``,
+        ``imports`` (the method's modules, paid by a process's first detection), ``plane``,
+        ``frame``, ``sampling``, ``grid``, ``candidates``, ``shape``; ``paper``: ``validate``,
+        ``imports``, ``paper``). Together they make up ``elapsed_ms`` but for the bookkeeping.
+    read_ms : float or None
+        Time to read the file (:func:`holecli.detect_file`); None for points given in memory.
+    """
+
+    elapsed_ms: float = 0.0
+    stages: tuple[tuple[str, float], ...] = ()
+    read_ms: Optional[float] = None
+
+    def to_dict(self) -> dict:
+        """``{"elapsed_ms", "read_ms", "stages": {name: ms}}``.
+
+        Returns
+        -------
+        dict
+        """
+        return {"elapsed_ms": self.elapsed_ms, "read_ms": self.read_ms, "stages": dict(self.stages)}
+
+
+@dataclass(frozen=True)
+class Options:
+    """The options a detection ran with, as given to :func:`holecli.detect` (the record's ``options``).
+
+    Attributes
+    ----------
+    method : str
+        ``"paper"`` or ``"robust"``.
+    view_dir : (3,) tuple of float or None
+        The viewing direction given (as given, not normalised).
+    min_diameter : float or None
+        The minimum diameter given (None: the default; the one used is ``Scales.min_diameter``).
+    max_holes : int or None
+    full_only : bool
+    gauge_depth : float or None
+    rng : int or None
+        The seed of the plane's RANSAC hypotheses; None when a ``numpy.random.Generator`` was passed.
+    settings : tuple of (str, object) or None
+        The tunables of the robust method that differ from :data:`holecli.settings.DEFAULT_SETTINGS`
+        (name and value pairs, in field order; ``()`` for the defaults); None from ``paper``.
+    """
+
+    method: str = "robust"
+    view_dir: Optional[Vector] = None
+    min_diameter: Optional[float] = None
+    max_holes: Optional[int] = None
+    full_only: bool = False
+    gauge_depth: Optional[float] = None
+    rng: Optional[int] = 0
+    settings: Optional[tuple[tuple[str, object], ...]] = None
+
+
 @dataclass(frozen=True)
 class Detection:
     """Everything one run of the pipeline found in one cloud.
@@ -291,8 +399,9 @@ class Detection:
         The file the points came from, when they came from a file.
     dropped_points : int
         Rows of the file dropped because a coordinate was NaN or infinite.
-    elapsed_ms : float
-        Wall time of the detection, in milliseconds.
+    timing : Timing
+        Wall time of the detection and of its stages (and of reading the file, from
+        :func:`holecli.detect_file`).
     rejected : tuple of Rejection
         The candidate voids that are not holes, largest first (``robust`` only; empty for
         ``paper``, which has one candidate).
@@ -300,6 +409,12 @@ class Detection:
         The length unit the file's format declares (``"m"`` for E57, see
         :attr:`holecli.io.Cloud.units`); not in :meth:`to_dict`, whose caller decides what the
         record says (:class:`holecli.units.UnitChoice`).
+    scales : Scales
+        The scales measured on the scan (point spacing, gap scale, line pitch, ...).
+    options : Options
+        The options the detection ran with.
+    candidates : int
+        Candidate voids examined (``robust``: every hole and every rejection; ``paper``: 1).
     """
 
     holes: tuple[Hole, ...]
@@ -308,9 +423,22 @@ class Detection:
     method: str
     file: Optional[str] = None
     dropped_points: int = 0
-    elapsed_ms: float = 0.0
+    timing: Timing = Timing()
     rejected: tuple[Rejection, ...] = ()
     units: Optional[str] = None
+    scales: Scales = Scales()
+    options: Options = Options()
+    candidates: int = 0
+
+    @property
+    def elapsed_ms(self) -> float:
+        """Wall time of the detection, milliseconds (``timing.elapsed_ms``).
+
+        Returns
+        -------
+        float
+        """
+        return self.timing.elapsed_ms
 
     def to_dict(self, explain=False) -> dict:
         """The JSON record of the command line (see the README for the contract).
@@ -323,15 +451,39 @@ class Detection:
         Returns
         -------
         dict
-            ``file``, ``points``, ``dropped_points``, ``method``, ``plane`` (``point``, ``normal``,
-            ``rms``, ``inliers``), ``holes`` (:meth:`Hole.to_dict`) and ``elapsed_ms``, in that order,
-            then ``rejected`` with ``explain``.
+            ``schema_version``, ``holecli_version``, ``file``, ``points``, ``dropped_points``,
+            ``method``, ``options`` (:class:`Options`, with ``min_diameter_effective`` and
+            ``tolerances``: None until :func:`holecli.tolerance.check` fills it in), ``scales``
+            (:class:`Scales`), ``candidates``, ``plane`` (``point``, ``normal``, ``rms``,
+            ``inliers``), ``holes`` (:meth:`Hole.to_dict`) and ``timing`` (:meth:`Timing.to_dict`),
+            in that order, then ``rejected`` with ``explain``.
         """
+        from holecli import __version__
+
+        given = self.options
+        options = {
+            "method": given.method,
+            "view_dir": None if given.view_dir is None else list(given.view_dir),
+            "min_diameter": given.min_diameter,
+            "min_diameter_effective": self.scales.min_diameter,
+            "max_holes": given.max_holes,
+            "full_only": given.full_only,
+            "gauge_depth": given.gauge_depth,
+            "rng": given.rng,
+            "settings": None if given.settings is None else {
+                name: list(value) if isinstance(value, tuple) else value for name, value in given.settings},
+            "tolerances": None,
+        }
         record = {
+            "schema_version": SCHEMA_VERSION,
+            "holecli_version": __version__,
             "file": self.file,
             "points": self.points,
             "dropped_points": self.dropped_points,
             "method": self.method,
+            "options": options,
+            "scales": asdict(self.scales),
+            "candidates": self.candidates,
             "plane": {
                 "point": list(self.plane.point),
                 "normal": list(self.plane.normal),
@@ -339,7 +491,7 @@ class Detection:
                 "inliers": self.plane.inliers,
             },
             "holes": [hole.to_dict() for hole in self.holes],
-            "elapsed_ms": self.elapsed_ms,
+            "timing": self.timing.to_dict(),
         }
         if explain:
             record["rejected"] = [rejection.to_dict() for rejection in self.rejected]

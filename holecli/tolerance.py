@@ -51,7 +51,7 @@ from typing import Optional
 from holecli.errors import SpecError
 from holecli.io.decimal_text import parse_decimal
 
-__all__ = ["Band", "NominalHole", "Spec", "check", "nominal_spec", "parse_band", "parse_spec"]
+__all__ = ["Band", "NominalHole", "Spec", "check", "describe", "nominal_spec", "parse_band", "parse_spec"]
 
 Vector = tuple[float, float, float]
 
@@ -178,12 +178,16 @@ class Spec:
     named : bool
         True for a spec file: every measured hole gets the ``name`` of its nominal (or None).
     source : str or None
-        Where the spec came from (the spec file), for messages.
+        Where the spec came from (the spec file), for messages and the record's provenance.
+    sha256 : str or None
+        SHA-256 (hex) of the spec file's bytes as read, for the record's provenance (filled in by
+        whoever read the file: :func:`parse_spec` sees text only).
     """
 
     holes: tuple[NominalHole, ...]
     named: bool = False
     source: Optional[str] = None
+    sha256: Optional[str] = None
 
 
 # --------------------------------------------------------------------------------------------------
@@ -447,6 +451,36 @@ def _symmetric(tolerance, given) -> Band:
 # Verdicts
 
 
+def describe(spec) -> dict:
+    """What a record's ``options.tolerances`` says of ``spec``: enough to check the record again.
+
+    Parameters
+    ----------
+    spec : Spec
+
+    Returns
+    -------
+    dict
+        ``spec_file`` and ``spec_sha256`` for a spec file (the file and the SHA-256 of its bytes; the
+        nominal holes are in the file), ``nominal`` None; for the command line's tolerance options,
+        ``spec_file`` and ``spec_sha256`` None and ``nominal`` the one nominal hole: every
+        :class:`NominalHole` value by name (bands as ``{"lower", "upper"}``, None where not given).
+    """
+    if spec.named:
+        return {"spec_file": spec.source, "spec_sha256": spec.sha256, "nominal": None}
+    hole = spec.holes[0]
+    nominal = {}
+    for name, value in hole.__dict__.items():
+        if name in ("name", "match_radius"):
+            continue
+        if isinstance(value, Band):
+            value = {"lower": value.lower, "upper": value.upper}
+        elif isinstance(value, tuple):
+            value = list(value)
+        nominal[name] = value
+    return {"spec_file": None, "spec_sha256": None, "nominal": nominal}
+
+
 def check(record, spec) -> dict:
     """A copy of ``record`` with the tolerance verdicts of ``spec`` added.
 
@@ -469,7 +503,8 @@ def check(record, spec) -> dict:
         not measured, all None for a hole no nominal applies to; a check not measured is in
         ``failed_checks`` as ``<check>_not_measured``), and with
         ``name`` when ``spec.named``; and ``verdict``: ``{"checked", "out_of_tolerance", "missing",
-        "in_tolerance"}`` after ``holes``.
+        "in_tolerance"}`` after ``holes``. A record with ``options`` gets its ``tolerances``
+        (:func:`describe`).
     """
     holes = record["holes"]
     assigned = _match(holes, spec.holes)
@@ -494,6 +529,8 @@ def check(record, spec) -> dict:
         out[key] = checked_holes if key == "holes" else value
         if key == "holes":
             out["verdict"] = verdict
+        elif key == "options" and isinstance(value, dict):
+            out[key] = {**value, "tolerances": describe(spec)}
     return out
 
 

@@ -9,6 +9,9 @@ says its unit in ``"units"``.
 The lengths of a record (every other number is not one):
 
 - ``plane.point``, ``plane.rms``;
+- the provenance: ``options.min_diameter``, ``.min_diameter_effective``, ``.gauge_depth``;
+  ``scales.point_spacing``, ``.gap_scale``, ``.line_pitch``, ``.period``, ``.height_noise``,
+  ``.min_diameter`` (and ``scales.triangle_area_bound``, an area: by the factor squared);
 - per hole: ``center``, ``diameter``, ``fit_rms``, ``max_residual``, ``roundness``,
   ``bias_correction``; ``countersink.diameter``, ``.depth``, ``.diameter_at_depth``, ``.gauge_depth``,
   ``.rms``; ``counterbore.diameter``, ``.depth``, ``.rms``; ``bore.diameter``, ``.rms``,
@@ -52,6 +55,10 @@ _PART_LENGTHS = {
     "bore": ("diameter", "rms", "depth_range", "floor_depth", "floor_rms"),
     "position_deviation": ("in_plane", "along_normal"),
 }
+# The provenance of the record (holecli.results.Options, Scales): lengths, and the one area.
+_OPTION_LENGTHS = ("min_diameter", "min_diameter_effective", "gauge_depth")
+_SCALE_LENGTHS = ("point_spacing", "gap_scale", "line_pitch", "period", "height_noise", "min_diameter")
+_SCALE_AREAS = ("triangle_area_bound",)
 
 
 def scale_factor(from_units, to_units) -> float:
@@ -194,6 +201,18 @@ def convert_record(record, from_units, to_units) -> dict:
         if plane is not None:
             plane["point"] = _scaled(plane.get("point"), factor)
             plane["rms"] = _scaled(plane.get("rms"), factor)
+        options, scales = out.get("options"), out.get("scales")
+        if options is not None:
+            for key in _OPTION_LENGTHS:
+                if key in options:
+                    options[key] = _scaled(options[key], factor)
+        if scales is not None:
+            for key in _SCALE_LENGTHS:
+                if key in scales:
+                    scales[key] = _scaled(scales[key], factor)
+            for key in _SCALE_AREAS:
+                if key in scales:
+                    scales[key] = _scaled(scales[key], factor * factor)
         for hole in out.get("holes", ()):
             _scale_hole(hole, factor)
         for rejection in out.get("rejected", ()):

@@ -97,7 +97,7 @@ fi
 installed() {  # run from / so that the current folder is not what finds holecli
     (cd / && "$root/.venv/bin/python" - "$root" <<'EOF' >/dev/null 2>&1
 import os, sys
-import open3d, pytest, pye57, laspy, lazrs  # noqa: F401
+import open3d, pytest, jsonschema, pye57, laspy, lazrs  # noqa: F401
 import holecli
 root = os.path.realpath(sys.argv[1])
 sys.exit(os.path.realpath(holecli.__file__) != os.path.join(root, "holecli", "__init__.py")

@@ -138,7 +138,7 @@ def test_measure_record_with_a_spec_has_the_verdicts(scans):
 def test_measure_record_of_a_bad_file_is_an_error_record(tmp_path):
     path = _touch(tmp_path / "empty.csv", "")
     record = batch.measure_record(str(path), OPTIONS)
-    assert set(record) == {"file", "path", "error"}
+    assert set(record) == {"schema_version", "holecli_version", "file", "path", "error"}
     assert record["file"] == str(path)
     assert record["path"] == os.path.realpath(path)
     assert record["error"].startswith(f"{path}: ")
@@ -322,7 +322,8 @@ def test_resume_csv(tmp_path):
         ("jsonl", '[1, 2]\n', "line 1 is not a holecli batch record"),
         ("jsonl", '{"points": 3}\n', "line 1 is not a holecli batch record"),
         ("csv", "file,hole,center_x\na.ply,0,1\n", "its header is not the header of holecli batch"),
-        ("csv", ",".join(BATCH_CSV_COLUMNS[:-1]) + "\na.ply,0\n", "written by holecli 0.1, without the path"),
+        ("csv", ",".join(batch._SCHEMA_1_COLUMNS[:-1]) + "\na.ply,0\n", "written by holecli 0.1, without the path"),
+        ("csv", ",".join(batch._SCHEMA_1_COLUMNS) + "\na.ply,0\n", "before schema 2.0, without the provenance"),
         ("csv", ",".join(BATCH_CSV_COLUMNS) + "\na.ply,0\n", "a row has 2 columns"),
         ("jsonl", b"\xff\xfe\n", "not a UTF-8 text file"),
     ],

@@ -39,10 +39,11 @@ def test_every_folder_of_the_package_is_a_regular_package():
     assert missing == []
 
 
-def test_the_package_has_no_data_files():
-    # Nothing but modules: a data file added to holecli/ needs [tool.setuptools.package-data] in
-    # pyproject.toml to reach the wheel (and then this test needs updating).
+def test_the_package_s_data_files_are_declared():
+    # Modules, and the JSON Schema of the records: a data file added to holecli/ needs
+    # [tool.setuptools.package-data] in pyproject.toml to reach the wheel (and then this list).
     data = [str(path.relative_to(PACKAGE.parent)) for path in PACKAGE.rglob("*")
             if path.is_file() and "__pycache__" not in path.parts and path.suffix not in {".py", ".pyi"}
             and path.name != "py.typed"]
-    assert data == []
+    assert data == ["holecli/schema/record.schema.json"]
+    assert '"holecli.schema" = ["*.json"]' in (PACKAGE.parent / "pyproject.toml").read_text()

@@ -9,7 +9,7 @@ import pytest
 from holecli.errors import PointsError
 from holecli.geometry.plane import orient_normal
 from holecli.pipeline import MIN_POINTS, detect, validate_points
-from holecli.results import Detection, Hole, Plane
+from holecli.results import Detection, Hole, Plane, Timing
 from holecli.simulation import synth
 
 PLANE_KEYS = {"point", "normal", "rms", "inliers"}
@@ -18,7 +18,8 @@ HOLE_KEYS = {
     "bias_correction", "partial", "arc_deg", "scan_lines", "type", "countersink", "counterbore", "bore", "axis",
     "perpendicularity_deg", "warnings",
 }  # fmt: skip
-RECORD_KEYS = {"file", "points", "dropped_points", "method", "plane", "holes", "elapsed_ms"}
+RECORD_KEYS = {"schema_version", "holecli_version", "file", "points", "dropped_points", "method", "options", "scales",
+               "candidates", "plane", "holes", "timing"}
 
 
 def _angle_deg(a, b):
@@ -99,7 +100,7 @@ def test_to_dict_is_json_ready_with_plain_types(table1_paper):
     # Plain Python types (not numpy scalars): the CSV writer prints floats by repr.
     for value in (*hole["center"], *hole["normal"], hole["diameter"], hole["fit_rms"], hole["max_residual"],
                   hole["roundness"], hole["bias_correction"], hole["arc_deg"], *plane["point"], *plane["normal"],
-                  plane["rms"], record["elapsed_ms"]):
+                  plane["rms"], record["timing"]["elapsed_ms"]):
         assert type(value) is float
     for value in (hole["index"], hole["rim_points"], plane["inliers"], record["points"], record["dropped_points"]):
         assert type(value) is int
@@ -245,7 +246,7 @@ def test_flat_points_on_a_line_raise():
 
 
 def _without_timing(detection):
-    return dataclasses.replace(detection, elapsed_ms=0.0)
+    return dataclasses.replace(detection, timing=Timing())
 
 
 def test_detect_file_is_detect_on_the_files_finite_points(table1_files, tmp_path):
@@ -294,7 +295,7 @@ def test_the_command_line_and_the_batch_workers_measure_with_detect_file(table1_
     record = batch.measure_record(path, {"method": "paper"})
     assert calls == [(path, {"method": "paper"}), (path, {"method": "paper"})]
     cli_record = json.loads(result.stdout)
-    for key in ("elapsed_ms", "path"):
+    for key in ("timing", "path"):
         cli_record.pop(key, None)
         record.pop(key, None)
     assert cli_record == record
@@ -327,3 +328,67 @@ def test_the_panel_sample_s_holes_are_measured_below_their_edges(repo_root):
     assert hole.bore.diameter is None and {w.code for w in hole.warnings} == {"bore_not_seen", "axis_not_measured"}
     paper = detect_file(repo_root / "sample_clouds" / "table1.ply", method="paper").holes[0]
     assert paper.type is None and paper.bore is None and paper.warnings == ()
+
+
+# --- provenance: scales, options, candidates and timing of a detection (issue 13) ---------------------
+
+
+def test_detection_carries_the_measured_scales_and_the_options(table1_scan):
+    from holecli.results import Options, Scales
+    from holecli.settings import RobustSettings
+
+    settings = RobustSettings(alpha_gaps=2.6)
+    detection = detect(table1_scan.points, view_dir=(0, 0, 2), max_holes=5, gauge_depth=0.25, settings=settings,
+                       rng=3)
+    scales = detection.scales
+    assert scales.point_spacing == pytest.approx(0.0908, rel=1e-6)  # the Table I grid
+    assert scales.lattice is True and scales.line_pitch is None and scales.period == scales.point_spacing
+    assert scales.min_diameter == pytest.approx(6 * scales.gap_scale)
+    assert scales.triangle_area_bound is None
+    assert detection.options == Options(method="robust", view_dir=(0.0, 0.0, 2.0), min_diameter=None, max_holes=5,
+                                        full_only=False, gauge_depth=0.25, rng=3, settings=(("alpha_gaps", 2.6),))
+    record = detection.to_dict()
+    assert record["options"]["min_diameter_effective"] == scales.min_diameter
+    assert record["options"]["settings"] == {"alpha_gaps": 2.6}
+    assert record["options"]["tolerances"] is None
+    assert record["scales"] == dataclasses.asdict(scales)
+    assert isinstance(detect(table1_scan.points, min_diameter=1).scales, Scales)
+    assert detect(table1_scan.points, min_diameter=1).scales.min_diameter == 1.0
+
+
+def test_every_candidate_is_a_hole_or_a_rejection(rng):
+    scan = synth.make_scan(synth.SceneSpec(holes=(synth.HoleSpec(center=(0.0, 0.0), diameter=3.0),),
+                                           extent=(-4, 4, -4, 4), spacing=0.1, pattern="random"), 1)
+    detection = detect(scan.points, max_holes=1)
+    assert detection.candidates == len(detection.holes) + len(detection.rejected) > 1
+
+
+def test_timing_has_every_stage_in_order_and_they_make_up_the_elapsed_time(table1_scan):
+    detection = detect(table1_scan.points)
+    stages = dict(detection.timing.stages)
+    assert list(stages) == ["validate", "imports", "plane", "frame", "sampling", "grid", "candidates", "shape"]
+    assert all(ms >= 0 for ms in stages.values())
+    assert sum(stages.values()) <= detection.timing.elapsed_ms
+    assert sum(stages.values()) > 0.9 * detection.timing.elapsed_ms
+    assert detection.elapsed_ms == detection.timing.elapsed_ms
+    assert detection.timing.read_ms is None
+    seen = []
+    detect(table1_scan.points, progress=seen.append)
+    assert seen == list(stages)
+
+
+def test_the_paper_method_gives_its_area_bound_and_no_robust_scales(table1_paper):
+    scales = table1_paper.scales
+    assert scales.triangle_area_bound > 0
+    assert scales.point_spacing is None and scales.gap_scale is None and scales.min_diameter is None
+    assert [name for name, _ in table1_paper.timing.stages] == ["validate", "imports", "paper"]
+    assert table1_paper.candidates == 1
+    assert table1_paper.options.settings is None and table1_paper.options.rng is None
+
+
+def test_detect_file_times_the_reading(table1_files):
+    from holecli import detect_file
+
+    detection = detect_file(table1_files[".ply"], method="paper")
+    assert detection.timing.read_ms > 0
+    assert detection.to_dict()["timing"]["read_ms"] == detection.timing.read_ms

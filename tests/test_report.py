@@ -7,7 +7,7 @@ import json
 import pytest
 
 from holecli import report
-from holecli.results import Detection, Hole, Plane
+from holecli.results import Detection, Hole, Plane, Timing
 
 # The CSV columns as the README documents them, in order.
 DOCUMENTED_COLUMNS = (
@@ -17,8 +17,13 @@ DOCUMENTED_COLUMNS = (
     "counterbore_depth,bore_diameter,bore_rms,floor_depth,axis_x,axis_y,axis_z,perpendicularity_deg,warnings,"
     "name,diameter_deviation,"
     "position_in_plane,position_along_normal,tilt_deg,countersink_diameter_deviation,countersink_angle_deviation,"
-    "countersink_depth_deviation,bore_diameter_deviation,in_tolerance,failed_checks"
+    "countersink_depth_deviation,bore_diameter_deviation,in_tolerance,failed_checks,"
+    "schema_version,holecli_version,method,view_dir,min_diameter,min_diameter_effective,max_holes,full_only,"
+    "gauge_depth,rng,settings,spec_file,spec_sha256,nominal,point_spacing,gap_scale,line_pitch,period,lattice,"
+    "height_noise,triangle_area_bound,candidates"
 ).split(",")
+# The provenance columns (issue 13): the same in every row of a record.
+PROVENANCE = DOCUMENTED_COLUMNS.index("schema_version")
 
 # Floats that lose digits when printed short.
 AWKWARD = (0.1 + 0.2, 1.0 / 3.0, 2.0**-1074, 1.7976931348623157e308, -0.0, 3.0441296586146489)
@@ -34,12 +39,15 @@ def _record(holes=2, file="scans/part 7, left.ply"):
                          roundness=0.0496, bias_correction=AWKWARD[4], partial=bool(index % 2), arc_deg=360.0,
                          scan_lines=None if index == 0 else 17))
     detection = Detection(holes=tuple(made), plane=plane, points=7062, method="paper", file=file,
-                          dropped_points=3, elapsed_ms=46.25)
+                          dropped_points=3, timing=Timing(elapsed_ms=46.25))
     return detection.to_dict()
 
 
-def test_csv_columns_are_the_documented_ones():
+def test_csv_columns_are_the_documented_ones(repo_root):
     assert list(report.CSV_COLUMNS) == DOCUMENTED_COLUMNS
+    readme = (repo_root / "README.md").read_text(encoding="utf-8")
+    headers = [line.strip("`") for line in readme.splitlines() if line.startswith("`file,hole,")]
+    assert headers == [",".join(DOCUMENTED_COLUMNS)]
 
 
 def test_to_json_round_trips_at_full_precision():
@@ -97,13 +105,46 @@ def test_csv_booleans_and_none():
     assert second["scan_lines"] == "17"
 
 
-def test_csv_record_without_holes_is_one_row_with_only_the_file():
-    rows = report.csv_rows(_record(holes=0))
-    assert rows == [["scans/part 7, left.ply"] + [""] * (len(report.CSV_COLUMNS) - 1)]
+def _provenance_cells(record):
+    return report.csv_rows(record)[0][PROVENANCE:]
+
+
+def test_csv_record_without_holes_is_one_row_with_only_the_file_and_its_provenance():
+    record = _record(holes=0)
+    rows = report.csv_rows(record)
+    assert rows == [["scans/part 7, left.ply"] + [""] * (PROVENANCE - 1) + _provenance_cells(record)]
+    assert dict(zip(DOCUMENTED_COLUMNS[PROVENANCE:], rows[0][PROVENANCE:]))["schema_version"] == "2.0"
 
 
 def test_csv_record_without_file_or_holes():
-    assert report.csv_rows(_record(holes=0, file=None)) == [[""] * len(report.CSV_COLUMNS)]
+    record = _record(holes=0, file=None)
+    assert report.csv_rows(record) == [[""] * PROVENANCE + _provenance_cells(record)]
+    # a record without any provenance (an error record of an older batch) leaves those cells empty too
+    assert report.csv_rows({"holes": []}) == [[""] * len(report.CSV_COLUMNS)]
+
+
+def test_csv_provenance_columns_are_the_records_options_and_scales():
+    from holecli.results import Options, Scales
+    from holecli.tolerance import check, nominal_spec
+
+    detection = Detection(holes=(), plane=Plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), rms=0.0, inliers=9),
+                          points=9, method="robust", file="a.ply", candidates=4,
+                          options=Options(view_dir=(0.0, 0.5, 1.0), max_holes=3, full_only=True, gauge_depth=0.5,
+                                          settings=(("alpha_gaps", 3.0), ("bias_offsets", (0.25, 0.5)))),
+                          scales=Scales(point_spacing=0.1, gap_scale=0.07, line_pitch=None, period=0.1, lattice=True,
+                                        height_noise=0.001, min_diameter=0.42))
+    record = check(detection.to_dict(), nominal_spec(diameter=3.0, tolerance="+0.036/-0"))
+    cells = dict(zip(DOCUMENTED_COLUMNS, report.csv_rows(record)[0]))
+    assert cells["method"] == "robust"
+    assert cells["view_dir"] == "0.0;0.5;1.0"
+    assert (cells["min_diameter"], cells["min_diameter_effective"]) == ("", "0.42")
+    assert (cells["max_holes"], cells["full_only"], cells["gauge_depth"], cells["rng"]) == ("3", "true", "0.5", "0")
+    assert json.loads(cells["settings"]) == {"alpha_gaps": 3.0, "bias_offsets": [0.25, 0.5]}
+    assert (cells["spec_file"], cells["spec_sha256"]) == ("", "")
+    assert json.loads(cells["nominal"])["band"] == {"lower": 0.0, "upper": 0.036}
+    assert (cells["point_spacing"], cells["gap_scale"], cells["line_pitch"], cells["period"]) == (
+        "0.1", "0.07", "", "0.1")
+    assert (cells["lattice"], cells["triangle_area_bound"], cells["candidates"]) == ("true", "", "4")
 
 
 def test_write_csv_header_and_rows_parse_back():
@@ -117,7 +158,7 @@ def test_write_csv_header_and_rows_parse_back():
     assert len(rows) == 4
     # The file name holds a comma: quoted by the writer, whole again when read back.
     assert rows[1][0] == rows[2][0] == "scans/part 7, left.ply"
-    assert rows[3] == ["b.csv"] + [""] * (len(DOCUMENTED_COLUMNS) - 1)
+    assert rows[3][:PROVENANCE] == ["b.csv"] + [""] * (PROVENANCE - 1)
     assert float(rows[1][DOCUMENTED_COLUMNS.index("center_x")]) == AWKWARD[1]
 
 

@@ -35,7 +35,7 @@ def _hole(index, center, diameter, normal=(0.0, 0.0, 1.0)):
 
 
 def _record(*holes):
-    return {"file": "part.ply", "points": 5000, "method": "robust", "holes": list(holes), "elapsed_ms": 12.0}
+    return {"file": "part.ply", "points": 5000, "method": "robust", "holes": list(holes), "timing": {"elapsed_ms": 12.0}}
 
 
 # --- tolerance forms -------------------------------------------------------------------------------
@@ -254,7 +254,7 @@ def test_check_keeps_the_record_and_adds_the_verdict_after_the_holes():
     before = copy.deepcopy(record)
     out = check(record, nominal_spec(diameter=3.0, tolerance=0.02))
     assert record == before  # not modified
-    assert list(out) == ["file", "points", "method", "holes", "verdict", "elapsed_ms"]
+    assert list(out) == ["file", "points", "method", "holes", "verdict", "timing"]
     for key in record["holes"][0]:
         assert out["holes"][0][key] == record["holes"][0][key]
     assert list(out["holes"][0])[-9:] == ["diameter_deviation", "position_deviation", "tilt_deg",

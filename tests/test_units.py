@@ -18,7 +18,7 @@ def _compare(converted, reference, path="record"):
     if isinstance(reference, dict):
         assert set(converted) == set(reference), path
         for key in reference:
-            if key in ("elapsed_ms", "file"):
+            if key in ("timing", "file"):
                 continue
             if key == "warnings":
                 assert [w["code"] for w in converted[key]] == [w["code"] for w in reference[key]], path
@@ -110,7 +110,13 @@ def test_angles_counts_and_directions_never_convert():
             "failed_checks": [],
         }],
         "verdict": {"checked": 1, "out_of_tolerance": 0, "missing": [], "in_tolerance": True},
-        "elapsed_ms": 12.5,
+        "options": {"method": "robust", "view_dir": None, "min_diameter": 1.0, "min_diameter_effective": 1.0,
+                    "max_holes": None, "full_only": False, "gauge_depth": 0.5, "rng": 0, "settings": {},
+                    "tolerances": None},
+        "scales": {"point_spacing": 0.1, "gap_scale": 0.08, "line_pitch": None, "period": 0.1, "lattice": True,
+                   "height_noise": 0.002, "min_diameter": 1.0, "triangle_area_bound": 0.5},
+        "candidates": 3,
+        "timing": {"elapsed_ms": 12.5},
         "rejected": [
             {"check": "not_round", "reason": "r", "center": [0.0, 1.0, 2.0], "diameter": 5.0, "value": 0.5,
              "limit": 0.2, "shape": {"length": 6.0, "width": 2.0, "direction": [1.0, 0.0, 0.0]}},
@@ -131,7 +137,12 @@ def test_angles_counts_and_directions_never_convert():
     assert hole["countersink_angle_deviation"] == 0.5 and hole["tilt_deg"] == 0.2
     assert hole["perpendicularity_deg"] == 0.1 and hole["arc_deg"] == 360.0 and hole["scan_lines"] == 7
     assert hole["bore_diameter_deviation"] == pytest.approx(0.00006)
-    assert out["elapsed_ms"] == 12.5 and out["points"] == 100 and out["verdict"] == record["verdict"]
+    assert out["timing"] == {"elapsed_ms": 12.5} and out["points"] == 100 and out["verdict"] == record["verdict"]
+    assert out["options"]["min_diameter"] == 0.001 and out["options"]["gauge_depth"] == 0.0005
+    assert out["options"]["min_diameter_effective"] == 0.001 and out["options"]["rng"] == 0
+    assert out["scales"]["point_spacing"] == 0.0001 and out["scales"]["line_pitch"] is None
+    assert out["scales"]["lattice"] is True and out["candidates"] == 3
+    assert out["scales"]["triangle_area_bound"] == pytest.approx(0.5e-6)
     not_round, arc, few = out["rejected"]
     assert not_round["value"] == 0.0005 and not_round["shape"]["length"] == 0.006
     assert not_round["shape"]["direction"] == [1.0, 0.0, 0.0]

@@ -15,10 +15,10 @@ import click
 from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_BROKEN_PIPE, EXIT_FILE_FAILED, EXIT_INPUT,
                                EXIT_INTERRUPTED, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_USAGE, Failure,
                                broken_pipe, run_guarded, write_stdout)
-from holecli.cli.options import (detection_option_decorators, detection_options, input_format_option,
+from holecli.cli.options import (check_verbosity, detection_option_decorators, detection_options, input_format_option,
                                  nominal_from_options, read_spec, reading_option_decorators, tolerance_option_decorators,
-                                 unit_choice)
-from holecli.cli.progress import BatchDisplay, batch_summary
+                                 unit_choice, verbosity_option_decorators)
+from holecli.cli.progress import BatchDisplay, batch_summary, verbose_text
 from holecli.errors import LoadError
 
 
@@ -122,8 +122,10 @@ def batch_exit_code(tally):
 @reading_option_decorators
 @detection_option_decorators
 @tolerance_option_decorators
+@verbosity_option_decorators
 def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, explain, scan_index, units, output_units,
-          method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, **nominal_options):
+          method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, quiet, verbose,
+          **nominal_options):
     """Measure every point cloud in the folders and files PATH.
 
     A folder contributes the .ply, .pcd, .csv, .txt, .xyz, .e57, .las and .laz files directly in it (any case; with
@@ -140,7 +142,9 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
       holecli batch scans/ --spec part.toml -o shift.jsonl --resume
       holecli batch scans/*.ply --nominal-diameter 3 --tolerance 0.02 | jq -c 'select(.verdict.in_tolerance | not)'
       holecli batch scans/ --input-format xyz --pattern '*.asc' -o -
+      holecli batch scans/ -q -o results.jsonl
     """
+    check_verbosity(quiet, verbose)
     # --output-units without --units is checked on the files found, in the body (all E57 is fine)
     choice = unit_choice(units, output_units if units is not None else None)
     options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
@@ -195,7 +199,8 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
             todo = batching.files_to_do(files, earlier)
             return run_batch(batching, todo, options_now, spec, jobs or batching.default_jobs(), write, fmt, header,
                              earlier, output, stop, explain, scan=scan_index,
-                             units=units_now if units_now.file or units_now.output else None)
+                             units=units_now if units_now.file or units_now.output else None, quiet=quiet,
+                             verbose=verbose)
         finally:
             if output_file is not None:
                 output_file.close()
@@ -205,7 +210,7 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
 
 
 def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False, scan=None,
-              units=None):
+              units=None, *, quiet=False, verbose=False):
     """The measuring loop of ``holecli batch``: records out, progress and summary on stderr.
 
     Parameters
@@ -239,6 +244,11 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         ``--scan``: the scan of each E57 file (default: every scan).
     units : holecli.units.UnitChoice, optional
         ``--units`` and ``--output-units``.
+    quiet : bool
+        ``--quiet``: no progress bar and no summary; only the files that failed and an interruption
+        are said.
+    verbose : bool
+        ``--verbose``: the scales and stage times of every file (:func:`verbose_text`).
 
     Returns
     -------
@@ -269,7 +279,7 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         raise
     except OSError as error:
         raise failed_write(error) from None
-    display = BatchDisplay(len(todo), spec is not None)
+    display = BatchDisplay(len(todo), spec is not None, quiet=quiet)
     started = time.monotonic()
     measured_now = 0
 
@@ -300,7 +310,9 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
             measured_now += 1
             tally.add(record)
             if "error" in record:
-                display.message(f"holecli: failed: {record['error']}")
+                display.message(f"holecli: failed: {record['error']}", error=True)
+            elif verbose:
+                display.message(verbose_text(record).rstrip("\n"))
     summary = batch_summary(tally, time.monotonic() - started, spec is not None, len(earlier), output)
     if reader_gone:
         name = output or "stdout"
@@ -311,7 +323,7 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
     if stop.signal is not None and measured_now < len(todo):
         display.message(f"holecli batch: interrupted after {measured_now} of {len(todo)} files ({summary})."
                         + (f" The finished records are in {output}: run again with --resume to measure the rest."
-                           if output else ""))
+                           if output else ""), error=True)
         return EXIT_INTERRUPTED
     display.message(f"holecli batch: {summary}")
     return batch_exit_code(tally)

@@ -11,9 +11,9 @@ import click
 
 from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, Failure,
                                run_guarded, write_stdout)
-from holecli.cli.options import (INPUT_FORMATS, detection_option_decorators, detection_options, input_format_option,
-                                 nominal_from_options, read_spec, reading_option_decorators, tolerance_option_decorators,
-                                 unit_choice)
+from holecli.cli.options import (INPUT_FORMATS, check_verbosity, detection_option_decorators, detection_options,
+                                 input_format_option, nominal_from_options, read_spec, reading_option_decorators,
+                                 tolerance_option_decorators, unit_choice, verbosity_option_decorators)
 from holecli.errors import HoleCliError
 
 
@@ -152,7 +152,7 @@ def render_table(records):
         unit = record.get("units")
         digits = table_decimals(unit)
         caption = (f"plane rms {plane['rms']:.{digits}f} {unit}" if unit else f"plane rms {plane['rms']:.4g}") \
-            + f", {record['elapsed_ms']:.1f} ms"
+            + f", {record['timing']['elapsed_ms']:.1f} ms"
         if verdict is not None:
             caption += (f"; {'IN' if verdict['in_tolerance'] else 'OUT OF'} TOLERANCE: {verdict['checked']} "
                         f"checked, {verdict['out_of_tolerance']} out")
@@ -315,8 +315,9 @@ def emit(text, output):
 @reading_option_decorators
 @detection_option_decorators
 @tolerance_option_decorators
+@verbosity_option_decorators
 def detect(scan, input_format, fmt, output, explain, scan_index, units, output_units, method, view_dir, min_diameter,
-           max_holes, full_only, gauge_depth, spec_file, **nominal_options):
+           max_holes, full_only, gauge_depth, spec_file, quiet, verbose, **nominal_options):
     """Measure the holes in SCAN (.ply, .pcd, .csv, .txt, .xyz, .e57, .las or .laz; - reads it from
     stdin, with --input-format).
 
@@ -341,7 +342,9 @@ def detect(scan, input_format, fmt, output, explain, scan_index, units, output_u
       holecli detect scan.asc --input-format xyz
       holecli detect site.e57 --scan 1 --output-units mm
       holecli detect scan.ply --units m --output-units mm --nominal-diameter 3 --tolerance 0.02
+      holecli detect scan.ply -v
     """
+    check_verbosity(quiet, verbose)
     if scan == STDIN and input_format is None:
         raise click.UsageError(f"SCAN - (stdin) needs --input-format {'|'.join(INPUT_FORMATS)}: "
                                "a stream has no extension to tell its format")
@@ -357,10 +360,13 @@ def detect(scan, input_format, fmt, output, explain, scan_index, units, output_u
     nominal = nominal_from_options(spec_file, **nominal_options)
 
     def body():
+        from holecli.cli.progress import DetectStatus
         from holecli.tolerance import check
 
         spec = read_spec(spec_file) if spec_file is not None else nominal
-        detection = measure_file(scan, options, scan_index)
+        with DetectStatus(scan, quiet=quiet) as status:
+            detection = measure_file(scan, {**options, "progress": status.stage} if status.shown else options,
+                                     scan_index)
         # in the output unit before the check: tolerances are in it too
         record = choice.express(detection.to_dict(explain=explain), detection.units)
         if spec is not None:
@@ -369,10 +375,16 @@ def detect(scan, input_format, fmt, output, explain, scan_index, units, output_u
         return record
 
     record = run_guarded(body)
-    if not record["holes"]:
+    if verbose:
+        from holecli.cli.progress import verbose_text
+
+        click.echo(verbose_text(record), err=True, nl=False)
+    if not quiet and not record["holes"]:
         click.echo(f"holecli: no hole found in {record['file']}", err=True)
     verdict = record.get("verdict")
     if verdict is not None and not verdict["in_tolerance"]:
+        if quiet:
+            sys.exit(EXIT_OUT_OF_TOLERANCE)
         missing = f", missing: {', '.join(str(name) for name in verdict['missing'])}" if verdict["missing"] else ""
         not_measured = sum(any(check.endswith("_not_measured") for check in hole.get("failed_checks") or ())
                            for hole in record["holes"])

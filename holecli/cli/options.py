@@ -7,6 +7,7 @@
 * the tolerance options (``--nominal-diameter``, ``--spec``, ...): :func:`tolerance_option_decorators`,
   :func:`nominal_from_options` and :func:`read_spec`;
 * ``--input-format``: :func:`input_format_option`.
+* ``--quiet`` and ``--verbose`` of every command: :func:`verbosity_option_decorators`.
 
 Nothing heavy is imported at module level: ``holecli --help`` builds these options.
 """
@@ -238,6 +239,47 @@ def unit_choice(units, output_units, files=None):
     return UnitChoice(units, output_units)
 
 
+def verbosity_option_decorators(function):
+    """``--quiet/-q`` and ``--verbose/-v``, of every command: what goes to stderr (stdout is data only).
+
+    Parameters
+    ----------
+    function : callable
+        A click command's function; it gets ``quiet`` and ``verbose`` (booleans).
+
+    Returns
+    -------
+    callable
+        ``function`` with the options applied.
+    """
+    options = [
+        click.option("--quiet", "-q", is_flag=True,
+                     help="Say nothing on stderr but errors (no progress, status line, summary or notes)."),
+        click.option("--verbose", "-v", is_flag=True,
+                     help="Also say on stderr what the run chose: the measured scales (point spacing, gap "
+                          "scale, line pitch, minimum diameter), the candidates tried and the time per stage."),
+    ]
+    for option in reversed(options):
+        function = option(function)
+    return function
+
+
+def check_verbosity(quiet, verbose):
+    """Refuse ``--quiet`` with ``--verbose``.
+
+    Parameters
+    ----------
+    quiet, verbose : bool
+
+    Raises
+    ------
+    click.UsageError
+        When both are given.
+    """
+    if quiet and verbose:
+        raise click.UsageError("--quiet and --verbose cannot be combined")
+
+
 # What messages call the values of holecli.tolerance.nominal_spec on the command line.
 TOLERANCE_OPTION_NAMES = {
     "diameter": "--nominal-diameter", "tolerance": "--tolerance", "center": "--nominal-center",
@@ -383,6 +425,7 @@ def read_spec(path):
     Returns
     -------
     holecli.tolerance.Spec
+        With ``sha256``, the SHA-256 of the file's bytes as read.
 
     Raises
     ------
@@ -390,20 +433,23 @@ def read_spec(path):
         With the input-error code, when the file cannot be read (see :func:`read_small_text`) or is
         not a valid spec.
     """
+    import dataclasses
+    import hashlib
+
     from holecli.tolerance import parse_spec
 
-    text = read_small_text(path, "a spec")
+    data = read_small_bytes(path, "a spec")
+    text = _utf8(path, data)
     try:
-        return parse_spec(text, source=path)
+        spec = parse_spec(text, source=path)
     except SpecError as error:
         raise Failure(f"{path}: {error}", EXIT_INPUT) from None
+    # the provenance of the record: the SHA-256 of the very bytes that were parsed
+    return dataclasses.replace(spec, sha256=hashlib.sha256(data).hexdigest())
 
 
 def read_small_text(path, what):
-    """The UTF-8 text of ``path``, a small TOML file.
-
-    Only a regular file of at most :data:`MAX_SPEC_BYTES` is read (never a device such as
-    ``/dev/zero``, a FIFO, which would block, or a folder).
+    """The UTF-8 text of ``path``, a small TOML file (:func:`read_small_bytes`, decoded).
 
     Parameters
     ----------
@@ -421,6 +467,39 @@ def read_small_text(path, what):
     Failure
         With the input-error code, when the file is not a regular file, is too large, cannot be
         read or is not UTF-8.
+    """
+    return _utf8(path, read_small_bytes(path, what))
+
+
+def _utf8(path, data):
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise Failure(f"{path}: not a UTF-8 text file", EXIT_INPUT) from None
+
+
+def read_small_bytes(path, what):
+    """The bytes of ``path``, a small TOML file.
+
+    Only a regular file of at most :data:`MAX_SPEC_BYTES` is read (never a device such as
+    ``/dev/zero``, a FIFO, which would block, or a folder).
+
+    Parameters
+    ----------
+    path : str
+        The file.
+    what : str
+        What it should be, for messages: ``"a spec"``, ``"a panel spec"``.
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    Failure
+        With the input-error code, when the file is not a regular file, is too large or cannot be
+        read.
     """
     import stat
 
@@ -440,7 +519,4 @@ def read_small_text(path, what):
         raise Failure(f"{path}: cannot read: {error.strerror or error}", EXIT_INPUT) from None
     if len(data) > MAX_SPEC_BYTES:
         raise Failure(f"{path}: too large for {what} file (more than {MAX_SPEC_BYTES} bytes)", EXIT_INPUT)
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError:
-        raise Failure(f"{path}: not a UTF-8 text file", EXIT_INPUT) from None
+    return data

@@ -1,10 +1,142 @@
-"""What ``holecli batch`` shows on stderr: the progress bar (or plain lines) and the summary."""
+"""What the commands show on stderr besides errors: the progress bar (or plain lines) and the summary of
+``holecli batch``, the status line of a long ``holecli detect`` (:class:`DetectStatus`), and the
+``--verbose`` account of a record (:func:`verbose_text`)."""
 
 from __future__ import annotations
 
 import sys
 
 import click
+
+
+def stderr_is_terminal(stream=None):
+    """Whether ``stream`` (stderr by default) is a terminal; False when it cannot tell.
+
+    Parameters
+    ----------
+    stream : text file, optional
+
+    Returns
+    -------
+    bool
+    """
+    stream = sys.stderr if stream is None else stream
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
+
+
+def _number(value, digits=4):
+    return "none" if value is None else f"{value:.{digits}g}"
+
+
+def verbose_text(record):
+    """The ``--verbose`` account of one record: the scales the pipeline chose and where the time went.
+
+    Parameters
+    ----------
+    record : dict
+        A ``detect`` record (:meth:`holecli.Detection.to_dict`), or a batch error record (nothing is
+        said of it: its error is reported as such).
+
+    Returns
+    -------
+    str
+        Lines starting with ``holecli: ``, each ending in a newline; empty for an error record.
+    """
+    if "error" in record or "scales" not in record:
+        return ""
+    scales, options, timing = record["scales"], record.get("options") or {}, record.get("timing") or {}
+    lines = [f"{record['file']}: {record['points']} points ({record['dropped_points']} dropped), "
+             f"method {record['method']}, schema {record.get('schema_version')}, "
+             f"holecli {record.get('holecli_version')}"]
+    if record["method"] == "robust":
+        if scales["line_pitch"] is not None:
+            pattern = f"line pitch {_number(scales['line_pitch'])} (stripes)"
+        elif scales["lattice"]:
+            pattern = "no stripes, a square grid"
+        else:
+            pattern = "no stripes, irregular"
+        lines.append(f"  point spacing {_number(scales['point_spacing'])}, gap scale {_number(scales['gap_scale'])}, "
+                     f"{pattern}; height noise {_number(scales['height_noise'], 3)}")
+        effective = scales["min_diameter"]
+        if options.get("min_diameter") is not None:
+            how = "given"
+        elif scales["gap_scale"]:
+            how = f"default: {effective / scales['gap_scale']:.3g} gap scales"
+        else:
+            how = "default"
+        lines.append(f"  minimum diameter {_number(effective)} ({how})")
+    else:
+        lines.append(f"  triangle area bound {_number(scales.get('triangle_area_bound'))} (Eq. 12); no minimum "
+                     f"diameter")
+    holes, rejected = len(record["holes"]), record["candidates"] - len(record["holes"])
+    lines.append(f"  {record['candidates']} candidate{'' if record['candidates'] == 1 else 's'} tried: "
+                 f"{holes} hole{'' if holes == 1 else 's'}, {rejected} rejected")
+    stages = ", ".join(f"{name} {ms:.1f}" for name, ms in (timing.get("stages") or {}).items())
+    read = timing.get("read_ms")
+    lines.append(f"  time {timing.get('elapsed_ms', 0.0):.1f} ms: {stages} ms"
+                 + ("" if read is None else f" (reading the file {read:.1f} ms)"))
+    return "".join(f"holecli: {line}\n" for line in lines)
+
+
+class DetectStatus:
+    """The status line of ``holecli detect`` on stderr: a spinner with the file and the running stage.
+
+    Shown only when stderr is a terminal and not ``--quiet`` (never in a pipe, a file or a log); rich is
+    imported only then. Gone when the ``with`` block ends (transient). :meth:`stage` is the
+    ``progress`` callback of :func:`holecli.detect`.
+
+    Parameters
+    ----------
+    scan : str
+        The file being measured.
+    quiet : bool
+        ``--quiet``: no status line.
+    console : rich.console.Console, optional
+        Where to draw it (tests pass one with ``force_terminal``); by default a console on stderr,
+        when stderr is a terminal.
+
+    Attributes
+    ----------
+    shown : bool
+        Whether a status line is drawn at all.
+    """
+
+    def __init__(self, scan, quiet=False, console=None):
+        self._scan = scan
+        self._status = None
+        self.shown = not quiet and (console is not None or stderr_is_terminal())
+        if self.shown:
+            if console is None:
+                from rich.console import Console
+
+                console = Console(stderr=True, highlight=False)
+            from rich.markup import escape
+
+            self._name = escape(str(scan))
+            self._status = console.status(f"reading {self._name}", spinner="dots")
+
+    def __enter__(self):
+        if self._status is not None:
+            self._status.start()
+        return self
+
+    def __exit__(self, *exc_info):
+        if self._status is not None:
+            self._status.stop()
+        return False
+
+    def stage(self, name):
+        """Show that stage ``name`` of the detection runs (the ``progress`` callback of ``detect``).
+
+        Parameters
+        ----------
+        name : str
+        """
+        if self._status is not None:
+            self._status.update(f"measuring {self._name}: {name}")
 
 
 def batch_summary(tally, seconds, checked, earlier, output):
@@ -57,16 +189,15 @@ class BatchDisplay:
         The number of files this run measures (the bar's end).
     checked : bool
         Whether tolerances are checked: the bar then also counts the holes out of tolerance.
+    quiet : bool
+        ``--quiet``: no bar, and :meth:`message` says only what is marked as an error.
     """
 
-    def __init__(self, total, checked):
+    def __init__(self, total, checked, quiet=False):
         self._checked = checked
+        self._quiet = quiet
         self._progress = None
-        try:
-            terminal = sys.stderr.isatty()
-        except (AttributeError, ValueError):
-            terminal = False
-        if terminal:
+        if not quiet and stderr_is_terminal():
             from rich.console import Console
             from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
@@ -109,14 +240,18 @@ class BatchDisplay:
         self._progress.update(self._task, completed=completed, status=status)
         self._progress.refresh()
 
-    def message(self, text):
+    def message(self, text, error=False):
         """Write the line ``text`` to stderr (above the bar, when there is one).
 
         Parameters
         ----------
         text : str
             The message, printed as it is (no rich markup).
+        error : bool
+            An error (a file that failed, the run interrupted): said even with ``--quiet``.
         """
+        if self._quiet and not error:
+            return
         if self._progress is not None:
             self._console.print(text, markup=False)
         else:

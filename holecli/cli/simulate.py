@@ -4,11 +4,12 @@ panel or a mesh) and its ground truth."""
 from __future__ import annotations
 
 import sys
+import time
 
 import click
 
 from holecli.cli.exits import EXIT_INPUT, EXIT_OK, Failure, run_guarded
-from holecli.cli.options import Decimal, FloatTuple, read_small_text
+from holecli.cli.options import Decimal, FloatTuple, check_verbosity, read_small_text, verbosity_option_decorators
 
 
 @click.command(epilog="\b\nExit codes: 0 written, 2 usage error, 3 the scene or the output is invalid.")
@@ -98,12 +99,13 @@ from holecli.cli.options import Decimal, FloatTuple, read_small_text
 @click.option("--seed", type=int, default=0, show_default=True, help="Random seed.")
 @click.option("--truth", "truth_path", type=click.Path(dir_okay=False, path_type=str), default=None,
               help="Where to write the ground truth [default: OUTPUT with .truth.json].")
+@verbosity_option_decorators
 @click.pass_context
 def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pattern, line_pitch, scan_angle, rotation,
              translation, noise_z, noise_normal, inside_points, countersink, countersink_angle, bore_depth, bottom_depth, outliers, ragged,
              nan_points, panel_file, mesh_file, target, standoff, view, line, line_length, scan_length, parallel_rays,
              triangulation_deg, max_incidence_deg, range_noise, range_quantum, dropout, jitter, keep_nan, metres,
-             float64, seed, truth_path):
+             float64, seed, truth_path, quiet, verbose):
     """Write a synthetic scan to OUTPUT (.ply, .pcd, .csv, .txt or .xyz) and its ground truth.
 
     The defaults reproduce the paper's Table I scene: a 3 mm hole at (1, 1) on a 0.0908 mm grid
@@ -119,9 +121,11 @@ def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pat
           --hole 0,0,3 --hole 5,0,4 --extent -3,8,-3,3
       holecli simulate panel.ply --panel sample_clouds/panel.toml --spacing 0.1 --range-noise 0.005
       holecli simulate part.ply --mesh part.stl --view 0,-0.42,-0.91 --translation 1200,-300,800
+      holecli simulate table1.ply -q
     """
+    check_verbosity(quiet, verbose)
     if panel_file is not None or mesh_file is not None:
-        sys.exit(run_guarded(_simulate_part, ctx, output, panel_file, mesh_file, truth_path, seed))
+        sys.exit(run_guarded(_simulate_part, ctx, output, panel_file, mesh_file, truth_path, seed, quiet, verbose))
     profiler_only = [name for name in _PROFILER_OPTIONS if _given(ctx, name)]
     if profiler_only:
         raise click.UsageError(f"{', '.join(_option_name(name) for name in profiler_only)} need --panel or --mesh")
@@ -140,6 +144,7 @@ def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pat
             raise Failure(f"{output}: unsupported extension (expected {', '.join(WRITE_EXTENSIONS)})",
                           EXIT_INPUT)
         specs = () if no_hole else holes or ((center[0], center[1], diameter),)
+        started = time.perf_counter()
         try:
             scene = synth.SceneSpec(
                 holes=tuple(synth.HoleSpec(center=(x, y), diameter=d, countersink_diameter=countersink,
@@ -155,12 +160,20 @@ def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pat
             raise Failure(f"{output}: invalid scene: {error}", EXIT_INPUT) from None
         truth = dict(scan.truth, seed=seed, file=Path(output).name)
         target = truth_path or str(Path(output).with_suffix(".truth.json"))
+        generated = time.perf_counter()
         try:
             save_points(output, scan.points)
             write_text(target, json.dumps(truth, indent=2) + "\n")
         except OSError as error:
             raise Failure(f"{output}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
-        click.echo(f"wrote {len(scan.points)} points to {output} and the ground truth to {target}", err=True)
+        if verbose:
+            pitch = f"line pitch {line_pitch:g}" if pattern == "stripes" and line_pitch else "no line pitch"
+            click.echo(f"holecli: scene: pattern {pattern}, spacing {spacing:g}, {pitch}, {len(specs)} "
+                       f"hole{'' if len(specs) == 1 else 's'}, seed {seed}\nholecli: time: generate "
+                       f"{(generated - started) * 1e3:.1f} ms, write {(time.perf_counter() - generated) * 1e3:.1f} ms",
+                       err=True)
+        if not quiet:
+            click.echo(f"wrote {len(scan.points)} points to {output} and the ground truth to {target}", err=True)
         return EXIT_OK
 
     sys.exit(run_guarded(body))
@@ -185,7 +198,7 @@ def _option_name(name):
     return "--hole" if name == "holes" else "--" + name.replace("_", "-")
 
 
-def _simulate_part(ctx, output, panel_file, mesh_file, truth_path, seed):
+def _simulate_part(ctx, output, panel_file, mesh_file, truth_path, seed, quiet=False, verbose=False):
     """``holecli simulate --panel/--mesh``: the profiler's scan of a part, and its truth."""
     import json
     from pathlib import Path
@@ -206,6 +219,7 @@ def _simulate_part(ctx, output, panel_file, mesh_file, truth_path, seed):
     if Path(output).suffix.lower() not in WRITE_EXTENSIONS:
         raise Failure(f"{output}: unsupported extension (expected {', '.join(WRITE_EXTENSIONS)})", EXIT_INPUT)
     source = panel_file or mesh_file
+    started = time.perf_counter()
     try:
         vertices, triangles, features, part = _load_part(panel_file, mesh_file, p["view"])
         spec = _profiler_spec(p, vertices)
@@ -218,14 +232,21 @@ def _simulate_part(ctx, output, panel_file, mesh_file, truth_path, seed):
                  units="m" if p["metres"] else "mm")
     target = truth_path or str(Path(output).with_suffix(".truth.json"))
     points = scanned.scan.points
+    generated = time.perf_counter()
     try:
         save_points(output, points, float32=not p["float64"])
         write_text(target, json.dumps(truth, indent=2) + "\n")
     except OSError as error:
         raise Failure(f"{output}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
     finite = int(np.isfinite(points).all(axis=1).sum())
-    click.echo(f"wrote {len(points)} points ({finite} measured) to {output} and the ground truth "
-               f"({len(truth['holes'])} holes) to {target}", err=True)
+    if verbose:
+        click.echo(f"holecli: profiler: point pitch {spec.point_pitch:g}, line pitch {spec.line_pitch:g}, "
+                   f"line length {spec.line_length:.4g}, scan length {spec.scan_length:.4g}, standoff "
+                   f"{spec.standoff:g}, seed {seed}\nholecli: time: scan {(generated - started) * 1e3:.1f} ms, "
+                   f"write {(time.perf_counter() - generated) * 1e3:.1f} ms", err=True)
+    if not quiet:
+        click.echo(f"wrote {len(points)} points ({finite} measured) to {output} and the ground truth "
+                   f"({len(truth['holes'])} holes) to {target}", err=True)
     return EXIT_OK
 
 

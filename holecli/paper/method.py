@@ -10,7 +10,7 @@ from holecli.geometry.circle import fit_circle_geometric
 from holecli.geometry.frame import from_plane_frame, rotation_to_z, to_plane_frame
 from holecli.geometry.plane import fit_plane_svd
 from holecli.paper.rim import paper_rim
-from holecli.results import Hole, Plane
+from holecli.results import Hole, Plane, Scales
 
 
 def _vector(array):
@@ -31,11 +31,13 @@ def detect_paper(points):
     plane : Plane
     holes : tuple of Hole
         One hole, or none when the rim has fewer than three points or its circle fit fails.
+    scales : Scales
+        What the method measures of the sampling: only ``triangle_area_bound``, the Eq. (12) bound.
     """
     plane = fit_plane_svd(points)
     rotation = rotation_to_z(plane.normal)
     xy = to_plane_frame(points, plane.point, rotation)[:, :2]
-    rim = paper_rim(xy)
+    rim, bound = paper_rim(xy, return_bound=True)
     holes = ()
     if len(rim) >= 3:
         try:
@@ -58,4 +60,4 @@ def detect_paper(points):
             )
     plane_result = Plane(point=_vector(plane.point), normal=_vector(plane.normal), rms=plane.rms,
                          inliers=len(points))
-    return plane_result, holes
+    return plane_result, holes, Scales(triangle_area_bound=float(bound))

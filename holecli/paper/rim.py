@@ -54,7 +54,7 @@ def area_bound(areas, z=CONFIDENCE_Z):
     return float(areas.mean() + z * areas.std(ddof=1) / np.sqrt(len(areas)))
 
 
-def paper_rim(xy):
+def paper_rim(xy, return_bound=False):
     """Indices of the rim points of the single hole in ``xy`` by the paper's rule (sec. 2.4-2.5).
 
     Triangles whose area exceeds :func:`area_bound` are hole triangles; their vertices are the
@@ -64,23 +64,28 @@ def paper_rim(xy):
     ----------
     xy : (n, 2) float
         Points projected onto the plane.
+    return_bound : bool
+        Also return the bound of :func:`area_bound` the triangles were compared with.
 
     Returns
     -------
     (m,) int ndarray
         Indices into ``xy`` of the rim points (empty when no triangle exceeds the bound).
+    bound : float
+        With ``return_bound`` only: the area bound, file units squared.
     """
     try:
         triangulation = Delaunay(xy)
     except QhullError as error:
         raise PointsError(f"Delaunay triangulation failed: {str(error).splitlines()[0]}") from None
     areas = triangle_areas(xy, triangulation.simplices)
-    large = areas > area_bound(areas)
+    bound = area_bound(areas)
+    large = areas > bound
     candidates = np.unique(triangulation.simplices[large])
-    if len(candidates) < 3:
-        return np.empty(0, dtype=np.intp)
-    try:
-        hull = ConvexHull(xy[candidates])
-    except QhullError:
-        return np.empty(0, dtype=np.intp)
-    return candidates[hull.vertices]
+    rim = np.empty(0, dtype=np.intp)
+    if len(candidates) >= 3:
+        try:
+            rim = candidates[ConvexHull(xy[candidates]).vertices]
+        except QhullError:
+            pass
+    return (rim, bound) if return_bound else rim

@@ -19,6 +19,7 @@ Steps (each its own module):
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 from scipy import ndimage
@@ -27,7 +28,7 @@ from holecli.errors import PointsError
 from holecli.geometry.frame import canonical_rotation, from_plane_frame, slide_in_plane_frame
 from holecli.geometry.kernels import CellIndex, box_indices, largest_angular_gap, orient_normal, robust_sigma
 from holecli.geometry.plane import PlaneFit, fit_plane_robust, fit_plane_scatter
-from holecli.results import Hole, Plane, Rejection
+from holecli.results import Hole, Plane, Rejection, Scales
 from holecli.robust.bias import RimScales, sampling_bias
 from holecli.robust.boundary import hole_rim, near_box_edge
 from holecli.robust.candidates import find_voids, occupancy_grid
@@ -39,6 +40,7 @@ from holecli.robust.hole_shape import measure_hole_shape
 from holecli.robust.lattice import lattice_steps, separating_circle
 from holecli.robust.sampling import estimate_sampling
 from holecli.settings import DEFAULT_SETTINGS
+from holecli.stages import StageClock
 
 
 @dataclass(frozen=True, eq=False)
@@ -690,21 +692,55 @@ def _to_hole(scene, measured, index):
     )
 
 
-def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, full_only=False,
-                  gauge_depth=None, settings=DEFAULT_SETTINGS, rng=0, flat_crop=False):
-    """The robust method; see the module docstring.
+class RobustResult(NamedTuple):
+    """What :func:`detect_robust` returns.
 
-    Returns
-    -------
+    Attributes
+    ----------
     plane : Plane
     holes : tuple of Hole
         Full holes before partial ones, each group ordered by center x, then y, then z.
     rejected : tuple of Rejection
         Every candidate void that is not a hole, with the check that refused it, largest first.
-
-    ``flat_crop`` marks the call that measures one hole of a curved surface again on its flattened
-    neighbourhood (see :func:`_on_curved_surface`): it does not recurse.
+    scales : Scales
+        The sampling's scales and the minimum diameter used.
+    stages : tuple of (str, float)
+        Milliseconds of the stages ``plane``, ``frame``, ``sampling``, ``grid``, ``candidates`` and
+        ``shape``.
+    candidates : int
+        Candidate voids examined: each is a hole or a rejection.
     """
+
+    plane: Plane
+    holes: tuple
+    rejected: tuple
+    scales: Scales
+    stages: tuple
+    candidates: int
+
+
+def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, full_only=False,
+                  gauge_depth=None, settings=DEFAULT_SETTINGS, rng=0, flat_crop=False, progress=None):
+    """The robust method; see the module docstring.
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+        Checked points (:func:`holecli.pipeline.validate_points`).
+    view_dir, min_diameter, max_holes, full_only, gauge_depth, settings, rng
+        See :func:`holecli.detect`.
+    flat_crop : bool
+        Marks the call that measures one hole of a curved surface again on its flattened
+        neighbourhood (see :func:`_on_curved_surface`): it does not recurse.
+    progress : callable, optional
+        Called with the name of each stage as it starts (see :class:`holecli.stages.StageClock`).
+
+    Returns
+    -------
+    RobustResult
+    """
+    clock = StageClock(progress)
+    clock.start("plane")
     plane = fit_plane_robust(points, rng=rng, sample=settings.ransac_sample,
                              hypotheses=settings.ransac_hypotheses, quantile=settings.ransac_quantile,
                              clip=settings.plane_clip, max_rounds=settings.plane_refine_rounds,
@@ -712,6 +748,7 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     normal, origin = plane.normal, plane.point
     # In-plane axes from the surface points themselves (centroid, principal axes), so that the grid
     # and the windows below move with the cloud under any rigid motion.
+    clock.start("frame")
     rotation = canonical_rotation(points, plane)
     # One (n, 3) @ (3, 3) product with a C-ordered right factor (BLAS); the rows of the rotation are
     # the in-plane axes and the normal, so the third coordinate is the height above the plane.
@@ -732,10 +769,12 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     xy = np.asfortranarray(local[:, :2])
     del local
     band = float(np.max(np.abs(heights[surface])))
+    clock.start("sampling")
     sampling = estimate_sampling(xy[surface], windows=settings.sampling_windows,
                                  window_points=settings.sampling_window_points, settings=settings)
     gap = sampling.gap
     min_radius = 0.5 * (min_diameter if min_diameter is not None else settings.min_diameter_gaps * gap)
+    clock.start("grid")
     surface_xy = np.asfortranarray(xy[surface])
     cell = settings.cell_gaps * gap
     grid = occupancy_grid(surface_xy, cell, max_speck_cells=settings.max_speck_cells)
@@ -755,6 +794,7 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         # array, then every neighbourhood query reads only its own cells instead of every point.
         for array in (xy, surface_xy, material_xy):
             scene.cell_indices[id(array)] = CellIndex(array, cell)
+    clock.start("candidates")
     found, rejected = [], []
     for measured in _measure_voids(scene, grid, voids, settings):
         if isinstance(measured, _Rejected):
@@ -777,6 +817,7 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         found = ranked[:max_holes]
         rejected.extend(_as_rejected(m, "beyond_max_holes", 2.0 * m.radius, 2.0 * found[-1].radius)
                         for m in ranked[max_holes:])
+    clock.start("shape")
     holes = [(None if flat_crop else _on_curved_surface(scene, measured, settings, view_dir, rng))
              or _to_hole(scene, measured, 0) for measured in found]
     if not flat_crop:
@@ -786,7 +827,12 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     plane_result = Plane(point=tuple(map(float, origin)), normal=tuple(map(float, normal)), rms=plane.rms,
                          inliers=int(surface.sum()))
     rejections = tuple(sorted((_to_rejection(scene, r) for r in rejected), key=lambda r: (-r.diameter, r.center)))
-    return plane_result, holes, rejections
+    scales = Scales(point_spacing=float(sampling.spacing), gap_scale=float(gap),
+                    line_pitch=None if sampling.line_pitch is None else float(sampling.line_pitch),
+                    period=None if sampling.period is None else float(sampling.period), lattice=bool(sampling.lattice),
+                    height_noise=float(height_noise), min_diameter=2.0 * float(min_radius))
+    return RobustResult(plane=plane_result, holes=holes, rejected=rejections, scales=scales, stages=clock.stop(),
+                        candidates=len(voids))
 
 
 def _with_shape(scene, hole, measured, gauge_depth, settings):
@@ -833,8 +879,8 @@ def _on_curved_surface(scene, measured, settings, view_dir, rng):
     local[:, 2] -= quadric.height(local[:, :2])
     slide = None if view_dir is None else basis @ (np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir))
     try:
-        _, holes, _ = detect_robust(local, view_dir=slide, min_diameter=radius, settings=settings, rng=rng,
-                                    flat_crop=True)
+        holes = detect_robust(local, view_dir=slide, min_diameter=radius, settings=settings, rng=rng,
+                                    flat_crop=True).holes
     except PointsError:
         return None
     if not holes:

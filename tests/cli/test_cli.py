@@ -15,7 +15,8 @@ from holecli import __version__, cli, report
 from holecli.io import load_points, save_points
 from holecli.simulation import synth
 
-RECORD_KEYS = {"file", "points", "dropped_points", "method", "plane", "holes", "elapsed_ms"}
+RECORD_KEYS = {"schema_version", "holecli_version", "file", "points", "dropped_points", "method", "options", "scales",
+               "candidates", "plane", "holes", "timing"}
 PLANE_KEYS = {"point", "normal", "rms", "inliers"}
 HOLE_KEYS = {
     "index", "center", "diameter", "normal", "rim_points", "fit_rms", "max_residual", "roundness",
@@ -175,8 +176,8 @@ def test_detect_output_file(run, table1_files, tmp_path):
     assert result.stdout == ""
     written = json.loads(target.read_text())
     printed = json.loads(run("detect", table1_files[".csv"], "--method", "paper").stdout)
-    written.pop("elapsed_ms")
-    printed.pop("elapsed_ms")
+    written.pop("timing")
+    printed.pop("timing")
     assert written == printed
 
 
@@ -230,7 +231,10 @@ def test_detect_no_hole_csv_is_one_row_with_only_the_file(run, tmp_path):
     result = run("detect", path, "--method", "paper", "--format", "csv")
     assert result.exit_code == cli.EXIT_NO_HOLE
     rows = list(csv.reader(io.StringIO(result.stdout)))
-    assert rows == [list(report.CSV_COLUMNS), [str(path)] + [""] * (len(report.CSV_COLUMNS) - 1)]
+    provenance = report.CSV_COLUMNS.index("schema_version")
+    assert rows[0] == list(report.CSV_COLUMNS) and len(rows) == 2
+    assert rows[1][:provenance] == [str(path)] + [""] * (provenance - 1)
+    assert dict(zip(report.CSV_COLUMNS, rows[1]))["method"] == "paper"
 
 
 def test_detect_robust_finds_no_hole_on_a_simulated_plain_surface(run, tmp_path):

@@ -19,7 +19,8 @@ from holecli import cli, report
 from holecli.io import save_points
 from holecli.simulation import synth
 
-RECORD_KEYS = {"file", "points", "dropped_points", "method", "plane", "holes", "elapsed_ms"}
+RECORD_KEYS = {"schema_version", "holecli_version", "file", "points", "dropped_points", "method", "options", "scales",
+               "candidates", "plane", "holes", "timing"}
 BATCH_RECORD_KEYS = RECORD_KEYS | {"path"}
 VERDICT_HOLE_KEYS = {"diameter_deviation", "position_deviation", "tilt_deg", "countersink_diameter_deviation",
                      "countersink_angle_deviation", "countersink_depth_deviation", "bore_diameter_deviation",
@@ -75,7 +76,7 @@ def _lines(text):
 
 
 def _without_time(record):
-    return {key: value for key, value in record.items() if key != "elapsed_ms"}
+    return {key: value for key, value in record.items() if key != "timing"}
 
 
 # --- batch: records ----------------------------------------------------------------------------------
@@ -98,7 +99,7 @@ def test_batch_jsonl_one_record_per_file_broken_files_included(run, mixed):
         assert _without_time(record) == dict(_without_time(detected), path=os.path.realpath(path))
     for path in broken:
         record = by_file[str(path)]
-        assert set(record) == {"file", "path", "error"}
+        assert set(record) == {"schema_version", "holecli_version", "file", "path", "error"}
         detected = run("detect", path)
         assert detected.exit_code == cli.EXIT_INPUT
         assert record["error"] == detected.stderr.strip().removeprefix("Error: ")

@@ -29,7 +29,7 @@ def _invoke(*args, stdin=None):
 
 
 def _comparable(record):
-    return {key: value for key, value in record.items() if key not in ("file", "elapsed_ms")}
+    return {key: value for key, value in record.items() if key not in ("file", "timing")}
 
 
 def _quick_scan(seed):
