@@ -23,7 +23,7 @@ CSV_COLUMNS = (
     # version, the options in effect, the tolerances' source, the measured scales. Columns rather than
     # a sidecar file or comment lines: every row stays self-contained (a CSV read from stdout, one
     # appended to by batch --resume, one filtered by grep), and a CSV reader needs nothing special.
-    "schema_version", "holecli_version", "method", "view_dir", "min_diameter", "min_diameter_effective",
+    "schema_version", "holecli_version", "units", "method", "view_dir", "min_diameter", "min_diameter_effective",
     "max_holes", "full_only", "gauge_depth", "rng", "settings", "spec_file", "spec_sha256", "nominal",
     "point_spacing", "gap_scale", "line_pitch", "period", "lattice", "height_noise", "triangle_area_bound",
     "candidates",
@@ -105,7 +105,7 @@ def _provenance(record):
     tolerances = options.get("tolerances") or {}
     scales = record.get("scales") or {}
     values = {"schema_version": record.get("schema_version"), "holecli_version": record.get("holecli_version"),
-              "candidates": record.get("candidates")}
+              "units": record.get("units"), "candidates": record.get("candidates")}
     values.update((name, options.get(name)) for name in _OPTION_COLUMNS)
     values.update((name, tolerances.get(name)) for name in _TOLERANCE_COLUMNS)
     values.update((name, scales.get(name)) for name in _SCALE_COLUMNS)

@@ -229,3 +229,15 @@ def test_cli_batch_units(run, tmp_path):
 def test_an_unknown_unit_is_a_usage_error(run, table1_files):
     result = run("detect", table1_files[".ply"], "--units", "ft")
     assert result.exit_code == 2 and "'ft' is not one of 'mm', 'm', 'in'" in result.stderr
+
+
+def test_cli_csv_rows_say_their_unit(run, table1_files):
+    import csv
+    import io
+
+    result = run("detect", table1_files[".ply"], "--units", "mm", "--output-units", "m", "--format", "csv")
+    (row,) = csv.DictReader(io.StringIO(result.stdout))
+    assert row["units"] == "m" and abs(float(row["diameter"]) - 0.003) < 2e-5
+    assert abs(float(row["point_spacing"]) - 0.0908e-3) < 1e-9
+    (plain,) = csv.DictReader(io.StringIO(run("detect", table1_files[".ply"], "--format", "csv").stdout))
+    assert plain["units"] == ""
