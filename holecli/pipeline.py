@@ -279,11 +279,11 @@ def detect_file(path, scan=None, *, input_format=None, **options) -> Detection:
     started = time.perf_counter()
     cloud = read_cloud(path, scan=scan, input_format=input_format)
     read_ms = (time.perf_counter() - started) * 1000.0
-    detection = detect_cloud(cloud, **options)
+    detection = detect_cloud(cloud, scan=scan, input_format=input_format, **options)
     return replace(detection, timing=replace(detection.timing, read_ms=read_ms))
 
 
-def detect_cloud(cloud, **options) -> Detection:
+def detect_cloud(cloud, *, scan=None, input_format=None, **options) -> Detection:
     """Find the holes in a cloud already read (:func:`holecli.io.read_cloud`,
     :func:`holecli.io.read_stream`).
 
@@ -291,6 +291,8 @@ def detect_cloud(cloud, **options) -> Detection:
     ----------
     cloud : holecli.io.Cloud
         Its points, dropped rows, file name and declared unit.
+    scan, input_format : optional
+        How it was read (``scan`` of an E57 file, the format asked for), for the record's ``options``.
     **options
         Keyword arguments of :func:`detect`.
 
@@ -306,4 +308,5 @@ def detect_cloud(cloud, **options) -> Detection:
         As :func:`detect_file`.
     """
     detection = detect(cloud.points, **options)
-    return replace(detection, file=str(cloud.path), dropped_points=cloud.dropped, units=cloud.units)
+    return replace(detection, file=str(cloud.path), dropped_points=cloud.dropped, units=cloud.units,
+                   options=replace(detection.options, scan=scan, input_format=input_format))

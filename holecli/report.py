@@ -24,14 +24,14 @@ CSV_COLUMNS = (
     # a sidecar file or comment lines: every row stays self-contained (a CSV read from stdout, one
     # appended to by batch --resume, one filtered by grep), and a CSV reader needs nothing special.
     "schema_version", "holecli_version", "units", "method", "view_dir", "min_diameter", "min_diameter_effective",
-    "max_holes", "full_only", "gauge_depth", "rng", "settings", "spec_file", "spec_sha256", "nominal",
+    "max_holes", "full_only", "gauge_depth", "rng", "settings", "input_format", "scan", "spec_file", "spec_sha256", "nominal",
     "point_spacing", "gap_scale", "line_pitch", "period", "lattice", "height_noise", "triangle_area_bound",
     "candidates",
 )
 
 # The columns of the provenance that come from the record's options and scales.
 _OPTION_COLUMNS = ("method", "view_dir", "min_diameter", "min_diameter_effective", "max_holes", "full_only",
-                   "gauge_depth", "rng", "settings")
+                   "gauge_depth", "rng", "settings", "input_format", "scan")
 _TOLERANCE_COLUMNS = ("spec_file", "spec_sha256", "nominal")
 _SCALE_COLUMNS = ("point_spacing", "gap_scale", "line_pitch", "period", "lattice", "height_noise",
                   "triangle_area_bound")

@@ -369,6 +369,10 @@ class Options:
     settings : tuple of (str, object) or None
         The tunables of the robust method that differ from :data:`holecli.settings.DEFAULT_SETTINGS`
         (name and value pairs, in field order; ``()`` for the defaults); None from ``paper``.
+    input_format : str or None
+        The format the file was read in when it was given (``--input-format``; None: by its extension).
+    scan : int or None
+        The scan of an E57 file read (``--scan``; None: every scan, merged).
     """
 
     method: str = "robust"
@@ -379,6 +383,8 @@ class Options:
     gauge_depth: Optional[float] = None
     rng: Optional[int] = 0
     settings: Optional[tuple[tuple[str, object], ...]] = None
+    input_format: Optional[str] = None
+    scan: Optional[int] = None
 
 
 @dataclass(frozen=True)
@@ -472,6 +478,8 @@ class Detection:
             "rng": given.rng,
             "settings": None if given.settings is None else {
                 name: list(value) if isinstance(value, tuple) else value for name, value in given.settings},
+            "input_format": given.input_format,
+            "scan": given.scan,
             "tolerances": None,
         }
         record = {

@@ -19,7 +19,7 @@ DOCUMENTED_COLUMNS = (
     "position_in_plane,position_along_normal,tilt_deg,countersink_diameter_deviation,countersink_angle_deviation,"
     "countersink_depth_deviation,bore_diameter_deviation,in_tolerance,failed_checks,"
     "schema_version,holecli_version,units,method,view_dir,min_diameter,min_diameter_effective,max_holes,full_only,"
-    "gauge_depth,rng,settings,spec_file,spec_sha256,nominal,point_spacing,gap_scale,line_pitch,period,lattice,"
+    "gauge_depth,rng,settings,input_format,scan,spec_file,spec_sha256,nominal,point_spacing,gap_scale,line_pitch,period,lattice,"
     "height_noise,triangle_area_bound,candidates"
 ).split(",")
 # The provenance columns (issue 13): the same in every row of a record.

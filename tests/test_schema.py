@@ -126,3 +126,15 @@ def test_two_identical_runs_differ_only_in_timing(run):
     second = run("detect", _sample("stripes_three_holes.ply"), "--explain")
     assert first.stdout != second.stdout
     assert without_timing(first.stdout) == without_timing(second.stdout)
+
+
+def test_the_record_says_how_the_file_was_read(run, tmp_path):
+    import shutil
+
+    scan = tmp_path / "scan.asc"
+    shutil.copy(_sample("table1.ply"), scan)
+    record = json.loads(run("detect", scan, "--input-format", "ply", "--scan", "0").stdout)
+    _valid(record, "detect_record")
+    assert (record["options"]["input_format"], record["options"]["scan"]) == ("ply", 0)
+    plain = json.loads(run("detect", _sample("table1.ply")).stdout)
+    assert (plain["options"]["input_format"], plain["options"]["scan"]) == (None, None)

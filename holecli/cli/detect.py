@@ -55,7 +55,8 @@ def measure_file(path, options, scan=None):
 
             path = STDIN_NAME
             options = dict(options)
-            return detect_cloud(read_stdin(options.pop("input_format"), scan), **options)
+            input_format = options.pop("input_format")
+            return detect_cloud(read_stdin(input_format, scan), scan=scan, input_format=input_format, **options)
         return detect_file(path, **({} if scan is None else {"scan": scan}), **options)
     except HoleCliError as error:
         raise Failure(failure_message(path, error), EXIT_INPUT) from None

@@ -29,7 +29,10 @@ def _invoke(*args, stdin=None):
 
 
 def _comparable(record):
-    return {key: value for key, value in record.items() if key not in ("file", "timing")}
+    """The record without what says where and how fast it was read (the options keep the rest)."""
+    out = {key: value for key, value in record.items() if key not in ("file", "timing")}
+    out["options"] = dict(out["options"], input_format=None)
+    return out
 
 
 def _quick_scan(seed):
