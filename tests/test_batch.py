@@ -192,14 +192,20 @@ def _report_worker_signals(path, options, spec=None, explain=False):
 
 
 def test_workers_ignore_sigint_and_have_the_pipeline_imported(scans, monkeypatch):
-    # The workers are forked from this process, so they see the replaced function.
+    # The workers are forked from this process, so they see the replaced function. The parent has
+    # SIGINT's default handler, as an interactive run does (a suite started in the background by a
+    # shell without job control inherits SIGINT ignored, which would make the check vacuous).
     monkeypatch.setattr(batch, "measure_record", _report_worker_signals)
-    records = list(batch.measure_all(scans * 3, OPTIONS, jobs=2))
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        records = list(batch.measure_all(scans * 3, OPTIONS, jobs=2))
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # the parent's is untouched
+    finally:
+        signal.signal(signal.SIGINT, previous)
     assert len(records) == 9
     assert all(record["sigint_ignored"] and record["pipeline_imported"] for record in records)
     assert os.getpid() not in {record["pid"] for record in records}
     assert len({record["pid"] for record in records}) <= 2  # the workers live for the whole batch
-    assert signal.getsignal(signal.SIGINT) is not signal.SIG_IGN  # the parent's is untouched
 
 
 def test_a_file_that_kills_its_worker_gets_an_error_record(scans, tmp_path, monkeypatch):
