@@ -28,7 +28,7 @@ import re
 import signal
 import stat
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from holecli.errors import HoleCliError, LoadError
 from holecli.io import SUPPORTED_EXTENSIONS
@@ -648,6 +648,7 @@ class FileSummary:
     out_of_tolerance: int = 0
     missing: int = 0
     path: str = ""  # resolved_path of the file; "" in records of holecli 0.1
+    warnings: tuple = ()  # per hole, the tuple of its warning codes
 
     @classmethod
     def of_record(cls, record):
@@ -657,7 +658,8 @@ class FileSummary:
         verdict = record.get("verdict") or {}
         return cls(file=record["file"], failed=False, holes=len(record.get("holes", ())),
                    out_of_tolerance=verdict.get("out_of_tolerance", 0), missing=len(verdict.get("missing", ())),
-                   path=path)
+                   path=path, warnings=tuple(tuple(warning["code"] for warning in hole.get("warnings", ()))
+                                             for hole in record.get("holes", ())))
 
     @classmethod
     def of_csv_rows(cls, file, rows):
@@ -667,7 +669,9 @@ class FileSummary:
         holes = [row for row in rows if row["hole"]]
         return cls(file=file, failed=False, holes=len(holes), path=path,
                    out_of_tolerance=sum(row["in_tolerance"] == "false" for row in holes),
-                   missing=sum(row["in_tolerance"] == "false" for row in rows if not row["hole"]))
+                   missing=sum(row["in_tolerance"] == "false" for row in rows if not row["hole"]),
+                   warnings=tuple(tuple(code for code in (row.get("warnings") or "").split(";") if code)
+                                  for row in holes))
 
 
 @dataclass
@@ -680,6 +684,8 @@ class Tally:
     without_hole: int = 0
     out_of_tolerance: int = 0
     missing: int = 0
+    doubtful_holes: int = 0  # holes with a warning of holecli.robust.doubts (a doubtful result)
+    warning_codes: dict = field(default_factory=dict)  # every warning code -> holes with it
 
     def add(self, summary):
         """Count one file (a :class:`FileSummary`, or a record)."""
@@ -693,6 +699,12 @@ class Tally:
         self.without_hole += summary.holes == 0
         self.out_of_tolerance += summary.out_of_tolerance
         self.missing += summary.missing
+        from holecli.robust.doubts import DOUBT_CODES
+
+        for codes in summary.warnings:
+            self.doubtful_holes += any(code in DOUBT_CODES for code in codes)
+            for code in set(codes):
+                self.warning_codes[code] = self.warning_codes.get(code, 0) + 1
 
     @property
     def measured(self) -> int:

@@ -262,6 +262,41 @@ class RobustSettings:
     shape_min_angle_deg: float = 30.0
     shape_max_angle_deg: float = 150.0
 
+    # --- Warnings of a doubtful result (holecli.robust.doubts) ---
+    # Calibrated with benchmarks/doubts.py on the clean scenes of benchmarks/realistic.py (4 seeds per
+    # class, 32 holes) and the clouds of sample_clouds/: the clean value quoted for each is the
+    # extreme seen there.
+    # few_rim_points: fewer rim points than this (points): five points a side of a square around the
+    # circle; the clean holes have 44 or more (33 on a partial hole), a 0.9 mm hole on a 0.15 mm grid 9.
+    doubt_min_rim_points: int = 20
+    # rim_gap: the largest angular gap between the rim points above this (degrees): clean full holes
+    # leave at most 20 (random sampling), an eighth of the circle lost is occlusion or missing data.
+    doubt_max_rim_gap_deg: float = 45.0
+    # points_inside: more surface-band points deeper than two gaps inside the fitted circle than this
+    # fraction of what that disk would hold at the scan's density, and more than doubt_min_inside_points
+    # (points): no clean hole has any; 20 reflections in the Table I hole (3 % of its disk) are found.
+    doubt_max_inside_fraction: float = 0.02
+    doubt_min_inside_points: int = 5
+    # surface_not_flat: the rms of the surface ring [r, 3r] about its local plane (quadric on a curved
+    # surface) above this many of the scan's height-noise sigmas plus doubt_surface_floor_spacings
+    # spacings (the floor for a noise-free scan, whose sigma is round-off): clean rings reach 1.35 sigmas.
+    # Only the surface band's points are in the ring (material beyond 4 sigmas is not surface), so a
+    # ring cannot reach much above 3: 2 is the highest limit that still fires.
+    doubt_surface_sigmas: float = 2.0
+    doubt_surface_floor_spacings: float = 0.01
+    # near_border: partial, or the circle nearer the scan's outside than this many radii: the ring
+    # just outside the edge is where the rim, the bias correction and the local plane are read. The
+    # clean full holes keep 0.77 radii or more (2 in the realistic scenes).
+    doubt_border_radii: float = 0.5
+    # large_bias_correction: the diameter's sampling-bias correction above this many spacings, or
+    # above this fraction of the diameter (either): clean corrections reach 0.9 h on grids, 1.7 h on
+    # random sampling, 2.45 h on stripes (the spacing is along the lines), and 4 % of the diameter.
+    doubt_max_bias_spacings: float = 3.0
+    doubt_max_bias_diameter: float = 0.06
+    # high_fit_rms: the rim fit's rms above this many gaps g: the sampling alone leaves 0.21-0.41 g on
+    # the clean scenes; lateral noise of 0.3 h on the Table I grid gives about 0.7.
+    doubt_max_fit_rms_gaps: float = 0.6
+
     def __post_init__(self):
         for name, low, high in _RANGES:
             value = getattr(self, name)
@@ -322,6 +357,11 @@ _RANGES = (
     ("shape_max_rms_sigmas", 0.0, _INF), ("shape_max_rms_radii", 0.0, _INF),
     ("shape_floor_hypotheses", 1, 10 ** 6), ("shape_floor_max_tilt_deg", 0.0, 90.0), ("shape_min_angle_deg", 0.0, 180.0),
     ("shape_max_angle_deg", 0.0, 180.0),
+    ("doubt_min_rim_points", 0, 10 ** 9), ("doubt_max_rim_gap_deg", 0.0, 360.0),
+    ("doubt_max_inside_fraction", 0.0, _INF), ("doubt_min_inside_points", 0, 10 ** 9),
+    ("doubt_surface_sigmas", 0.0, _INF), ("doubt_surface_floor_spacings", 0.0, _INF),
+    ("doubt_border_radii", 0.0, _INF), ("doubt_max_bias_spacings", 0.0, _INF),
+    ("doubt_max_bias_diameter", 0.0, _INF), ("doubt_max_fit_rms_gaps", 0.0, _INF),
 )
 _COUNTS = {"cell_index_from_candidates",
            "ransac_sample", "ransac_hypotheses", "sampling_windows", "sampling_window_points", "bias_passes",
@@ -329,8 +369,9 @@ _COUNTS = {"cell_index_from_candidates",
            "min_partial_rim_points", "plane_refine_rounds", "plane_refine_sample", "plane_max_faces",
            "sampling_pitch_neighbours", "max_speck_cells", "bias_min_rim_points", "lattice_min_brackets",
            "cone_min_points_below", "cone_trim_rounds", "cone_edge_steps", "cone_depth_bins",
-           "cone_min_bin_points", "shape_min_points", "shape_floor_hypotheses"}
-_CLOSED = {"shape_min_arc_deg", "shape_floor_fraction", "min_partial_arc_deg", "full_arc_deg", "boss_fraction", "lattice_min_present_fraction",
+           "cone_min_bin_points", "shape_min_points", "shape_floor_hypotheses", "doubt_min_rim_points",
+           "doubt_min_inside_points"}
+_CLOSED = {"doubt_max_rim_gap_deg", "shape_min_arc_deg", "shape_floor_fraction", "min_partial_arc_deg", "full_arc_deg", "boss_fraction", "lattice_min_present_fraction",
            "lattice_max_gap_deg"}
 
 

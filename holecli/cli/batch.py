@@ -13,11 +13,12 @@ import time
 import click
 
 from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_BROKEN_PIPE, EXIT_FILE_FAILED, EXIT_INPUT,
-                               EXIT_INTERRUPTED, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_USAGE, Failure,
-                               broken_pipe, run_guarded, write_stdout)
-from holecli.cli.options import (check_verbosity, detection_option_decorators, detection_options, input_format_option,
-                                 nominal_from_options, read_spec, reading_option_decorators, tolerance_option_decorators,
-                                 unit_choice, verbosity_option_decorators)
+                               EXIT_INTERRUPTED, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_USAGE, EXIT_WARNING,
+                               Failure, broken_pipe, run_guarded, write_stdout)
+from holecli.cli.options import (check_verbosity, detection_option_decorators, detection_options,
+                                 fail_on_warning_option, input_format_option, nominal_from_options, read_spec,
+                                 reading_option_decorators, tolerance_option_decorators, unit_choice,
+                                 verbosity_option_decorators, warned)
 from holecli.cli.progress import BatchDisplay, batch_summary, verbose_text
 from holecli.errors import LoadError
 
@@ -76,24 +77,29 @@ class StopRequests:
         self.signal = number
 
 
-def batch_exit_code(tally):
+def batch_exit_code(tally, fail_on_warning=None):
     """The exit code of a batch from its counts, by the documented precedence.
 
     Parameters
     ----------
     tally : holecli.batch.Tally
         The counts of every file of the batch.
+    fail_on_warning : frozenset, optional
+        ``--fail-on-warning``.
 
     Returns
     -------
     int
-        :data:`EXIT_OUT_OF_TOLERANCE`, else :data:`EXIT_FILE_FAILED`, else :data:`EXIT_NO_HOLE`, else
-        :data:`EXIT_OK` (an interrupt, 130, is decided by :func:`run_batch`).
+        :data:`EXIT_OUT_OF_TOLERANCE`, else :data:`EXIT_FILE_FAILED`, else :data:`EXIT_WARNING` (a hole
+        has a warning that ``fail_on_warning`` selects), else :data:`EXIT_NO_HOLE`, else :data:`EXIT_OK`
+        (an interrupt, 130, is decided by :func:`run_batch`).
     """
     if tally.out_of_tolerance or tally.missing:
         return EXIT_OUT_OF_TOLERANCE
     if tally.failed:
         return EXIT_FILE_FAILED
+    if warned(tally.warning_codes, fail_on_warning):
+        return EXIT_WARNING
     if tally.without_hole:
         return EXIT_NO_HOLE
     return EXIT_OK
@@ -122,9 +128,10 @@ def batch_exit_code(tally):
 @reading_option_decorators
 @detection_option_decorators
 @tolerance_option_decorators
+@fail_on_warning_option
 @verbosity_option_decorators
 def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, explain, scan_index, units, output_units,
-          method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, quiet, verbose,
+          method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, fail_on_warning, quiet, verbose,
           **nominal_options):
     """Measure every point cloud in the folders and files PATH.
 
@@ -132,7 +139,8 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
     --recursive also those below it), in sorted order; a file named on the command line is measured
     as it is. Each record (the JSON of holecli detect) is written as soon as its file is measured; a
     file that cannot be measured gives {"file": ..., "error": ...} and the batch goes on. Progress and
-    a summary go to stderr. Ctrl-C or SIGTERM stop cleanly; --resume then finishes the run.
+    a summary go to stderr (with the count of holes with warnings, per code; the warnings themselves
+    are in the records). Ctrl-C or SIGTERM stop cleanly; --resume then finishes the run.
 
     \b
     Examples:
@@ -200,7 +208,7 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
             return run_batch(batching, todo, options_now, spec, jobs or batching.default_jobs(), write, fmt, header,
                              earlier, output, stop, explain, scan=scan_index,
                              units=units_now if units_now.file or units_now.output else None, quiet=quiet,
-                             verbose=verbose)
+                             verbose=verbose, fail_on_warning=fail_on_warning)
         finally:
             if output_file is not None:
                 output_file.close()
@@ -210,7 +218,7 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
 
 
 def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False, scan=None,
-              units=None, *, quiet=False, verbose=False):
+              units=None, *, quiet=False, verbose=False, fail_on_warning=None):
     """The measuring loop of ``holecli batch``: records out, progress and summary on stderr.
 
     Parameters
@@ -249,6 +257,8 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         are said.
     verbose : bool
         ``--verbose``: the scales and stage times of every file (:func:`verbose_text`).
+    fail_on_warning : frozenset, optional
+        ``--fail-on-warning`` (see :func:`batch_exit_code`).
 
     Returns
     -------
@@ -326,4 +336,4 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
                            if output else ""), error=True)
         return EXIT_INTERRUPTED
     display.message(f"holecli batch: {summary}")
-    return batch_exit_code(tally)
+    return batch_exit_code(tally, fail_on_warning)

@@ -9,11 +9,12 @@ import sys
 
 import click
 
-from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, Failure,
-                               run_guarded, write_stdout)
+from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_WARNING,
+                               Failure, run_guarded, write_stdout)
 from holecli.cli.options import (INPUT_FORMATS, check_verbosity, detection_option_decorators, detection_options,
-                                 input_format_option, nominal_from_options, read_spec, reading_option_decorators,
-                                 tolerance_option_decorators, unit_choice, verbosity_option_decorators)
+                                 fail_on_warning_option, input_format_option, nominal_from_options, read_spec,
+                                 reading_option_decorators, tolerance_option_decorators, unit_choice,
+                                 verbosity_option_decorators, warned)
 from holecli.errors import HoleCliError
 
 
@@ -269,6 +270,33 @@ def _rejected_table(rejected, digits=4):
     return table
 
 
+def warning_lines(record):
+    """The stderr lines of a record's doubtful results: ``holecli: warning: FILE hole N: code: message``
+    for each warning of :mod:`holecli.robust.doubts` (those of :mod:`holecli.robust.hole_shape`, which
+    say why a value is null, are in the record only: a scan straight down a bore gives
+    ``bore_not_seen`` on every hole).
+
+    Parameters
+    ----------
+    record : dict
+        A ``detect`` record.
+
+    Returns
+    -------
+    list of str
+    """
+    from holecli.robust.doubts import DOUBT_CODES
+
+    return [f"holecli: warning: {record['file']} hole {hole['index']}: {warning['code']}: {warning['message']}"
+            for hole in record.get("holes", ()) for warning in hole.get("warnings", ())
+            if warning["code"] in DOUBT_CODES]
+
+
+def record_warned(record, selected):
+    """Whether a hole of ``record`` has a warning that ``--fail-on-warning`` (``selected``) names."""
+    return any(warned((w["code"] for w in hole.get("warnings", ())), selected) for hole in record.get("holes", ()))
+
+
 def emit(text, output):
     """Write ``text`` to stdout, or to the ``--output`` file.
 
@@ -316,9 +344,10 @@ def emit(text, output):
 @reading_option_decorators
 @detection_option_decorators
 @tolerance_option_decorators
+@fail_on_warning_option
 @verbosity_option_decorators
 def detect(scan, input_format, fmt, output, explain, scan_index, units, output_units, method, view_dir, min_diameter,
-           max_holes, full_only, gauge_depth, spec_file, quiet, verbose, **nominal_options):
+           max_holes, full_only, gauge_depth, spec_file, fail_on_warning, quiet, verbose, **nominal_options):
     """Measure the holes in SCAN (.ply, .pcd, .csv, .txt, .xyz, .e57, .las or .laz; - reads it from
     stdin, with --input-format).
 
@@ -344,6 +373,10 @@ def detect(scan, input_format, fmt, output, explain, scan_index, units, output_u
       holecli detect site.e57 --scan 1 --output-units mm
       holecli detect scan.ply --units m --output-units mm --nominal-diameter 3 --tolerance 0.02
       holecli detect scan.ply -v
+      holecli detect scan.ply --fail-on-warning rim_gap,points_inside,near_border
+
+    A hole's warnings that make its result doubtful (rim_gap, points_inside, ...) are also said on
+    stderr, one line each (not with --quiet); every warning is in the record.
     """
     check_verbosity(quiet, verbose)
     if scan == STDIN and input_format is None:
@@ -380,6 +413,9 @@ def detect(scan, input_format, fmt, output, explain, scan_index, units, output_u
         from holecli.cli.progress import verbose_text
 
         click.echo(verbose_text(record), err=True, nl=False)
+    if not quiet:
+        for line in warning_lines(record):
+            click.echo(line, err=True)
     if not quiet and not record["holes"]:
         click.echo(f"holecli: no hole found in {record['file']}", err=True)
     verdict = record.get("verdict")
@@ -393,4 +429,6 @@ def detect(scan, input_format, fmt, output, explain, scan_index, units, output_u
         click.echo(f"holecli: out of tolerance: {verdict['out_of_tolerance']} of {verdict['checked']} checked "
                    f"holes{unmeasured}{missing} in {record['file']}", err=True)
         sys.exit(EXIT_OUT_OF_TOLERANCE)
+    if record_warned(record, fail_on_warning):
+        sys.exit(EXIT_WARNING)
     sys.exit(EXIT_OK if record["holes"] else EXIT_NO_HOLE)

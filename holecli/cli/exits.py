@@ -22,6 +22,7 @@ EXIT_INPUT = 3
 EXIT_NO_HOLE = 4
 EXIT_OUT_OF_TOLERANCE = 5
 EXIT_FILE_FAILED = 6
+EXIT_WARNING = 7  # --fail-on-warning: a hole has a selected warning
 EXIT_INTERRUPTED = 130
 # 128 + SIGPIPE (13), what a shell reports for a program killed by SIGPIPE (`yes | head -1` under
 # `set -o pipefail`): the reader of the output stopped reading before its end.
@@ -38,6 +39,8 @@ EXIT_CODES_HELP = (
     "  5  out of tolerance: a checked hole is out of tolerance or has a check not measured, or a\n"
     "     nominal hole is missing (the record is still printed; takes precedence over 4)\n"
     "  6  holecli batch only: some file could not be measured\n"
+    "  7  --fail-on-warning: a hole has one of the warnings given (the record is still printed;\n"
+    "     5 takes precedence)\n"
     "  130  interrupted (Ctrl-C or SIGTERM)\n"
     "  141  broken pipe: the reader of the output (| head -1) stopped reading before its end"
 )
@@ -54,6 +57,7 @@ BATCH_EXIT_CODES_HELP = (
     "  5    some checked hole is out of tolerance or has a check not measured, or a nominal hole\n"
     "       is missing\n"
     "  6    some file could not be measured (its record has \"error\")\n"
+    "  7    --fail-on-warning: some hole has one of the warnings given\n"
     "  4    some file has no hole\n"
     "  0    every file measured, each with a hole (and in tolerance, where tolerances are given)\n"
     "  1    internal error (a bug: please report it)"

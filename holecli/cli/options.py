@@ -8,6 +8,7 @@
   :func:`nominal_from_options` and :func:`read_spec`;
 * ``--input-format``: :func:`input_format_option`.
 * ``--quiet`` and ``--verbose`` of every command: :func:`verbosity_option_decorators`.
+* ``--fail-on-warning`` of ``detect`` and ``batch``: :func:`fail_on_warning_option`, :func:`warned`.
 
 Nothing heavy is imported at module level: ``holecli --help`` builds these options.
 """
@@ -262,6 +263,71 @@ def verbosity_option_decorators(function):
     for option in reversed(options):
         function = option(function)
     return function
+
+
+class WarningCodes(click.ParamType):
+    """``--fail-on-warning``'s value: ``any`` (every warning), or comma-separated warning codes
+    (README's warnings table), ``doubts`` standing for the seven of :mod:`holecli.robust.doubts`."""
+
+    name = "CODE[,CODE...]|doubts|any"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, frozenset) or value is None:
+            return value
+        from holecli.robust.doubts import DOUBT_CODES
+        from holecli.robust.hole_shape import WARNING_CODES
+
+        codes = frozenset(part.strip() for part in str(value).split(",") if part.strip())
+        if codes == {"any"}:
+            return codes
+        if "doubts" in codes:
+            codes = (codes - {"doubts"}) | frozenset(DOUBT_CODES)
+        unknown = sorted(codes - set(WARNING_CODES) - set(DOUBT_CODES))
+        if not codes or unknown:
+            self.fail(f"{', '.join(unknown) or repr(value)}: not a warning code (known: any, doubts, "
+                      f"{', '.join([*WARNING_CODES, *DOUBT_CODES])})", param, ctx)
+        return codes
+
+
+def fail_on_warning_option(function):
+    """``--fail-on-warning CODE[,CODE...]|doubts|any``: a hole with one of these warnings makes the run end
+    with :data:`holecli.cli.exits.EXIT_WARNING` (the output is still written).
+
+    Parameters
+    ----------
+    function : callable
+        A click command's function; it gets ``fail_on_warning`` (None, a frozenset of codes, or
+        ``{"any"}``; ``doubts`` is expanded to its codes).
+
+    Returns
+    -------
+    callable
+    """
+    return click.option(
+        "--fail-on-warning", "fail_on_warning", type=WarningCodes(), default=None,
+        help="Exit with 7 when a hole has one of these warnings: comma-separated codes (e.g. "
+             "rim_gap,points_inside), doubts (the seven that make a result doubtful: few_rim_points, rim_gap, "
+             "points_inside, surface_not_flat, near_border, large_bias_correction, high_fit_rms) or any (every "
+             "warning, bore_not_seen too); the output is still written. Codes: README, Output, warnings table.")(function)
+
+
+def warned(codes, selected):
+    """Whether warning ``codes`` (an iterable of strings) include one that ``--fail-on-warning`` selects.
+
+    Parameters
+    ----------
+    codes : iterable of str
+    selected : frozenset or None
+        ``--fail-on-warning``'s value.
+
+    Returns
+    -------
+    bool
+    """
+    if not selected:
+        return False
+    codes = set(codes)
+    return bool(codes) if "any" in selected else bool(codes & selected)
 
 
 def check_verbosity(quiet, verbose):

@@ -158,7 +158,9 @@ def batch_summary(tally, seconds, checked, earlier, output):
     Returns
     -------
     str
-        e.g. ``3 files: 3 measured, 0 failed; 5 holes found; tolerances not checked; 1.2 s``.
+        e.g. ``3 files: 3 measured, 0 failed; 5 holes found; tolerances not checked; 2 doubtful
+        holes (points_inside 1, rim_gap 2); 1.2 s`` (that part only when a hole has a warning of
+        :mod:`holecli.robust.doubts`).
     """
     def count(number, noun):
         return f"{number} {noun}{'' if number == 1 else 's'}"
@@ -171,6 +173,11 @@ def batch_summary(tally, seconds, checked, earlier, output):
         text += f"; {tally.out_of_tolerance} out of tolerance, {count(tally.missing, 'nominal hole')} missing"
     else:
         text += "; tolerances not checked"
+    if tally.doubtful_holes:
+        from holecli.robust.doubts import DOUBT_CODES
+
+        codes = ", ".join(f"{code} {n}" for code, n in sorted(tally.warning_codes.items()) if code in DOUBT_CODES)
+        text += f"; {count(tally.doubtful_holes, 'doubtful hole')} ({codes})"
     text += f"; {seconds:.1f} s"
     if earlier:
         text += f" ({count(earlier, 'file')} from the earlier run in {output})"

@@ -34,6 +34,7 @@ from holecli.robust.boundary import hole_rim, near_box_edge
 from holecli.robust.candidates import find_voids, occupancy_grid
 from holecli.robust.countersink import MIN_SLOPE as MIN_CONE_SLOPE
 from holecli.robust.countersink import Cone, fit_cone_edge
+from holecli.robust.doubts import Doubts, doubt_warnings
 from holecli.robust.edge import fit_edge
 from holecli.robust.empty_circle import empty_circle_bias, largest_empty_circle
 from holecli.robust.hole_shape import measure_hole_shape
@@ -67,6 +68,8 @@ class _Scene:
     gap_scatter: float       # rim scatter the sampling alone produces
     envelope: float          # depth below its sector's outermost rim point at which a rim point is dropped
     cell_indices: dict = None  # id(array) -> CellIndex of xy, surface_xy, material_xy (many candidates)
+    grid: object = None        # the occupancy grid (for the border distance below)
+    border_distance: np.ndarray = None  # per grid cell, distance to the scan's outside (see _border_distance)
 
 
 @dataclass(frozen=True)
@@ -788,6 +791,8 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
                    direction=direction, sampling=sampling, alpha=settings.alpha_gaps * gap, cell=cell,
                    min_radius=min_radius, gap_scatter=0.5 * gap, envelope=settings.envelope_gaps * gap,
                    cell_indices={})
+    if not flat_crop:  # (a flat crop's holes get no warnings: the caller's scene judges them)
+        scene = replace(scene, grid=grid, border_distance=_border_distance(grid))
     voids = find_voids(grid)
     if len(voids) >= settings.cell_index_from_candidates:
         # Many candidates (the natural gaps of random sampling grow with the points): one sort per
@@ -846,9 +851,47 @@ def _with_shape(scene, hole, measured, gauge_depth, settings):
     shape = measure_hole_shape(scene.points[index], center, np.asarray(hole.normal), hole.radius,
                                noise=scene.height_noise, spacing=scene.sampling.spacing,
                                cone_slope=measured.cone_slope, gauge_depth=gauge_depth, settings=settings)
+    doubts = doubt_warnings(_doubts(scene, hole, measured), settings)
     return Hole(**{**hole.__dict__, "type": shape.type, "countersink": shape.countersink,
                    "counterbore": shape.counterbore, "bore": shape.bore, "axis": shape.axis,
-                   "perpendicularity_deg": shape.perpendicularity_deg, "warnings": shape.warnings})
+                   "perpendicularity_deg": shape.perpendicularity_deg, "warnings": shape.warnings + doubts})
+
+
+def _border_distance(grid):
+    """Per cell of ``grid``, the distance (scan units) from its center to the nearest cell of the
+    scan's outside: the empty cells connected to the grid's padding (:func:`find_voids`'s
+    ``outside``)."""
+    labels, _ = ndimage.label(~grid.material, structure=np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]]))
+    outside = labels == labels[0, 0]
+    return ndimage.distance_transform_edt(~outside) * grid.cell
+
+
+def _doubts(scene, hole, measured):
+    """The numbers that make ``hole`` doubtful or not (:class:`holecli.robust.doubts.Doubts`).
+
+    Everything in the plane frame of the scan: the rim points the circle was fitted to, the surface
+    points deeper than two gaps inside the edge (the lower of the fitted rim circle and the edge
+    reported: a countersink's edge lies outside its rim fit, and the cone's top inside it is in the
+    surface band), the local surface plane's rms, and the distance to the scan's outside.
+    """
+    center, radius = measured.center, measured.radius
+    gap = scene.sampling.gap
+    inner = max(min(radius, radius + measured.bias) - 2.0 * gap, 0.0)
+    inside = len(_within(scene, scene.surface_xy, center, 0.0, inner)) if inner > 0 else 0
+    cell = scene.grid.cell_of(center[None, :])[0]
+    shape = scene.border_distance.shape
+    if 0 <= cell[0] < shape[0] and 0 <= cell[1] < shape[1]:
+        border_gap = max(float(scene.border_distance[cell[0], cell[1]]) - radius, 0.0)
+    else:
+        border_gap = 0.0
+    surface = measured.surface_plane
+    return Doubts(rim_points=int(hole.rim_points),
+                  rim_gap_deg=float(np.degrees(largest_angular_gap(measured.rim_xy, center))),
+                  inside_points=int(inside), inside_expected=float(scene.surface_density * np.pi * inner ** 2),
+                  surface_rms=None if surface is None else float(surface.rms), height_noise=float(scene.height_noise),
+                  arc_deg=float(hole.arc_deg), border_gap=border_gap, radius=float(radius),
+                  bias_correction=None if measured.cone_slope is not None else float(hole.bias_correction),
+                  spacing=float(scene.sampling.spacing), fit_rms=float(hole.fit_rms), gap=float(gap))
 
 
 def _on_curved_surface(scene, measured, settings, view_dir, rng):

@@ -1,0 +1,132 @@
+"""What makes a measured hole doubtful: warnings from numbers the robust method already knows.
+
+The method (:mod:`holecli.robust.method`) gathers the numbers of one hole into a :class:`Doubts`;
+:func:`doubt_warnings` compares them with their thresholds (``doubt_*`` fields of
+:class:`holecli.settings.RobustSettings`, each with why its value) and returns the warnings, each a
+short stable code (:data:`DOUBT_CODES`) and a sentence with the numbers. Pure: no points, no scene.
+
+These warnings do not make a value null (those of :mod:`holecli.robust.hole_shape` do): the hole is
+measured, but its result deserves a look.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+from holecli.results import HoleWarning
+from holecli.settings import DEFAULT_SETTINGS
+
+#: The warning codes this module gives, with what each means.
+DOUBT_CODES = {
+    "few_rim_points": "few rim points for the edge circle: its center and diameter are loosely held",
+    "rim_gap": "the rim points leave an arc of the circle empty (occlusion or missing data)",
+    "points_inside": "surface points inside the fitted circle (reflections, debris or a film)",
+    "surface_not_flat": "the surface around the hole is not flat: its local plane leaves residuals well above "
+                        "the scan's noise",
+    "near_border": "the hole is at the scan's border: its surroundings are not all scanned",
+    "large_bias_correction": "a large sampling-bias correction of the diameter",
+    "high_fit_rms": "the rim points scatter about the circle well beyond what the sampling explains",
+}
+
+
+@dataclass(frozen=True)
+class Doubts:
+    """The numbers of one hole that its warnings are judged on (lengths in the scan's unit).
+
+    Attributes
+    ----------
+    rim_points : int
+        Rim points the circle was fitted to.
+    rim_gap_deg : float
+        Largest angular gap between those rim points, seen from the center (degrees).
+    inside_points : int
+        Surface-band points within the fitted circle, deeper than the margin below its edge.
+    inside_expected : float
+        The surface points that disk would hold at the scan's density.
+    surface_rms : float or None
+        Rms residual of the surface around the hole to its local plane (or quadric, on a curved
+        surface); None when the ring holds too few points.
+    height_noise : float
+        The scan's robust sd of the surface heights.
+    arc_deg : float
+        Degrees of the circle with scanned material just outside it.
+    border_gap : float
+        Distance from the circle to the scan's outside (0 when the hole is open to it).
+    radius : float
+        The hole's radius.
+    bias_correction : float or None
+        The diameter's sampling-bias correction; None when the edge is a countersink's (no sampling
+        correction).
+    spacing : float
+        The point spacing h.
+    fit_rms : float
+        Rms radial residual of the rim fit.
+    gap : float
+        The gap scale g.
+    """
+
+    rim_points: int
+    rim_gap_deg: float
+    inside_points: int
+    inside_expected: float
+    surface_rms: Optional[float]
+    height_noise: float
+    arc_deg: float
+    border_gap: float
+    radius: float
+    bias_correction: Optional[float]
+    spacing: float
+    fit_rms: float
+    gap: float
+
+
+def _warning(code, detail):
+    return HoleWarning(code=code, message=f"{DOUBT_CODES[code]} ({detail})")
+
+
+def doubt_warnings(doubts, settings=DEFAULT_SETTINGS):
+    """The warnings of one hole, in the order of :data:`DOUBT_CODES`.
+
+    Parameters
+    ----------
+    doubts : Doubts
+    settings : holecli.settings.RobustSettings
+        Its ``doubt_*`` thresholds.
+
+    Returns
+    -------
+    tuple of HoleWarning
+    """
+    d, s = doubts, settings
+    out = []
+    if d.rim_points < s.doubt_min_rim_points:
+        out.append(_warning("few_rim_points", f"{d.rim_points} < {s.doubt_min_rim_points}"))
+    if d.rim_gap_deg > s.doubt_max_rim_gap_deg:
+        out.append(_warning("rim_gap", f"largest gap {d.rim_gap_deg:.0f} > {s.doubt_max_rim_gap_deg:g} degrees"))
+    allowed_inside = max(s.doubt_max_inside_fraction * d.inside_expected, float(s.doubt_min_inside_points))
+    if d.inside_points > allowed_inside:
+        out.append(_warning("points_inside", f"{d.inside_points} points > {allowed_inside:.0f} "
+                            f"({s.doubt_max_inside_fraction:g} of the {d.inside_expected:.0f} the disk would hold)"))
+    if d.surface_rms is not None:
+        limit = s.doubt_surface_sigmas * d.height_noise + s.doubt_surface_floor_spacings * d.spacing
+        if d.surface_rms > limit:
+            out.append(_warning("surface_not_flat", f"rms {d.surface_rms:.3g} > {limit:.3g}: "
+                                                    f"{s.doubt_surface_sigmas:g} noise sigmas of {d.height_noise:.3g}"))
+    border_limit = s.doubt_border_radii * d.radius
+    if d.arc_deg < 360.0:
+        out.append(_warning("near_border", f"material around {d.arc_deg:.0f} of 360 degrees"))
+    elif d.border_gap < border_limit:
+        out.append(_warning("near_border", f"{d.border_gap:.4g} from the scan's edge < "
+                                           f"{s.doubt_border_radii:g} radii = {border_limit:.4g}"))
+    if d.bias_correction is not None:
+        limit = min(s.doubt_max_bias_spacings * d.spacing, s.doubt_max_bias_diameter * 2.0 * d.radius)
+        if abs(d.bias_correction) > limit:
+            out.append(_warning("large_bias_correction",
+                                f"{d.bias_correction:.4g} > {limit:.4g}: {s.doubt_max_bias_spacings:g} spacings "
+                                f"or {s.doubt_max_bias_diameter:g} of the diameter"))
+    limit = s.doubt_max_fit_rms_gaps * d.gap
+    if d.fit_rms > limit:
+        out.append(_warning("high_fit_rms", f"rms {d.fit_rms:.3g} > {limit:.3g} = "
+                                            f"{s.doubt_max_fit_rms_gaps:g} gaps"))
+    return tuple(out)
