@@ -11,6 +11,7 @@ Where things are:
 ``holecli.cli.detect``     ``holecli detect`` and its output (JSON, CSV, the table)
 ``holecli.cli.batch``      ``holecli batch``: the command, its measuring loop and its stop on signals
 ``holecli.cli.simulate``   ``holecli simulate``
+``holecli.cli.plot``       ``holecli plot`` and ``detect --plot`` (matplotlib, imported when drawing)
 ``holecli.cli.options``    parameter types and the options ``detect`` and ``batch`` share
 ``holecli.cli.progress``   what ``holecli batch`` shows on stderr: progress bar, summary
 ``holecli.cli.exits``      exit codes, :class:`Failure`, :func:`run_guarded`, :func:`write_stdout`
@@ -55,12 +56,14 @@ def main():
       holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0
       holecli batch scans/ --recursive --output results.jsonl
       holecli simulate scene.ply
+      holecli plot scan.ply -o fit.png
     """
 
 
 # The commands, each in its module (imported after main, which none of them needs).
-from holecli.cli import batch, detect, simulate  # noqa: E402
+from holecli.cli import batch, detect, plot, simulate  # noqa: E402
 
 main.add_command(detect.detect)
 main.add_command(batch.batch)
 main.add_command(simulate.simulate)
+main.add_command(plot.plot)

@@ -338,6 +338,8 @@ def emit(text, output):
               help="Output format: JSON record, CSV (one row per hole) or a table for people.")
 @click.option("--output", "-o", type=click.Path(dir_okay=False, allow_dash=True, path_type=str),
               help="Write the result to this file (a regular file atomically; - is stdout) instead of stdout.")
+@click.option("--plot", "plot_file", type=click.Path(dir_okay=False, path_type=str), default=None, metavar="FILE.png",
+              help="Also draw the holes into this PNG, as holecli plot does (needs pip install 'holecli[plot]').")
 @click.option("--explain", is_flag=True,
               help="Also list every candidate that is not a hole, with the check that refused it "
                    "(\"rejected\" in JSON, a second table with --format table).")
@@ -346,7 +348,7 @@ def emit(text, output):
 @tolerance_option_decorators
 @fail_on_warning_option
 @verbosity_option_decorators
-def detect(scan, input_format, fmt, output, explain, scan_index, units, output_units, method, view_dir, min_diameter,
+def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, units, output_units, method, view_dir, min_diameter,
            max_holes, full_only, gauge_depth, spec_file, fail_on_warning, quiet, verbose, **nominal_options):
     """Measure the holes in SCAN (.ply, .pcd, .csv, .txt, .xyz, .e57, .las or .laz; - reads it from
     stdin, with --input-format).
@@ -368,6 +370,7 @@ def detect(scan, input_format, fmt, output, explain, scan_index, units, output_u
       holecli detect scan.ply --gauge-depth 0.5
       holecli detect scan.ply --spec part.toml --format table
       holecli detect scan.ply --explain --format table
+      holecli detect scan.ply --plot fit.png
       cat scan.ply | holecli detect - --input-format ply -o -
       holecli detect scan.asc --input-format xyz
       holecli detect site.e57 --scan 1 --output-units mm
@@ -398,14 +401,25 @@ def detect(scan, input_format, fmt, output, explain, scan_index, units, output_u
         from holecli.tolerance import check
 
         spec = read_spec(spec_file) if spec_file is not None else nominal
+        if plot_file is not None:
+            from holecli.cli.plot import measure_with_points, require_matplotlib
+
+            require_matplotlib()  # before the detection: a missing extra is said at once
         with DetectStatus(scan, quiet=quiet) as status:
-            detection = measure_file(scan, {**options, "progress": status.stage} if status.shown else options,
-                                     scan_index)
+            run_options = {**options, "progress": status.stage} if status.shown else options
+            if plot_file is None:
+                detection = measure_file(scan, run_options, scan_index)
+            else:
+                detection, points = measure_with_points(scan, run_options, scan_index)
         # in the output unit before the check: tolerances are in it too
         record = choice.express(detection.to_dict(explain=explain), detection.units)
         if spec is not None:
             record = check(record, spec)
         emit(render([record], fmt), output)
+        if plot_file is not None:
+            from holecli.cli.plot import write_plot
+
+            write_plot(plot_file, detection, points, unit=choice.file)
         return record
 
     record = run_guarded(body)

@@ -1,0 +1,138 @@
+"""``holecli plot``: draw the holes of one scan into a PNG (matplotlib, the optional extra ``plot``).
+
+Also the ``--plot FILE.png`` of ``holecli detect`` (:func:`write_plot`). matplotlib is imported here
+only when a picture is drawn: ``holecli detect`` without ``--plot`` never imports it.
+"""
+
+from __future__ import annotations
+
+import time
+
+import click
+
+from holecli.cli.exits import EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, Failure, run_guarded
+from holecli.cli.options import (detection_option_decorators, detection_options, input_format_option,
+                                 verbosity_option_decorators, check_verbosity)
+from holecli.errors import HoleCliError
+
+MISSING_EXTRA = "holecli plot needs the optional extra: pip install 'holecli[plot]'"
+
+
+def require_matplotlib():
+    """Import matplotlib with the Agg backend.
+
+    Raises
+    ------
+    Failure
+        With the input/output code (3) and :data:`MISSING_EXTRA`, when matplotlib is not installed.
+    """
+    try:
+        import matplotlib
+    except ImportError:
+        raise Failure(MISSING_EXTRA, EXIT_INPUT) from None
+    matplotlib.use("Agg", force=True)
+    return matplotlib
+
+
+def measure_with_points(path, options, scan=None):
+    """:func:`holecli.cli.detect.measure_file`, also returning the points (the picture needs them).
+
+    Returns
+    -------
+    detection : holecli.Detection
+    points : (n, 3) float ndarray
+    """
+    from holecli.batch import failure_message
+    from holecli.cli.detect import STDIN, read_stdin
+    from holecli.io import STDIN_NAME, read_cloud
+    from holecli.pipeline import detect_cloud
+
+    options = dict(options)
+    input_format = options.pop("input_format", None)
+    try:
+        started = time.perf_counter()
+        if path == STDIN:
+            path = STDIN_NAME
+            cloud = read_stdin(input_format, scan)
+        else:
+            cloud = read_cloud(path, scan=scan, input_format=input_format)
+        read_ms = (time.perf_counter() - started) * 1000.0
+        detection = detect_cloud(cloud, scan=scan, input_format=input_format, **options)
+    except HoleCliError as error:
+        raise Failure(failure_message(path, error), EXIT_INPUT) from None
+    from dataclasses import replace
+
+    return replace(detection, timing=replace(detection.timing, read_ms=read_ms)), cloud.points
+
+
+def write_plot(path, detection, points, max_panels=None, dpi=None, unit=None):
+    """Draw ``detection`` (:func:`holecli.plot.figure`) and write the PNG to ``path`` atomically.
+
+    Raises
+    ------
+    Failure
+        matplotlib missing, or the file cannot be written (input/output code).
+    """
+    require_matplotlib()
+    from holecli import plot
+    from holecli.io.outfile import write_bytes
+
+    payload = plot.png_bytes(plot.figure(detection, points, max_panels=max_panels, unit=unit), dpi=dpi)
+    try:
+        write_bytes(path, payload)
+    except OSError as error:
+        raise Failure(f"{path}: cannot write the plot: {error.strerror or error}", EXIT_INPUT) from None
+
+
+def plot_path_type():
+    return click.Path(dir_okay=False, path_type=str)
+
+
+@click.command(epilog=EXIT_CODES_HELP)
+@click.argument("scan", type=click.Path(allow_dash=True, path_type=str))
+@click.option("--output", "-o", type=plot_path_type(), required=True,
+              help="The PNG to write (atomically).")
+@input_format_option("Read SCAN in this format, whatever its extension; needed for - (stdin).")
+@click.option("--scan", "scan_index", type=click.IntRange(min=0), default=None, metavar="N",
+              help="Draw scan N (from 0) of a multi-scan E57 file [default: every scan, merged].")
+@click.option("--units", type=click.Choice(("mm", "m", "in")), default=None,
+              help="The unit of the file's coordinates, for the labels [default: the file's (E57: m), else 'units'].")
+@click.option("--max-panels", type=click.IntRange(min=1), default=None, metavar="N",
+              help="Draw the first N holes only [default: every hole].")
+@click.option("--dpi", type=click.IntRange(min=20, max=600), default=100, show_default=True,
+              help="Resolution of the PNG (the figure is 14 in wide).")
+@detection_option_decorators
+@verbosity_option_decorators
+def plot(scan, output, input_format, scan_index, units, max_panels, dpi, method, view_dir, min_diameter, max_holes,
+         full_only, gauge_depth, quiet, verbose):
+    """Draw the holes found in SCAN into a PNG, for an inspector: per hole the points around it seen
+    along its normal (coloured by height above the surface) with the fitted edge circle, its center
+    and the countersink and bore circles, the edge's radial residuals against the angle, and a box of
+    its values (diameter, center, normal, type, countersink, warnings). Lengths in the file's units.
+
+    Needs matplotlib: pip install 'holecli[plot]'.
+
+    \b
+    Examples:
+      holecli plot scan.ply -o fit.png
+      holecli plot scan.ply -o fit.png --max-panels 2 --dpi 60
+      holecli plot scan.pcd -o fit.png --view-dir 0,0,1 --full-only
+    """
+    check_verbosity(quiet, verbose)
+    if scan == "-" and input_format is None:
+        raise click.UsageError("SCAN - (stdin) needs --input-format: a stream has no extension to tell its format")
+    options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
+    if input_format is not None:
+        options["input_format"] = input_format
+
+    def body():
+        require_matplotlib()  # before the detection: a missing extra is said at once
+        detection, points = measure_with_points(scan, options, scan_index)
+        write_plot(output, detection, points, max_panels=max_panels, dpi=dpi, unit=units)
+        return detection
+
+    detection = run_guarded(body)
+    if not quiet:
+        click.echo(f"holecli: {len(detection.holes)} hole{'' if len(detection.holes) == 1 else 's'} of "
+                   f"{detection.file} drawn in {output}", err=True)
+    raise SystemExit(EXIT_OK if detection.holes else EXIT_NO_HOLE)
