@@ -96,3 +96,35 @@ def holecli_process(repo_root):
         return subprocess.run(command, timeout=options.pop("timeout", 120), **options)
 
     return start_or_run
+
+
+@pytest.fixture
+def modules_imported_by(repo_root):
+    """``modules_imported_by(commands, names)``: which of the modules ``names`` (and their submodules)
+    a fresh interpreter has imported after running each of ``commands`` (argument lists of
+    ``holecli``, in-process, their exits caught). For the tests that keep heavy imports out of a
+    command."""
+    import os
+    import subprocess
+    import sys
+
+    def imported(commands, names):
+        code = (
+            "import sys\n"
+            "import holecli.cli\n"
+            f"for args in {[list(map(str, command)) for command in commands]!r}:\n"
+            "    try:\n"
+            "        holecli.cli.main(args)\n"
+            "    except SystemExit:\n"
+            "        pass\n"
+            f"names = {tuple(names)!r}\n"
+            "print(sorted(m for m in sys.modules if m in names or m.startswith(tuple(n + '.' for n in names))),"
+            " file=sys.stderr)\n"
+        )
+        env = dict(os.environ, PYTHONPATH=str(repo_root))
+        result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                                cwd=repo_root, timeout=120)
+        assert result.returncode == 0, result.stderr
+        return result.stderr.strip().splitlines()[-1]
+
+    return imported

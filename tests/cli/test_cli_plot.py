@@ -2,7 +2,6 @@
 
 import json
 import os
-import subprocess
 import sys
 
 import numpy as np
@@ -25,23 +24,9 @@ def png_pixels(path):
         return np.asarray(image.convert("L"), dtype=float)
 
 
-def test_detect_without_plot_does_not_import_matplotlib(repo_root):
-    code = (
-        "import sys\n"
-        "import holecli.cli\n"
-        f"for args in (['--help'], ['plot', '--help'], ['detect', {sample('table1.ply')!r}, '--format', 'csv']):\n"
-        "    try:\n"
-        "        holecli.cli.main(args)\n"
-        "    except SystemExit:\n"
-        "        pass\n"
-        "print(sorted(name for name in sys.modules if name.split('.')[0] in ('matplotlib', 'holecli.plot')"
-        " or name == 'holecli.plot'), file=sys.stderr)\n"
-    )
-    env = dict(os.environ, PYTHONPATH=str(repo_root))
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=repo_root,
-                            timeout=120)
-    assert result.returncode == 0, result.stderr
-    assert result.stderr.strip().splitlines()[-1] == "[]"
+def test_detect_without_plot_does_not_import_matplotlib(modules_imported_by):
+    commands = (["--help"], ["plot", "--help"], ["detect", sample("table1.ply"), "--format", "csv"])
+    assert modules_imported_by(commands, ("matplotlib", "holecli.plot")) == "[]"
 
 
 def test_missing_matplotlib_is_one_error_line_and_exit_3(run, tmp_path, monkeypatch):
