@@ -276,11 +276,38 @@ def detect_file(path, scan=None, *, input_format=None, **options) -> Detection:
         ...
     holecli.errors.LoadError: sample_clouds/missing.ply: file not found
     """
+    detection, _ = read_and_detect(lambda: read_cloud(path, scan=scan, input_format=input_format), scan=scan,
+                                   input_format=input_format, **options)
+    return detection
+
+
+def read_and_detect(read, *, scan=None, input_format=None, **options):
+    """Read a cloud with ``read()``, timed, and find its holes (:func:`detect_cloud`).
+
+    The sequence :func:`detect_file` runs on a file, for a caller that reads the cloud otherwise
+    (standard input) or needs its points too (a picture of the fit).
+
+    Parameters
+    ----------
+    read : callable
+        Returns the :class:`holecli.io.Cloud` (raising :class:`holecli.errors.LoadError`).
+    scan, input_format : optional
+        How it is read, for the record's ``options`` (see :func:`detect_cloud`).
+    **options
+        Keyword arguments of :func:`detect`.
+
+    Returns
+    -------
+    detection : Detection
+        :func:`detect_cloud`'s, with ``timing.read_ms`` (the time ``read`` took).
+    cloud : holecli.io.Cloud
+        What ``read`` returned.
+    """
     started = time.perf_counter()
-    cloud = read_cloud(path, scan=scan, input_format=input_format)
+    cloud = read()
     read_ms = (time.perf_counter() - started) * 1000.0
     detection = detect_cloud(cloud, scan=scan, input_format=input_format, **options)
-    return replace(detection, timing=replace(detection.timing, read_ms=read_ms))
+    return replace(detection, timing=replace(detection.timing, read_ms=read_ms)), cloud
 
 
 def detect_cloud(cloud, *, scan=None, input_format=None, **options) -> Detection:

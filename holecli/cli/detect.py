@@ -48,19 +48,36 @@ def measure_file(path, options, scan=None):
         (the message of :func:`holecli.batch.failure_message`, as ``holecli batch`` records it).
     """
     from holecli.batch import failure_message
-    from holecli.pipeline import detect_cloud, detect_file
+    from holecli.io import STDIN_NAME
+    from holecli.pipeline import detect_file
 
     try:
         if path == STDIN:
-            from holecli.io import STDIN_NAME
-
-            path = STDIN_NAME
-            options = dict(options)
-            input_format = options.pop("input_format")
-            return detect_cloud(read_stdin(input_format, scan), scan=scan, input_format=input_format, **options)
+            return measure_stdin(options, scan)[0]
         return detect_file(path, **({} if scan is None else {"scan": scan}), **options)
     except HoleCliError as error:
-        raise Failure(failure_message(path, error), EXIT_INPUT) from None
+        raise Failure(failure_message(STDIN_NAME if path == STDIN else path, error), EXIT_INPUT) from None
+
+
+def measure_stdin(options, scan=None):
+    """Read the cloud on standard input (:func:`read_stdin`, with ``options["input_format"]``) and find
+    its holes: :func:`holecli.pipeline.read_and_detect`, as :func:`holecli.detect_file` does a file's.
+
+    Returns
+    -------
+    detection : Detection
+    cloud : holecli.io.Cloud
+
+    Raises
+    ------
+    HoleCliError
+        When it cannot be read or measured.
+    """
+    from holecli.pipeline import read_and_detect
+
+    options = dict(options)
+    input_format = options.pop("input_format")
+    return read_and_detect(lambda: read_stdin(input_format, scan), scan=scan, input_format=input_format, **options)
 
 
 def read_stdin(input_format, scan=None):

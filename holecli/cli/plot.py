@@ -6,8 +6,6 @@ only when a picture is drawn: ``holecli detect`` without ``--plot`` never import
 
 from __future__ import annotations
 
-import time
-
 import click
 
 from holecli.cli.exits import EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, Failure, run_guarded
@@ -43,26 +41,21 @@ def measure_with_points(path, options, scan=None):
     points : (n, 3) float ndarray
     """
     from holecli.batch import failure_message
-    from holecli.cli.detect import STDIN, read_stdin
+    from holecli.cli.detect import STDIN, measure_stdin
     from holecli.io import STDIN_NAME, read_cloud
-    from holecli.pipeline import detect_cloud
+    from holecli.pipeline import read_and_detect
 
-    options = dict(options)
-    input_format = options.pop("input_format", None)
     try:
-        started = time.perf_counter()
         if path == STDIN:
-            path = STDIN_NAME
-            cloud = read_stdin(input_format, scan)
+            detection, cloud = measure_stdin(options, scan)
         else:
-            cloud = read_cloud(path, scan=scan, input_format=input_format)
-        read_ms = (time.perf_counter() - started) * 1000.0
-        detection = detect_cloud(cloud, scan=scan, input_format=input_format, **options)
+            options = dict(options)
+            input_format = options.pop("input_format", None)
+            detection, cloud = read_and_detect(lambda: read_cloud(path, scan=scan, input_format=input_format),
+                                               scan=scan, input_format=input_format, **options)
     except HoleCliError as error:
-        raise Failure(failure_message(path, error), EXIT_INPUT) from None
-    from dataclasses import replace
-
-    return replace(detection, timing=replace(detection.timing, read_ms=read_ms)), cloud.points
+        raise Failure(failure_message(STDIN_NAME if path == STDIN else path, error), EXIT_INPUT) from None
+    return detection, cloud.points
 
 
 def write_plot(path, detection, points, max_panels=None, dpi=None, unit=None):
