@@ -142,6 +142,13 @@ def detection_options(method, view_dir, min_diameter, max_holes, full_only, gaug
             "full_only": full_only, "gauge_depth": gauge_depth}
 
 
+def _applied(options, function):
+    """``function`` with the click ``options`` applied, the first of them shown first in ``--help``."""
+    for option in reversed(options):
+        function = option(function)
+    return function
+
+
 def detection_option_decorators(function):
     """The detection options shared by ``detect`` and ``batch``.
 
@@ -173,9 +180,7 @@ def detection_option_decorators(function):
                           "(countersink.diameter_at_depth, what a countersink gauge reads), file units (or "
                           "--output-units)."),
     ]
-    for option in reversed(options):
-        function = option(function)
-    return function
+    return _applied(options, function)
 
 
 UNIT_NAMES = ("mm", "m", "in")
@@ -204,9 +209,7 @@ def reading_option_decorators(function):
                      help="Give every length of the record in this unit (needs the file's: --units, or E57); "
                           "length options and tolerances are then in it too."),
     ]
-    for option in reversed(options):
-        function = option(function)
-    return function
+    return _applied(options, function)
 
 
 def unit_choice(units, output_units, files=None):
@@ -260,9 +263,7 @@ def verbosity_option_decorators(function):
                      help="Also say on stderr what the run chose: the measured scales (point spacing, gap "
                           "scale, line pitch, minimum diameter), the candidates tried and the time per stage."),
     ]
-    for option in reversed(options):
-        function = option(function)
-    return function
+    return _applied(options, function)
 
 
 class WarningCodes(click.ParamType):
@@ -427,9 +428,7 @@ def tolerance_option_decorators(function):
                      help="TOML file of the part's nominal holes ([[hole]] tables, see README); "
                           "not with the options above."),
     ]
-    for option in reversed(options):
-        function = option(function)
-    return function
+    return _applied(options, function)
 
 
 def nominal_from_options(spec_file=None, **options):
