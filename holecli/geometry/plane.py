@@ -51,6 +51,15 @@ class PlaneFit:
         return -1 if self.inliers is None else int(self.inliers.sum())
 
 
+def _centred(points):
+    """The points as an (n >= 3, 3) float64 array, their centroid and the centred points."""
+    points = np.asarray(points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3 or len(points) < 3:
+        raise PointsError(f"a plane needs an (n >= 3, 3) array, got shape {points.shape}")
+    centroid = points.mean(axis=0)
+    return points, centroid, points - centroid
+
+
 def fit_plane_svd(points):
     """Least-squares plane through ``points`` by the SVD of the centred coordinates (paper, sec. 2.2).
 
@@ -65,11 +74,7 @@ def fit_plane_svd(points):
         Centroid, unit normal (right-singular vector of the smallest singular value, oriented by
         :func:`orient_normal`) and rms distance.
     """
-    points = np.asarray(points, dtype=np.float64)
-    if points.ndim != 2 or points.shape[1] != 3 or len(points) < 3:
-        raise PointsError(f"a plane needs an (n >= 3, 3) array, got shape {points.shape}")
-    centroid = points.mean(axis=0)
-    centred = points - centroid
+    points, centroid, centred = _centred(points)
     # Never form the n x n U of the paper's Eq. (5): the 3 x 3 right factor is all that is needed.
     _, singular, vt = np.linalg.svd(centred, full_matrices=False)
     if singular[1] <= 1e-12 * max(singular[0], 1e-300):
@@ -96,11 +101,7 @@ def fit_plane_scatter(points):
         Centroid, unit normal (eigenvector of the smallest eigenvalue, oriented by
         :func:`orient_normal`), rms distance and ``major`` (eigenvector of the largest).
     """
-    points = np.asarray(points, dtype=np.float64)
-    if points.ndim != 2 or points.shape[1] != 3 or len(points) < 3:
-        raise PointsError(f"a plane needs an (n >= 3, 3) array, got shape {points.shape}")
-    centroid = points.mean(axis=0)
-    centred = points - centroid
+    points, centroid, centred = _centred(points)
     scatter = centred.T @ centred
     values, vectors = np.linalg.eigh(scatter)
     if values[1] <= 1e-24 * max(values[2], 1e-300):
