@@ -201,18 +201,9 @@ def convert_record(record, from_units, to_units) -> dict:
         if plane is not None:
             plane["point"] = _scaled(plane.get("point"), factor)
             plane["rms"] = _scaled(plane.get("rms"), factor)
-        options, scales = out.get("options"), out.get("scales")
-        if options is not None:
-            for key in _OPTION_LENGTHS:
-                if key in options:
-                    options[key] = _scaled(options[key], factor)
-        if scales is not None:
-            for key in _SCALE_LENGTHS:
-                if key in scales:
-                    scales[key] = _scaled(scales[key], factor)
-            for key in _SCALE_AREAS:
-                if key in scales:
-                    scales[key] = _scaled(scales[key], factor * factor)
+        _scale_keys(out.get("options"), _OPTION_LENGTHS, factor)
+        _scale_keys(out.get("scales"), _SCALE_LENGTHS, factor)
+        _scale_keys(out.get("scales"), _SCALE_AREAS, factor * factor)
         for hole in out.get("holes", ()):
             _scale_hole(hole, factor)
         for rejection in out.get("rejected", ()):
@@ -220,18 +211,17 @@ def convert_record(record, from_units, to_units) -> dict:
     return label_record(out, to_units)
 
 
+def _scale_keys(mapping, keys, factor):
+    """Scale the values of ``keys`` that ``mapping`` (a dict, or None) holds, in place."""
+    for key in keys:
+        if mapping and key in mapping:
+            mapping[key] = _scaled(mapping[key], factor)
+
+
 def _scale_hole(hole, factor):
-    if "center" in hole:
-        hole["center"] = _scaled(hole["center"], factor)
-    for key in _HOLE_LENGTHS:
-        if key in hole:
-            hole[key] = _scaled(hole[key], factor)
+    _scale_keys(hole, ("center",) + _HOLE_LENGTHS, factor)
     for part, keys in _PART_LENGTHS.items():
-        values = hole.get(part)
-        if values:
-            for key in keys:
-                if key in values:
-                    values[key] = _scaled(values[key], factor)
+        _scale_keys(hole.get(part), keys, factor)
 
 
 def _scale_rejection(rejection, factor):
@@ -240,11 +230,7 @@ def _scale_rejection(rejection, factor):
     if rejection.get("check") in LENGTH_CHECKS:
         rejection["value"] = _scaled(rejection.get("value"), factor)
         rejection["limit"] = _scaled(rejection.get("limit"), factor)
-    shape = rejection.get("shape")
-    if shape:
-        for key in ("length", "width"):
-            if key in shape:
-                shape[key] = _scaled(shape[key], factor)
+    _scale_keys(rejection.get("shape"), ("length", "width"), factor)
 
 
 def _scaled(value, factor):
