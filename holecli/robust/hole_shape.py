@@ -182,7 +182,6 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
     warnings = []
     countersink = counterbore = cone = floor = None
     axis = None
-    floor_depth = None
     wall_mask = np.zeros(len(pts), dtype=bool)
     known_axis = n
 
@@ -208,8 +207,6 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
         else:
             floor_point, floor_normal, floor_mask, floor_rms = floor
             floor_normal = floor_normal if floor_normal @ n > 0 else -floor_normal
-            # along the floor's normal here; along the axis once it is known (below)
-            depth = float((c - floor_point) @ floor_normal)
             blind = _floor_is_blind(pts[floor_mask], rho[floor_mask], c, floor_normal, R, settings)
             kind = "blind" if blind else "counterbored"
             known_axis = floor_normal
@@ -217,16 +214,11 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
             # goes on below it.
             above_floor = (pts - floor_point) @ floor_normal
             if blind:
-                floor_depth = depth
                 wall_mask = below & ~floor_mask & (above_floor > 3.0 * floor_noise)
             else:
-                counterbore = Counterbore(diameter=2.0 * R, depth=depth, rms=floor_rms,
-                                          points=int(np.count_nonzero(floor_mask)))
                 wall_mask = below & ~floor_mask & (above_floor < -3.0 * floor_noise)
 
     bore, bore_axis = _bore(pts, wall_mask, c, n, known_axis, floor_noise, settings, warnings)
-    if kind == "blind":
-        bore = Bore(**{**bore.__dict__, "floor_depth": floor_depth})
     if cone is not None:
         if bore.diameter is not None:
             lower, source = 0.5 * bore.diameter, "bore"
@@ -237,13 +229,15 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
         axis = bore_axis if bore_axis is not None else (known_axis if kind in ("blind", "counterbored") else None)
     if axis is not None:
         axis = axis if axis @ n > 0 else -axis
-    if floor is not None and axis is not None:
-        # The floor's depth along the axis: where the axis through c meets the floor's plane.
+    if floor is not None:
+        # The floor's depth along the axis (known: the bore's, else the floor's own normal), where the
+        # axis through c meets the floor's plane.
         along_axis = float((c - floor_point) @ floor_normal) / float(axis @ floor_normal)
         if kind == "blind":
             bore = Bore(**{**bore.__dict__, "floor_depth": along_axis, "floor_rms": floor_rms})
         else:
-            counterbore = Counterbore(**{**counterbore.__dict__, "depth": along_axis})
+            counterbore = Counterbore(diameter=2.0 * R, depth=along_axis, rms=floor_rms,
+                                      points=int(np.count_nonzero(floor_mask)))
     if axis is None:
         warnings.append(_warning("axis_not_measured", f"{kind} hole"))
         perpendicularity = None
