@@ -201,9 +201,7 @@ def find_voids(grid, min_cells=1):
     list of Void
         Enclosed voids first, then bays, each list in grid order.
     """
-    empty = ~grid.material
-    labels, count = ndimage.label(empty, structure=_CROSS)
-    outside = labels[0, 0]
+    labels, count, outside = _empty_regions(grid)
     voids = []
     if count:
         objects = ndimage.find_objects(labels)
@@ -222,3 +220,27 @@ def find_voids(grid, min_cells=1):
         if len(cells) >= max(min_cells, 2):
             voids.append(Void(cells=cells, enclosed=False))
     return voids
+
+
+def distance_to_outside(grid):
+    """Per cell of ``grid``, the distance (scan units) from its center to the nearest cell of the
+    scan's outside: the empty cells connected to the grid's padding (what :func:`find_voids` calls
+    outside, and measures bays in).
+
+    Parameters
+    ----------
+    grid : Grid
+
+    Returns
+    -------
+    (nx, ny) float ndarray
+    """
+    labels, _, outside = _empty_regions(grid)
+    return ndimage.distance_transform_edt(labels != outside) * grid.cell
+
+
+def _empty_regions(grid):
+    """The connected regions of the grid's empty cells (4-connected), their count and the label of
+    the outside (the region of the padding corner)."""
+    labels, count = ndimage.label(~grid.material, structure=_CROSS)
+    return labels, count, labels[0, 0]

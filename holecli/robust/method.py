@@ -31,7 +31,7 @@ from holecli.geometry.plane import PlaneFit, fit_plane_robust, fit_plane_scatter
 from holecli.results import Hole, Plane, Rejection, Scales
 from holecli.robust.bias import RimScales, sampling_bias
 from holecli.robust.boundary import hole_rim, near_box_edge
-from holecli.robust.candidates import find_voids, occupancy_grid
+from holecli.robust.candidates import distance_to_outside, find_voids, occupancy_grid
 from holecli.robust.countersink import MIN_SLOPE as MIN_CONE_SLOPE
 from holecli.robust.countersink import Cone, fit_cone_edge
 from holecli.robust.doubts import Doubts, doubt_warnings
@@ -69,7 +69,7 @@ class _Scene:
     envelope: float          # depth below its sector's outermost rim point at which a rim point is dropped
     cell_indices: dict = None  # id(array) -> CellIndex of xy, surface_xy, material_xy (many candidates)
     grid: object = None        # the occupancy grid (for the border distance below)
-    border_distance: np.ndarray = None  # per grid cell, distance to the scan's outside (see _border_distance)
+    border_distance: np.ndarray = None  # per grid cell, distance to the scan's outside (candidates.distance_to_outside)
 
 
 @dataclass(frozen=True)
@@ -792,7 +792,7 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
                    min_radius=min_radius, gap_scatter=0.5 * gap, envelope=settings.envelope_gaps * gap,
                    cell_indices={})
     if not flat_crop:  # (a flat crop's holes get no warnings: the caller's scene judges them)
-        scene = replace(scene, grid=grid, border_distance=_border_distance(grid))
+        scene = replace(scene, grid=grid, border_distance=distance_to_outside(grid))
     voids = find_voids(grid)
     if len(voids) >= settings.cell_index_from_candidates:
         # Many candidates (the natural gaps of random sampling grow with the points): one sort per
@@ -855,15 +855,6 @@ def _with_shape(scene, hole, measured, gauge_depth, settings):
     return Hole(**{**hole.__dict__, "type": shape.type, "countersink": shape.countersink,
                    "counterbore": shape.counterbore, "bore": shape.bore, "axis": shape.axis,
                    "perpendicularity_deg": shape.perpendicularity_deg, "warnings": shape.warnings + doubts})
-
-
-def _border_distance(grid):
-    """Per cell of ``grid``, the distance (scan units) from its center to the nearest cell of the
-    scan's outside: the empty cells connected to the grid's padding (:func:`find_voids`'s
-    ``outside``)."""
-    labels, _ = ndimage.label(~grid.material, structure=np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]]))
-    outside = labels == labels[0, 0]
-    return ndimage.distance_transform_edt(~outside) * grid.cell
 
 
 def _doubts(scene, hole, measured):

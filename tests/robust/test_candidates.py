@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from holecli.robust.candidates import MAX_SPECK_CELLS, Grid, Void, find_voids, occupancy_grid
+from holecli.robust.candidates import MAX_SPECK_CELLS, Grid, Void, distance_to_outside, find_voids, occupancy_grid
 
 H = 0.1
 CELL = 0.15  # about two gaps of a grid of spacing h (the pipeline's cell)
@@ -175,3 +175,14 @@ def test_natural_gaps_are_refused_before_their_rim_is_extracted(monkeypatch):
     early = [r for r in detection.rejected if r.check == "below_min_diameter"]
     assert len(early) > 50
     assert len(calls) < len(detection.rejected) / 4
+
+
+def test_distance_to_outside_counts_from_the_scan_s_outside_not_from_its_holes():
+    grid = occupancy_grid(outside_disk(patch(), np.array([0.0, 0.0]), 1.0), CELL)
+    distance = distance_to_outside(grid)
+    middle = grid.cell_of(np.array([[1.5, 0.0], [2.9, 0.0], [0.0, 0.0]]))
+    near_hole, near_border, in_hole = (float(distance[i, j]) for i, j in middle)
+    assert 1.3 < near_hole < 1.7           # 1.5 mm from the patch's edge at x = 3, not 0.5 from the hole
+    assert near_border <= 3 * CELL          # 0.1 mm from the edge: the next cell or two
+    assert in_hole > 2.5                   # the hole is no outside
+    assert float(distance[0, 0]) == 0.0
