@@ -80,6 +80,18 @@ def measure_stdin(options, scan=None):
     return read_and_detect(lambda: read_stdin(input_format, scan), scan=scan, input_format=input_format, **options)
 
 
+def check_stdin_format(scan, input_format):
+    """Refuse SCAN ``-`` (standard input) without ``--input-format``: a stream has no extension.
+
+    Raises
+    ------
+    click.UsageError
+    """
+    if scan == STDIN and input_format is None:
+        raise click.UsageError(f"SCAN - (stdin) needs --input-format {'|'.join(INPUT_FORMATS)}: "
+                               "a stream has no extension to tell its format")
+
+
 def read_stdin(input_format, scan=None):
     """The cloud on standard input (``holecli detect -``), read by :func:`holecli.io.read_stream`.
 
@@ -399,9 +411,7 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
     stderr, one line each (not with --quiet); every warning is in the record.
     """
     check_verbosity(quiet, verbose)
-    if scan == STDIN and input_format is None:
-        raise click.UsageError(f"SCAN - (stdin) needs --input-format {'|'.join(INPUT_FORMATS)}: "
-                               "a stream has no extension to tell its format")
+    check_stdin_format(scan, input_format)
     if explain and fmt == "csv":
         raise click.UsageError("--explain needs --format json or table (CSV has one row per hole)")
     choice = unit_choice(units, output_units, [scan])

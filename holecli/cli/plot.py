@@ -112,8 +112,9 @@ def plot(scan, output, input_format, scan_index, units, max_panels, dpi, method,
       holecli plot scan.pcd -o fit.png --view-dir 0,0,1 --full-only
     """
     check_verbosity(quiet, verbose)
-    if scan == "-" and input_format is None:
-        raise click.UsageError("SCAN - (stdin) needs --input-format: a stream has no extension to tell its format")
+    from holecli.cli.detect import check_stdin_format
+
+    check_stdin_format(scan, input_format)
     options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
     if input_format is not None:
         options["input_format"] = input_format
