@@ -123,6 +123,71 @@ class Bore:
 
 
 @dataclass(frozen=True)
+class CountersinkUncertainty:
+    """Standard uncertainties of a :class:`Countersink`'s values (file units; degrees for the angle);
+    None where the value is None."""
+
+    diameter: Optional[float] = None
+    angle_deg: Optional[float] = None
+    depth: Optional[float] = None
+    diameter_at_depth: Optional[float] = None
+
+
+@dataclass(frozen=True)
+class CounterboreUncertainty:
+    """Standard uncertainties of a :class:`Counterbore`'s diameter and depth (file units)."""
+
+    diameter: Optional[float] = None
+    depth: Optional[float] = None
+
+
+@dataclass(frozen=True)
+class BoreUncertainty:
+    """Standard uncertainties of a :class:`Bore`'s diameter and floor depth (file units); None where
+    the value is None."""
+
+    diameter: Optional[float] = None
+    floor_depth: Optional[float] = None
+
+
+@dataclass(frozen=True)
+class Uncertainty:
+    """Standard uncertainties (coverage factor 1) of a hole's values, file units (degrees for angles).
+
+    How each is computed is in :mod:`holecli.robust.uncertainty` and the README ("Uncertainty"); the
+    interval ``value +- 2u`` holds the true value in about 95 % of cases (validated by
+    ``benchmarks/uncertainty.py``).
+
+    Attributes
+    ----------
+    center_in_plane : float
+        Of each coordinate of the center in the hole's plane (the position perpendicular to the normal).
+    center_along_normal : float
+        Of the center's position along the normal.
+    diameter : float
+    normal_deg : float
+        Of the normal's direction, degrees.
+    estimator : str
+        What measured the edge: ``rim_fit``, ``lattice``, ``empty_circle`` or ``cone`` (README).
+    countersink, counterbore, bore : or None
+        Of the values below the edge, when the hole has them.
+    axis_deg, perpendicularity_deg : float or None
+        Of the axis's direction and of the perpendicularity, degrees, when the hole has an axis.
+    """
+
+    center_in_plane: float
+    center_along_normal: float
+    diameter: float
+    normal_deg: float
+    estimator: str = "rim_fit"
+    countersink: Optional[CountersinkUncertainty] = None
+    counterbore: Optional[CounterboreUncertainty] = None
+    bore: Optional[BoreUncertainty] = None
+    axis_deg: Optional[float] = None
+    perpendicularity_deg: Optional[float] = None
+
+
+@dataclass(frozen=True)
 class HoleWarning:
     """Something that makes a hole's result doubtful or incomplete: a short stable ``code`` and a
     sentence (``message``) with the numbers (the codes are listed in the README)."""
@@ -177,6 +242,8 @@ class Hole:
         Angle between :attr:`axis` and :attr:`normal`, degrees.
     warnings : tuple of HoleWarning
         What makes the result doubtful or a value null.
+    uncertainty : Uncertainty or None
+        The standard uncertainties of the values (None from the ``paper`` method).
     """
 
     index: int
@@ -198,6 +265,7 @@ class Hole:
     axis: Optional[Vector] = None
     perpendicularity_deg: Optional[float] = None
     warnings: tuple[HoleWarning, ...] = ()
+    uncertainty: Optional[Uncertainty] = None
 
     @property
     def radius(self) -> float:
@@ -277,7 +345,7 @@ class Rejection:
 # added (a reader may ignore keys it does not know); MAJOR when a key is removed, renamed or moved or
 # its type or meaning changes. The README documents the rule; holecli/schema/record.schema.json
 # describes this version.
-SCHEMA_VERSION = "2.0"
+SCHEMA_VERSION = "2.1"
 
 
 @dataclass(frozen=True)

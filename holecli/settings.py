@@ -92,6 +92,11 @@ class RobustSettings:
     bias_passes: int = 2
     # As many of those synthetic holes as give about this many rim points in all.
     bias_rim_points: int = 400
+    # The last pass of the bias correction measures at least this many synthetic holes (of the
+    # bias_offsets), so that the spread of their errors gives the hole's uncertainty
+    # (holecli.robust.uncertainty); the lattice's separating circle and the empty circle measure
+    # that many too.
+    uncertainty_min_synthetic: int = 4
     # The surface at a hole follows a quadric instead of a plane when the quadric's sag at the hole's
     # center exceeds this many of its standard errors (a curved panel; on a flat one the quadric is
     # only noisier).
@@ -329,7 +334,7 @@ _RANGES = (
     ("min_diameter_gaps", 0.0, _INF), ("clip_sigmas", 0.0, _INF),
     ("clip_floor_spacings", 0.0, _INF), ("max_relative_scatter", 0.0, _INF),
     ("min_partial_arc_deg", 0.0, 360.0), ("full_arc_deg", 0.0, 360.0), ("boss_fraction", 0.0, 1.0),
-    ("bias_passes", 1, 100), ("bias_rim_points", 1, 10 ** 9), ("curvature_sigmas", 0.0, _INF),
+    ("bias_passes", 1, 100), ("bias_rim_points", 1, 10 ** 9), ("uncertainty_min_synthetic", 1, 10 ** 9), ("curvature_sigmas", 0.0, _INF),
     ("crop_radii", 1.0, _INF), ("crop_ring_radii", 1.0, _INF), ("cone_window_limit", 0.0, 1.0),
     ("cone_window_moves", 0, 100), ("threads", 1, 1024), ("cell_index_from_candidates", 1, 10 ** 12),
     ("threads_from_points", 0, 10 ** 12),
@@ -365,7 +370,7 @@ _RANGES = (
 )
 _COUNTS = {"cell_index_from_candidates",
            "ransac_sample", "ransac_hypotheses", "sampling_windows", "sampling_window_points", "bias_passes",
-           "bias_rim_points", "cone_window_moves", "threads", "threads_from_points", "min_rim_points",
+           "bias_rim_points", "uncertainty_min_synthetic", "cone_window_moves", "threads", "threads_from_points", "min_rim_points",
            "min_partial_rim_points", "plane_refine_rounds", "plane_refine_sample", "plane_max_faces",
            "sampling_pitch_neighbours", "max_speck_cells", "bias_min_rim_points", "lattice_min_brackets",
            "cone_min_points_below", "cone_trim_rounds", "cone_edge_steps", "cone_depth_bins",

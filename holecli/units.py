@@ -49,6 +49,14 @@ _TABLE_DECIMALS = {"mm": 4, "m": 7, "in": 5}
 
 _HOLE_LENGTHS = ("diameter", "fit_rms", "max_residual", "roundness", "bias_correction", "diameter_deviation",
                  "countersink_diameter_deviation", "countersink_depth_deviation", "bore_diameter_deviation")
+# The lengths of a hole's uncertainty (its angles, normal_deg, angle_deg, axis_deg and
+# perpendicularity_deg, are not scaled).
+_UNCERTAINTY_LENGTHS = ("center_in_plane", "center_along_normal", "diameter")
+_UNCERTAINTY_PART_LENGTHS = {
+    "countersink": ("diameter", "depth", "diameter_at_depth"),
+    "counterbore": ("diameter", "depth"),
+    "bore": ("diameter", "floor_depth"),
+}
 _PART_LENGTHS = {
     "countersink": ("diameter", "depth", "diameter_at_depth", "gauge_depth", "rms"),
     "counterbore": ("diameter", "depth", "rms"),
@@ -222,6 +230,11 @@ def _scale_hole(hole, factor):
     _scale_keys(hole, ("center",) + _HOLE_LENGTHS, factor)
     for part, keys in _PART_LENGTHS.items():
         _scale_keys(hole.get(part), keys, factor)
+    uncertainty = hole.get("uncertainty")
+    if uncertainty:
+        _scale_keys(uncertainty, _UNCERTAINTY_LENGTHS, factor)
+        for part, keys in _UNCERTAINTY_PART_LENGTHS.items():
+            _scale_keys(uncertainty.get(part), keys, factor)
 
 
 def _scale_rejection(rejection, factor):

@@ -36,6 +36,7 @@ class Cylinder:
     residuals: np.ndarray
     kept: np.ndarray
     rms: float
+    covariance: object = None  # least-squares covariance of the fit's parameters (see _covariance)
 
 
 @dataclass(frozen=True)
@@ -51,6 +52,7 @@ class Cone:
     residuals: np.ndarray
     kept: np.ndarray
     rms: float
+    covariance: object = None  # least-squares covariance of (x, y, a, b, R0, theta) (see _covariance)
 
     def radius_at(self, axial):
         """Radius of the cone at axial position ``axial`` from :attr:`point` (toward the wide end).
@@ -169,6 +171,27 @@ def _trimmed(residuals_of, start, steps, local, floor, trim_sigmas, rounds):
     return p, residuals, kept, rms
 
 
+def _covariance(residuals_of, p, steps, local):
+    """Least-squares covariance ``s^2 (J^T J)^-1`` of the parameters ``p`` fitted to ``local`` (the
+    points kept), ``s^2`` the residuals' variance on n - len(p) degrees of freedom and ``J`` the
+    forward-difference Jacobian; None when singular or too few points. In the fit's frame: the axis
+    tilts ``a, b`` are radians to first order."""
+    f = residuals_of(p, local)
+    n, k = len(f), len(p)
+    if n <= k:
+        return None
+    jacobian = np.empty((n, k))
+    for i, step in enumerate(steps):
+        shifted = np.array(p, dtype=np.float64)
+        shifted[i] += step
+        jacobian[:, i] = (residuals_of(shifted, local) - f) / step
+    try:
+        inverse = np.linalg.inv(jacobian.T @ jacobian)
+    except np.linalg.LinAlgError:
+        return None
+    return inverse * float(f @ f) / (n - k)
+
+
 def _reference_frame(points, origin, direction, radius):
     """The fit's frame (rows: two axes, then ``direction``), the points in it, the finite-difference step."""
     rotation = frame_about(direction)
@@ -214,15 +237,24 @@ def fit_cylinder(points, origin, direction, radius, *, fixed_axis=False, floor=0
     if fixed_axis:
         def residuals_of(q, pts):
             return _cylinder_residuals((q[0], q[1], 0.0, 0.0, q[2]), pts)
-        p, residuals, kept, rms = _trimmed(residuals_of, (0.0, 0.0, radius), (step, step, step), local,
+        steps = (step, step, step)
+        p, residuals, kept, rms = _trimmed(residuals_of, (0.0, 0.0, radius), steps, local,
                                            floor, trim_sigmas, rounds)
         x, y, a, b, r = p[0], p[1], 0.0, 0.0, p[2]
+        covariance = _covariance(residuals_of, p, steps, local[kept])
+        if covariance is not None:  # as (x, y, a, b, r), the tilts fixed
+            full = np.zeros((5, 5))
+            full[np.ix_([0, 1, 4], [0, 1, 4])] = covariance
+            covariance = full
     else:
+        steps = (step, step, 1e-7, 1e-7, step)
         p, residuals, kept, rms = _trimmed(_cylinder_residuals, (0.0, 0.0, 0.0, 0.0, radius),
-                                           (step, step, 1e-7, 1e-7, step), local, floor, trim_sigmas, rounds)
+                                           steps, local, floor, trim_sigmas, rounds)
         x, y, a, b, r = p
+        covariance = _covariance(_cylinder_residuals, p, steps, local[kept])
     point, axis = _to_world(np.asarray(origin, dtype=np.float64), rotation, x, y, a, b)
-    return Cylinder(point=point, axis=axis, radius=float(abs(r)), residuals=residuals, kept=kept, rms=rms)
+    return Cylinder(point=point, axis=axis, radius=float(abs(r)), residuals=residuals, kept=kept, rms=rms,
+                    covariance=covariance)
 
 
 def fit_cone(points, origin, direction, radius, half_angle, *, floor=0.0, trim_sigmas=3.0, rounds=4):
@@ -246,9 +278,10 @@ def fit_cone(points, origin, direction, radius, half_angle, *, floor=0.0, trim_s
     Cone
     """
     rotation, local, step = _reference_frame(points, origin, direction, radius)
+    steps = (step, step, 1e-7, 1e-7, step, 1e-7)
     p, residuals, kept, rms = _trimmed(_cone_residuals, (0.0, 0.0, 0.0, 0.0, radius, half_angle),
-                                       (step, step, 1e-7, 1e-7, step, 1e-7), local, floor, trim_sigmas, rounds)
+                                       steps, local, floor, trim_sigmas, rounds)
     x, y, a, b, r0, theta = p
     point, axis = _to_world(np.asarray(origin, dtype=np.float64), rotation, x, y, a, b)
     return Cone(point=point, axis=axis, radius=float(r0), half_angle=float(theta), residuals=residuals,
-                kept=kept, rms=rms)
+                kept=kept, rms=rms, covariance=_covariance(_cone_residuals, p, steps, local[kept]))

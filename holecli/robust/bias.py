@@ -56,6 +56,29 @@ class RimScales:
 
 
 def synthetic_rim_fit(xy, center, radius, scales, allow_open=True, *, settings=DEFAULT_SETTINGS):
+    """The fitted radius of the rim of a synthetic hole of ``radius`` cut at ``center`` into ``xy``
+    (:func:`synthetic_rim_circle`'s radius), None when the synthetic hole gives no usable rim."""
+    circle = synthetic_rim_circle(xy, center, radius, scales, allow_open, settings=settings)
+    return None if circle is None else circle[1]
+
+
+def synthetic_rim_circle(xy, center, radius, scales, allow_open=True, *, settings=DEFAULT_SETTINGS):
+    """The fitted center and radius of the rim of a synthetic hole (:func:`synthetic_rim`), or None."""
+    rim = synthetic_rim(xy, center, radius, scales, allow_open, settings=settings)
+    return None if rim is None else (np.asarray(rim.fit.center, dtype=np.float64), float(rim.fit.radius))
+
+
+@dataclass(frozen=True, eq=False)
+class SyntheticRim:
+    """A synthetic hole's ring of points (``local``), its rim points the fit kept (``rim_xy``) and
+    the fit (a :class:`holecli.geometry.circle.CircleFit`)."""
+
+    local: np.ndarray
+    rim_xy: np.ndarray
+    fit: object
+
+
+def synthetic_rim(xy, center, radius, scales, allow_open=True, *, settings=DEFAULT_SETTINGS, inside=None):
     """Fit the rim of a synthetic hole of ``radius`` cut at ``center`` into ``xy``.
 
     Only the ring of points between ``radius`` and ``radius + margin`` is triangulated; rim points
@@ -74,32 +97,71 @@ def synthetic_rim_fit(xy, center, radius, scales, allow_open=True, *, settings=D
         Whether the synthetic hole may reach the scan's edge.
     settings : RobustSettings
         Source of ``cut_alphas`` (the cut zone at the ring's outer line) and ``bias_min_rim_points``.
+    inside : (m, 2) float, optional
+        Points added inside the synthetic hole (the reflections the real hole has near its edge,
+        :func:`holecli.robust.uncertainty.synthetic_reflections`).
 
     Returns
     -------
-    float or None
-        The fitted radius, None when the synthetic hole gives no usable rim.
+    SyntheticRim or None
+        None when the synthetic hole gives no usable rim.
     """
     alpha, margin = scales.alpha, scales.margin
     distance = np.hypot(*(xy - center).T)
     keep = (distance > radius) & (distance < radius + margin)
     local = xy[keep]
+    cut = distance[keep] > radius + margin - settings.cut_alphas * alpha
+    if inside is not None and len(inside):
+        local = np.vstack([local, inside])
+        cut = np.concatenate([cut, np.zeros(len(inside), dtype=bool)])
+
     def in_disk(positions):
         return np.hypot(*(positions - center).T) < radius
 
-    rim = hole_rim(local, in_disk, alpha, cut=distance[keep] > radius + margin - settings.cut_alphas * alpha)
+    rim = hole_rim(local, in_disk, alpha, cut=cut)
     if rim is None or (rim.open and not allow_open):
         return None
     rim_xy = local[rim.index]
     rim_xy = rim_xy[np.hypot(*(rim_xy - center).T) <= radius + scales.reach]
     if len(rim_xy) < settings.bias_min_rim_points:
         return None
-    fit, _ = fit_edge(rim_xy, scales.envelope, scales.floor, scales.clip, start=(center, radius))
-    return None if fit is None else fit.radius
+    fit, used = fit_edge(rim_xy, scales.envelope, scales.floor, scales.clip, start=(center, radius))
+    return None if fit is None else SyntheticRim(local=local, rim_xy=rim_xy[used], fit=fit)
+
+
+@dataclass(frozen=True, eq=False)
+class SyntheticErrors:
+    """What the fits of synthetic holes of known center and radius got wrong: the sample of errors
+    that the sampling-bias correction averages and the uncertainty of a hole is estimated from
+    (:mod:`holecli.robust.uncertainty`).
+
+    Attributes
+    ----------
+    radial : (k,) float
+        Fitted minus known radius of each synthetic hole measured.
+    center : (k, 2) float
+        Fitted minus known center of each.
+    """
+
+    radial: np.ndarray
+    center: np.ndarray
+
+    @property
+    def bias(self) -> float:
+        """The mean radial error: the sampling bias."""
+        return float(np.mean(self.radial))
 
 
 def sampling_bias(xy, center, radius, offsets, scales, allow_open=True, *, settings=DEFAULT_SETTINGS):
-    """Mean excess of the fitted over the true radius of synthetic holes cut into ``xy``.
+    """Mean excess of the fitted over the true radius of synthetic holes cut into ``xy``
+    (:func:`sampling_errors`' bias), None when no synthetic hole could be measured."""
+    errors = sampling_errors(xy, center, radius, offsets, scales, allow_open, settings=settings)
+    return None if errors is None else errors.bias
+
+
+def sampling_errors(xy, center, radius, offsets, scales, allow_open=True, *, settings=DEFAULT_SETTINGS,
+                    reflections=None):
+    """The errors of rim fits of synthetic holes cut into ``xy``.
 
     Synthetic holes must not be smaller than the real hole (else they would hold its void), so the
     offsets are positive.
@@ -122,19 +184,24 @@ def sampling_bias(xy, center, radius, offsets, scales, allow_open=True, *, setti
     settings : RobustSettings
         Source of ``cut_alphas``, ``bias_min_rim_points`` and ``bias_max_excess_alphas`` (a synthetic
         hole fitted that far off its known radius is left out).
+    reflections : sequence of (m, 2) float or None, optional
+        Per offset, the points added inside that synthetic hole (None: none).
 
     Returns
     -------
-    float or None
-        The radial bias (positive: rim fits come out too large), None when no synthetic hole could
-        be measured (the material around the hole is too narrow).
+    SyntheticErrors or None
+        The radial errors (their mean is the bias; positive: rim fits come out too large) and the
+        center errors of the synthetic holes measured, None when none could be measured (the
+        material around the hole is too narrow).
     """
-    excesses = []
-    for offset in offsets:
+    radial, shifts = [], []
+    for i, offset in enumerate(offsets):
         synthetic = radius + offset
-        fitted = synthetic_rim_fit(xy, center, synthetic, scales, allow_open, settings=settings)
-        if fitted is not None and abs(fitted - synthetic) < settings.bias_max_excess_alphas * scales.alpha:
-            excesses.append(fitted - synthetic)
-    if not excesses:
+        inside = None if reflections is None else reflections[i]
+        rim = synthetic_rim(xy, center, synthetic, scales, allow_open, settings=settings, inside=inside)
+        if rim is not None and abs(rim.fit.radius - synthetic) < settings.bias_max_excess_alphas * scales.alpha:
+            radial.append(rim.fit.radius - synthetic)
+            shifts.append(rim.fit.center - center)
+    if not radial:
         return None
-    return float(np.mean(excesses))
+    return SyntheticErrors(radial=np.array(radial), center=np.array(shifts).reshape(-1, 2))

@@ -18,6 +18,7 @@ import numpy as np
 from scipy.spatial import Delaunay, QhullError
 
 from holecli.geometry.kernels import circumradii
+from holecli.robust.bias import SyntheticErrors
 
 
 def _holds_its_circumcenter(points, simplices):
@@ -78,7 +79,14 @@ def largest_empty_circle(xy, center, radius, reach):
 
 
 def empty_circle_bias(xy, center, radius, offsets, reach):
-    """Mean overshoot of the largest empty circle over the true radius of synthetic holes.
+    """Mean overshoot of the largest empty circle over the true radius of synthetic holes
+    (:func:`empty_circle_errors`' bias), None when no synthetic hole could be measured."""
+    errors = empty_circle_errors(xy, center, radius, offsets, reach)
+    return None if errors is None else errors.bias
+
+
+def empty_circle_errors(xy, center, radius, offsets, reach, reflections=None):
+    """The errors of the largest empty circle on synthetic holes of known center and radius.
 
     Each synthetic hole of radius ``radius + offset`` is cut at ``center`` into ``xy`` (its points
     removed) and measured by :func:`largest_empty_circle`; the offsets are positive so that the real
@@ -95,19 +103,27 @@ def empty_circle_bias(xy, center, radius, offsets, reach):
         Positive offsets of the synthetic radii.
     reach : float
         As for :func:`largest_empty_circle`.
+    reflections : sequence of (m, 2) float or None, optional
+        Per offset, the points added inside that synthetic hole (None: none).
 
     Returns
     -------
-    float or None
-        The mean overshoot (positive: the empty circle comes out too large), None when no synthetic
-        hole could be measured.
+    holecli.robust.bias.SyntheticErrors or None
+        The overshoots (their mean is the bias; positive: the empty circle comes out too large) and
+        the center errors, None when no synthetic hole could be measured.
     """
     xy = np.asarray(xy, dtype=np.float64)
     distance = np.hypot(*(xy - center).T)
-    excesses = []
-    for offset in offsets:
+    radial, shifts = [], []
+    for i, offset in enumerate(offsets):
         synthetic = radius + offset
-        found = largest_empty_circle(xy[distance >= synthetic], center, synthetic, reach)
+        kept = xy[distance >= synthetic]
+        if reflections is not None and reflections[i] is not None and len(reflections[i]):
+            kept = np.vstack([kept, reflections[i]])
+        found = largest_empty_circle(kept, center, synthetic, reach)
         if found is not None:
-            excesses.append(found[1] - synthetic)
-    return float(np.mean(excesses)) if excesses else None
+            radial.append(found[1] - synthetic)
+            shifts.append(np.asarray(found[0]) - center)
+    if not radial:
+        return None
+    return SyntheticErrors(radial=np.array(radial), center=np.array(shifts).reshape(-1, 2))

@@ -35,6 +35,7 @@ A value the points cannot support is None, and the hole's warnings say why (code
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Optional
 
@@ -42,7 +43,8 @@ import numpy as np
 
 from holecli.geometry.kernels import largest_angular_gap, robust_sigma
 from holecli.geometry.revolution import fit_cone, fit_cylinder, frame_about
-from holecli.results import Bore, Counterbore, Countersink, HoleWarning
+from holecli.results import (Bore, BoreUncertainty, Counterbore, CounterboreUncertainty, Countersink,
+                             CountersinkUncertainty, HoleWarning)
 from holecli.settings import DEFAULT_SETTINGS
 
 #: The warning codes this module gives, with what each means.
@@ -70,6 +72,7 @@ class HoleShape:
     axis: Optional[tuple]
     perpendicularity_deg: Optional[float]
     warnings: tuple
+    uncertainty: Optional[dict] = None  # countersink, counterbore, bore, axis_deg (see _uncertainty)
 
 
 def _from_local_surface(d, height, rho, n, R, noise, spacing, settings):
@@ -218,7 +221,7 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
             else:
                 wall_mask = below & ~floor_mask & (above_floor < -3.0 * floor_noise)
 
-    bore, bore_axis = _bore(pts, wall_mask, c, n, known_axis, floor_noise, settings, warnings)
+    bore, bore_axis, cylinder = _bore(pts, wall_mask, c, n, known_axis, floor_noise, settings, warnings)
     if cone is not None:
         if bore.diameter is not None:
             lower, source = 0.5 * bore.diameter, "bore"
@@ -244,8 +247,61 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
     else:
         perpendicularity = _angle_deg(axis, n)
         axis = tuple(float(v) for v in axis)
+    uncertainty = _uncertainty(countersink, cone, counterbore, bore, cylinder if bore.diameter is not None else None,
+                               c, n, axis, bore_axis, floor_rms if floor is not None else None)
     return HoleShape(type=kind, countersink=countersink, counterbore=counterbore, bore=bore, axis=axis,
-                     perpendicularity_deg=perpendicularity, warnings=tuple(warnings))
+                     perpendicularity_deg=perpendicularity, warnings=tuple(warnings), uncertainty=uncertainty)
+
+
+def _uncertainty(countersink, cone, counterbore, bore, cylinder, c, n, axis, bore_axis, floor_rms):
+    """Standard uncertainties of the values below the edge, from the least-squares covariances of the
+    cone and cylinder fits (:func:`holecli.geometry.revolution.fit_cone`), propagated to first order:
+    ``{"countersink", "counterbore", "bore", "axis_deg"}`` (dataclasses of holecli.results or None).
+
+    A floor's depth gets its points' rms (the scatter of the floor, an upper bound of its plane's
+    height uncertainty); the counterbore's diameter is its edge's, given by the hole's own
+    uncertainty (None here)."""
+    out = {"countersink": None, "counterbore": None, "bore": None, "axis_deg": None}
+    axis_covariance = None
+    if cone is not None and cone.covariance is not None and countersink is not None:
+        cov = cone.covariance
+        tangent, secant2 = float(np.tan(cone.half_angle)), 1.0 / float(np.cos(cone.half_angle)) ** 2
+
+        def u_radius_at(axial):
+            variance = cov[4, 4] + axial ** 2 * secant2 ** 2 * cov[5, 5] + 2.0 * axial * secant2 * cov[4, 5]
+            return math.sqrt(max(float(variance), 0.0))
+
+        top = _surface_crossing(cone.point, cone.axis, c, n)
+        u_top = u_radius_at(top)
+        u_depth = None
+        if countersink.depth is not None:
+            lower_u = 0.0 if cylinder is None or cylinder.covariance is None else math.sqrt(max(float(cylinder.covariance[4, 4]), 0.0))
+            u_depth = (math.hypot(u_top, lower_u) / tangent
+                       + countersink.depth * secant2 / tangent * math.sqrt(max(float(cov[5, 5]), 0.0)))
+        at_depth = None
+        if countersink.diameter_at_depth is not None and countersink.gauge_depth is not None:
+            at_depth = 2.0 * u_radius_at(top - countersink.gauge_depth)
+        out["countersink"] = CountersinkUncertainty(
+            diameter=None if countersink.diameter is None else 2.0 * u_top,
+            angle_deg=None if countersink.angle_deg is None else math.degrees(2.0 * math.sqrt(max(float(cov[5, 5]), 0.0))),
+            depth=u_depth, diameter_at_depth=at_depth)
+        axis_covariance = cov[2:4, 2:4]
+    if bore is not None and (bore.diameter is not None or bore.floor_depth is not None):
+        u_bore = None
+        if bore.diameter is not None and cylinder is not None and cylinder.covariance is not None:
+            u_bore = 2.0 * math.sqrt(max(float(cylinder.covariance[4, 4]), 0.0))
+            if axis_covariance is None and bore_axis is not None:
+                axis_covariance = cylinder.covariance[2:4, 2:4]
+        out["bore"] = BoreUncertainty(diameter=u_bore,
+                                      floor_depth=None if bore.floor_depth is None else bore.floor_rms)
+    if counterbore is not None:
+        out["counterbore"] = CounterboreUncertainty(diameter=None, depth=floor_rms)
+    if axis is not None:
+        if axis_covariance is not None:
+            out["axis_deg"] = math.degrees(math.sqrt(max(float(np.linalg.eigvalsh(axis_covariance)[-1]), 0.0)))
+        elif floor_rms is not None:
+            out["axis_deg"] = None  # the floor's normal: given with the surface's (see holecli.robust.method)
+    return out
 
 
 def _countersink(pts, rho, depth, below, c, n, R, slope, noise, spacing, gauge_depth, settings, warnings):
@@ -416,14 +472,14 @@ def _bore(pts, wall_mask, c, n, known_axis, noise, settings, warnings):
     empty = Bore(diameter=None, rms=None, points=0, depth_range=None, arc_deg=None)
     if count < settings.shape_min_points:
         warnings.append(_warning("bore_not_seen", f"{count} wall points < {settings.shape_min_points}"))
-        return empty, None
+        return empty, None, None
     radial, _ = _about(pts, c, known_axis)
     typical = float(np.median(radial[wall_mask]))
     candidates = wall_mask & (np.abs(radial - typical) < 0.25 * typical)
     if np.count_nonzero(candidates) < settings.shape_min_points:
         warnings.append(_warning("bore_not_seen", f"{int(np.count_nonzero(candidates))} wall points < "
                                                   f"{settings.shape_min_points}"))
-        return empty, None
+        return empty, None, None
     axial = (pts[candidates] - c) @ known_axis
     span = float(np.ptp(axial))
     free = span >= settings.shape_axis_min_span * typical
@@ -441,16 +497,16 @@ def _bore(pts, wall_mask, c, n, known_axis, noise, settings, warnings):
     depths = -((wall - c) @ n)
     if len(wall) < settings.shape_min_points:
         warnings.append(_warning("bore_not_seen", f"{len(wall)} wall points < {settings.shape_min_points}"))
-        return empty, None
+        return empty, None, None
     limit = _rms_limit(noise, cylinder.radius, settings)
     if cylinder.rms > limit:
         warnings.append(_warning("bore_not_cylindrical", f"rms {cylinder.rms:.3g} > {limit:.3g}"))
         return Bore(diameter=None, rms=cylinder.rms, points=len(wall),
-                    depth_range=(float(depths.min()), float(depths.max())), arc_deg=arc), None
+                    depth_range=(float(depths.min()), float(depths.max())), arc_deg=arc), None, None
     if arc < settings.shape_min_arc_deg:
         warnings.append(_warning("bore_short_arc", f"{arc:.0f} < {settings.shape_min_arc_deg:g} degrees"))
         return Bore(diameter=None, rms=cylinder.rms, points=len(wall),
-                    depth_range=(float(depths.min()), float(depths.max())), arc_deg=arc), None
+                    depth_range=(float(depths.min()), float(depths.max())), arc_deg=arc), None, None
     bore = Bore(diameter=float(2.0 * cylinder.radius), rms=cylinder.rms, points=len(wall),
                 depth_range=(float(depths.min()), float(depths.max())), arc_deg=arc)
-    return bore, (cylinder.axis if free else None)
+    return bore, (cylinder.axis if free else None), cylinder

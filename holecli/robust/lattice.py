@@ -17,6 +17,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from holecli.geometry.kernels import largest_angular_gap
+from holecli.robust.bias import SyntheticErrors, synthetic_rim
 from holecli.settings import DEFAULT_SETTINGS
 
 
@@ -143,3 +144,48 @@ def separating_circle(local_xy, rim_xy, steps, center, radius, *, settings=DEFAU
     if radius_sq <= 0:
         return None
     return center + unit * np.array([cx, cy]), unit * float(np.sqrt(radius_sq)), unit * float(margin)
+
+
+def lattice_errors(xy, center, radius, offsets, scales, steps, *, settings=DEFAULT_SETTINGS, reflections=None):
+    """The errors of :func:`separating_circle` on synthetic holes of known center and radius.
+
+    Each synthetic hole of radius ``radius + offset`` is cut at ``center`` into ``xy`` and measured
+    as a real hole of the lattice is: its rim extracted and fitted
+    (:func:`holecli.robust.bias.synthetic_rim`), then the separating circle of its brackets along
+    the lattice ``steps``, from that fit.
+
+    Parameters
+    ----------
+    xy : (n, 2) float
+        Material points around the hole, reaching at least ``radius + max(offsets) + scales.margin``.
+    center : (2,) float
+    radius : float
+        The hole's radius.
+    offsets : sequence of float
+        Positive offsets of the synthetic radii.
+    scales : holecli.robust.bias.RimScales
+    steps : sequence of (2,) float or None
+        The lattice's step vectors (:func:`lattice_steps`).
+    settings : RobustSettings
+    reflections : sequence of (m, 2) float or None, optional
+        Per offset, the points added inside that synthetic hole (None: none).
+
+    Returns
+    -------
+    holecli.robust.bias.SyntheticErrors or None
+        None when no synthetic hole could be measured.
+    """
+    radial, shifts = [], []
+    for i, offset in enumerate(offsets):
+        synthetic = radius + offset
+        inside = None if reflections is None else reflections[i]
+        rim = synthetic_rim(xy, center, synthetic, scales, allow_open=False, settings=settings, inside=inside)
+        if rim is None:
+            continue
+        edge = separating_circle(rim.local, rim.rim_xy, steps, rim.fit.center, rim.fit.radius, settings=settings)
+        if edge is not None:
+            radial.append(edge[1] - synthetic)
+            shifts.append(np.asarray(edge[0]) - center)
+    if not radial:
+        return None
+    return SyntheticErrors(radial=np.array(radial), center=np.array(shifts).reshape(-1, 2))

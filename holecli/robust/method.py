@@ -18,6 +18,7 @@ Steps (each its own module):
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import NamedTuple
 
@@ -28,18 +29,19 @@ from holecli.errors import PointsError
 from holecli.geometry.frame import canonical_rotation, from_plane_frame, slide_in_plane_frame
 from holecli.geometry.kernels import CellIndex, box_indices, largest_angular_gap, orient_normal, robust_sigma
 from holecli.geometry.plane import PlaneFit, fit_plane_robust, fit_plane_scatter
-from holecli.results import Hole, Plane, Rejection, Scales
-from holecli.robust.bias import RimScales, sampling_bias
+from holecli.results import Hole, Plane, Rejection, Scales, Uncertainty
+from holecli.robust.bias import RimScales, sampling_errors
 from holecli.robust.boundary import hole_rim, near_box_edge
 from holecli.robust.candidates import distance_to_outside, find_voids, occupancy_grid
 from holecli.robust.countersink import MIN_SLOPE as MIN_CONE_SLOPE
 from holecli.robust.countersink import Cone, fit_cone_edge
 from holecli.robust.doubts import Doubts, doubt_warnings
 from holecli.robust.edge import fit_edge
-from holecli.robust.empty_circle import empty_circle_bias, largest_empty_circle
+from holecli.robust.empty_circle import empty_circle_errors, largest_empty_circle
 from holecli.robust.hole_shape import measure_hole_shape
-from holecli.robust.lattice import lattice_steps, separating_circle
+from holecli.robust.lattice import lattice_errors, lattice_steps, separating_circle
 from holecli.robust.sampling import estimate_sampling
+from holecli.robust.uncertainty import edge_uncertainty, plane_uncertainty, synthetic_reflections
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.stages import StageClock
 
@@ -112,6 +114,10 @@ class _Measured:
     arc_deg: float
     surface_plane: object = None  # PlaneFit of the surface around the hole (None: the global plane)
     cone_slope: object = None     # depth per radius of the countersink cone accepted at the edge
+    estimator: str = "rim_fit"    # how the edge was measured: rim_fit, lattice, empty_circle, cone
+    synthetic: object = None      # SyntheticErrors of that estimator on synthetic holes (None: none measured)
+    cone_covariance: object = None  # (3, 3) covariance of the cone edge's (cx, cy, R) (estimator cone)
+    surface_uncertainty: tuple = (None, None)  # of the local plane's height at the hole and of its normal (rad)
 
 
 def _rim_arc(rim_xy, center):
@@ -151,13 +157,16 @@ def _within(scene, xy, center, inner, outer):
 def _local_normal(scene, center, radius, settings):
     """The surface at one hole: its tangent plane where the hole's axis meets it, from a plane or,
     on a curved surface, a quadric fitted to the plane inliers in the ring [r, 3r] (see
-    :func:`_tangent_of_quadric`)."""
+    :func:`_tangent_of_quadric`), and the standard uncertainties of its height at the hole and of
+    its normal's direction (radians; :func:`holecli.robust.uncertainty.plane_uncertainty`), or
+    ``(None, (None, None))`` when the ring holds too few points."""
     ring = _ring_plane(scene, center, radius, 3.0)
     if ring is None:
-        return None
+        return None, (None, None)
     points, plane = ring
     on_plane = from_plane_frame(np.array([center[0], center[1], 0.0]), scene.origin, scene.rotation)
-    return _tangent_of_quadric(points, plane, on_plane, settings.curvature_sigmas)
+    tangent = _tangent_of_quadric(points, plane, on_plane, settings.curvature_sigmas)
+    return tangent, plane_uncertainty(points, tangent, on_plane)
 
 
 def _ring_plane(scene, center, radius, outer_radii):
@@ -301,7 +310,8 @@ def _points_around_edge(scene, center, radius, width, settings):
 
 def _cone_in_the_plane(scene, center, cone, settings):
     """Center and edge radius of a countersink from its cone, ``depth = s * max(0, R - |xy - c|)``
-    fitted to the points around the edge with the center ``c`` free.
+    fitted to the points around the edge with the center ``c`` free, and the covariance of
+    ``(cx, cy, R)`` (None when the rim's center and the hinge's edge stay).
 
     The hinge of :func:`holecli.robust.countersink.fit_cone_edge` takes the rim's center; the rim lies inside
     the edge by what the surface band hides of the cone, and on a tilted scan the camera sees more of
@@ -315,7 +325,7 @@ def _cone_in_the_plane(scene, center, cone, settings):
     width = 2.0 * scene.alpha
     xy, depth = _points_around_edge(scene, center, cone.radius, width, settings)
     if len(xy) < settings.cone_min_points_below:
-        return center, cone.radius
+        return center, cone.radius, None
     scale = max(scene.height_noise, 1e-12 * cone.radius)
 
     def residuals(parameters):
@@ -327,12 +337,28 @@ def _cone_in_the_plane(scene, center, cone, settings):
     try:
         result = least_squares(residuals, start, loss="soft_l1", f_scale=3.0, x_scale=[width, width, width, 1.0])
     except (ValueError, np.linalg.LinAlgError):
-        return center, cone.radius
+        return center, cone.radius, None
     cx, cy, edge, slope = result.x
     shift = float(np.hypot(cx - center[0], cy - center[1]))
     if not result.success or shift > width or abs(edge - cone.radius) > width or not MIN_CONE_SLOPE <= slope:
-        return center, cone.radius
-    return np.array([cx, cy]), float(edge)
+        return center, cone.radius, None
+    return np.array([cx, cy]), float(edge), _least_squares_covariance(result, scale)[:3, :3]
+
+
+def _least_squares_covariance(result, scale):
+    """Covariance of the parameters of a scipy ``least_squares`` result whose residuals were divided
+    by ``scale``: ``s^2 (J^T J)^-1`` with ``s^2`` the residuals' variance (n - p degrees of freedom),
+    in the parameters' units; None when the Jacobian is singular."""
+    jacobian = result.jac
+    n, p = jacobian.shape
+    if n <= p:
+        return None
+    try:
+        inverse = np.linalg.inv(jacobian.T @ jacobian)
+    except np.linalg.LinAlgError:
+        return None
+    variance = float(result.fun @ result.fun) / (n - p)
+    return inverse * variance
 
 
 def _surface_height(scene, center, radius, settings, xy):
@@ -547,27 +573,34 @@ def _measure_void(scene, grid, void, settings):
     cone = _countersink(scene, center, radius, settings)
     if isinstance(cone, Cone):
         # A countersunk hole: its edge is where the cone meets the surface.
-        cone_center, cone_radius = _cone_in_the_plane(scene, center, cone, settings)
+        cone_center, cone_radius, covariance = _cone_in_the_plane(scene, center, cone, settings)
         return _Measured(center=cone_center, radius=cone_radius, bias=radius - cone_radius, fit=fit,
-                         rim_xy=rim_xy[used], partial=partial, arc_deg=arc, cone_slope=cone.slope)
-    edge = None
+                         rim_xy=rim_xy[used], partial=partial, arc_deg=arc, cone_slope=cone.slope,
+                         estimator="cone", cone_covariance=covariance)
+    edge, estimator, synthetic = None, "rim_fit", None
     if scene.sampling.lattice_axes and not partial:
         steps = lattice_steps(local, scene.sampling.lattice_axes, scene.sampling.spacing, settings=settings)
         edge = separating_circle(local, rim_xy[used], steps, center, radius, settings=settings)
+        if edge is not None:
+            estimator = "lattice"
+            synthetic = _lattice_errors(scene, edge[0], edge[1], steps, settings, floor)
     # The largest empty circle on irregular sampling whose in-plane scatter is small: on a noisy
     # surface the noise carries points into the hole and the empty circle shrinks with it.
     quiet = scene.height_noise * np.sqrt(scene.surface_density) <= settings.empty_circle_max_noise
     if edge is None and not partial and scene.sampling.period is None and quiet:
-        edge = _empty_circle(scene, local, center, radius, settings)
+        found = _empty_circle(scene, local, center, radius, settings)
+        if found is not None:
+            edge, synthetic = found[:3], found[3]
+            estimator = "empty_circle"
     if edge is not None:
         center, corrected, _ = edge
         bias = radius - corrected
     else:
-        bias = _sampling_bias(scene, center, radius, settings, floor, partial)
+        bias, synthetic = _sampling_bias(scene, center, radius, settings, floor, partial)
     if radius - bias < scene.min_radius:
         return reject("below_min_diameter", 2.0 * (radius - bias), 2.0 * scene.min_radius, center, radius - bias)
     return _Measured(center=center, radius=radius - bias, bias=bias, fit=fit, rim_xy=rim_xy[used],
-                     partial=partial, arc_deg=arc)
+                     partial=partial, arc_deg=arc, estimator=estimator, synthetic=synthetic)
 
 
 def _outline_shape(rim_xy):
@@ -599,35 +632,69 @@ def _outline_shape(rim_xy):
     return length, width, major
 
 
-def _sampling_bias(scene, center, radius, settings, floor, partial):
-    """Radial sampling bias of a rim fit of ``radius`` at ``center`` (see :mod:`holecli.robust.bias`)."""
+def _lattice_errors(scene, center, radius, steps, settings, floor):
+    """:func:`holecli.robust.lattice.lattice_errors` of a hole of the lattice measured at ``center``
+    with ``radius``: synthetic holes cut into the material around it, the lattice's period apart."""
+    offsets = [k * scene.sampling.spacing for k in settings.bias_offsets]
+    scales, ring = _synthetic_ring(scene, center, radius, offsets, settings, floor)
+    return lattice_errors(ring, center, radius, offsets, scales, steps, settings=settings,
+                          reflections=_reflections(scene, center, radius, offsets))
+
+
+def _reflections(scene, center, radius, offsets):
+    """:func:`holecli.robust.uncertainty.synthetic_reflections` for synthetic holes of ``radius +
+    offsets`` at ``center``: the surface points deeper than two gaps inside ``radius`` give the
+    density, and a reflection within 1.5 cells of the edge joins the material (a speck farther in
+    is removed by the occupancy grid, :func:`holecli.robust.candidates.occupancy_grid`)."""
+    inner = radius - 2.0 * scene.sampling.gap
+    count = len(_within(scene, scene.surface_xy, center, 0.0, inner)) if inner > 0 else 0
+    return synthetic_reflections(count, inner, center, [radius + offset for offset in offsets], 1.5 * scene.cell)
+
+
+def _synthetic_ring(scene, center, radius, offsets, settings, floor):
+    """The scales of a synthetic rim and the material points around a hole that synthetic holes of
+    ``radius + offsets`` are cut into."""
     period = scene.sampling.period or 0.5 * scene.alpha
-    # Enough synthetic holes for about bias_rim_points rim points in all: a large hole's rim alone
-    # pins the bias down, a small one needs several.
-    rim_points = max(2.0 * np.pi * radius / scene.sampling.spacing, 1.0)
-    count = int(np.clip(np.ceil(settings.bias_rim_points / rim_points), 1, len(settings.bias_offsets)))
-    offsets = [k * period for k in settings.bias_offsets[:count]]
     reach = scene.alpha + 2.0 * scene.cell
     margin = settings.margin_alphas * scene.alpha + scene.cell
     ring = scene.material_xy[_within(scene, scene.material_xy, center, radius - period,
                                      radius + offsets[-1] + margin + period)]
     scales = RimScales(alpha=scene.alpha, reach=reach, margin=margin, clip=settings.clip_sigmas, floor=floor,
                        depth=scene.envelope)
-    bias = 0.0
-    for _ in range(settings.bias_passes):
+    return scales, ring
+
+
+def _sampling_bias(scene, center, radius, settings, floor, partial):
+    """Radial sampling bias of a rim fit of ``radius`` at ``center`` (see :mod:`holecli.robust.bias`)
+    and the :class:`holecli.robust.bias.SyntheticErrors` of its last pass (None when none measured).
+
+    The last pass measures at least ``uncertainty_min_synthetic`` synthetic holes, so that the
+    spread of their errors gives the hole's uncertainty (:mod:`holecli.robust.uncertainty`)."""
+    period = scene.sampling.period or 0.5 * scene.alpha
+    # Enough synthetic holes for about bias_rim_points rim points in all: a large hole's rim alone
+    # pins the bias down, a small one needs several.
+    rim_points = max(2.0 * np.pi * radius / scene.sampling.spacing, 1.0)
+    count = int(np.clip(np.ceil(settings.bias_rim_points / rim_points), 1, len(settings.bias_offsets)))
+    final = max(count, min(settings.uncertainty_min_synthetic, len(settings.bias_offsets)))
+    offsets = [k * period for k in settings.bias_offsets[:final]]
+    scales, ring = _synthetic_ring(scene, center, radius, offsets, settings, floor)
+    bias, errors = 0.0, None
+    for passes in range(settings.bias_passes):
         # Cut the synthetic holes in phase with the current estimate of the true edge.
-        estimate = sampling_bias(ring, center, radius - bias, offsets, scales, allow_open=partial,
-                                 settings=settings)
+        last = passes == settings.bias_passes - 1
+        used = offsets if last else offsets[:count]
+        estimate = sampling_errors(ring, center, radius - bias, used, scales, allow_open=partial, settings=settings,
+                                   reflections=_reflections(scene, center, radius - bias, used))
         if estimate is None:
             break
-        bias = estimate
-    return bias
+        bias, errors = estimate.bias, estimate
+    return bias, errors
 
 
 def _empty_circle(scene, local, center, radius, settings):
     """The edge of a hole in irregular sampling: the largest circle empty of its surface points,
     less that circle's overshoot on synthetic holes cut into the same points (see
-    :mod:`holecli.robust.empty_circle`). ``(center, radius, overshoot)`` or None."""
+    :mod:`holecli.robust.empty_circle`). ``(center, radius, overshoot, SyntheticErrors)`` or None."""
     reach = scene.alpha
     found = largest_empty_circle(local, center, radius, reach)
     if found is None:
@@ -636,10 +703,11 @@ def _empty_circle(scene, local, center, radius, settings):
     offsets = [k * scene.sampling.gap for k in settings.bias_offsets]
     ring = scene.surface_xy[_within(scene, scene.surface_xy, empty_center, empty_radius,
                                     empty_radius + offsets[-1] + 3.0 * reach)]
-    overshoot = empty_circle_bias(ring, empty_center, empty_radius, offsets, reach)
-    if overshoot is None:
+    errors = empty_circle_errors(ring, empty_center, empty_radius, offsets, reach,
+                                 reflections=_reflections(scene, empty_center, empty_radius, offsets))
+    if errors is None:
         return None
-    return empty_center, empty_radius - overshoot, overshoot
+    return empty_center, empty_radius - errors.bias, errors.bias, errors
 
 
 def _measure_voids(scene, grid, voids, settings):
@@ -653,7 +721,8 @@ def _measure_voids(scene, grid, voids, settings):
         measured = _measure_void(scene, grid, void, settings)
         if isinstance(measured, _Rejected):
             return measured
-        return replace(measured, surface_plane=_local_normal(scene, measured.center, measured.radius, settings))
+        plane, surface_uncertainty = _local_normal(scene, measured.center, measured.radius, settings)
+        return replace(measured, surface_plane=plane, surface_uncertainty=surface_uncertainty)
 
     if len(voids) < 2 or len(scene.xy) < settings.threads_from_points:
         return [measure(void) for void in voids]
@@ -692,7 +761,26 @@ def _to_hole(scene, measured, index):
         partial=measured.partial,
         arc_deg=measured.arc_deg,
         scan_lines=_scan_lines(scene, measured.rim_xy, center2d, measured.radius),
+        uncertainty=_uncertainty(scene, measured),
     )
+
+
+def _uncertainty(scene, measured):
+    """The :class:`holecli.results.Uncertainty` of a measured hole's edge and surface (the values below
+    the edge are added with its shape, :func:`_with_shape`)."""
+    fit = measured.fit
+    u_center, u_diameter = edge_uncertainty(measured.estimator, measured.synthetic, measured.rim_xy, fit.center,
+                                            fit.radius, float(scene.sampling.spacing), float(scene.height_noise),
+                                            measured.cone_covariance)
+    height, normal = measured.surface_uncertainty
+    if height is None:  # no local plane: the scan's plane (its height noise over its inliers)
+        count = max(len(scene.surface_xy), 1)
+        height = float(scene.height_noise) / math.sqrt(count)
+        extent = float(np.sqrt(np.mean(np.sum(scene.surface_xy ** 2, axis=1)))) if len(scene.surface_xy) else 1.0
+        normal = float(scene.height_noise) / max(extent * math.sqrt(count), 1e-300)
+    return Uncertainty(center_in_plane=float(u_center), center_along_normal=float(height),
+                       diameter=float(u_diameter), normal_deg=math.degrees(float(normal)),
+                       estimator=measured.estimator)
 
 
 class RobustResult(NamedTuple):
@@ -854,7 +942,28 @@ def _with_shape(scene, hole, measured, gauge_depth, settings):
     doubts = doubt_warnings(_doubts(scene, hole, measured), settings)
     return Hole(**{**hole.__dict__, "type": shape.type, "countersink": shape.countersink,
                    "counterbore": shape.counterbore, "bore": shape.bore, "axis": shape.axis,
-                   "perpendicularity_deg": shape.perpendicularity_deg, "warnings": shape.warnings + doubts})
+                   "perpendicularity_deg": shape.perpendicularity_deg, "warnings": shape.warnings + doubts,
+                   "uncertainty": _with_shape_uncertainty(hole.uncertainty, shape)})
+
+
+def _with_shape_uncertainty(uncertainty, shape):
+    """The hole's :class:`holecli.results.Uncertainty` with its shape's values'
+    (:func:`holecli.robust.hole_shape.measure_hole_shape`): a counterbore's diameter is the edge's,
+    an axis from a floor's normal is as uncertain as the surface's normal, and the perpendicularity
+    combines the axis's and the normal's."""
+    if uncertainty is None or shape.uncertainty is None:
+        return uncertainty
+    values = dict(shape.uncertainty)
+    if values["counterbore"] is not None:
+        values["counterbore"] = replace(values["counterbore"], diameter=uncertainty.diameter)
+    if shape.axis is not None and values["axis_deg"] is None:
+        values["axis_deg"] = uncertainty.normal_deg
+    perpendicularity = None
+    if shape.perpendicularity_deg is not None and values["axis_deg"] is not None:
+        perpendicularity = math.hypot(values["axis_deg"], uncertainty.normal_deg)
+    return replace(uncertainty, countersink=values["countersink"], counterbore=values["counterbore"],
+                   bore=values["bore"], axis_deg=values["axis_deg"] if shape.axis is not None else None,
+                   perpendicularity_deg=perpendicularity)
 
 
 def _doubts(scene, hole, measured):

@@ -1,0 +1,255 @@
+"""The standard uncertainty of a hole's center, diameter and normal, from the scan's own points.
+
+Pure: the measurement's pieces in, an :class:`holecli.results.Uncertainty`'s values out.
+
+Edge (center in the plane, diameter)
+    The error of an edge estimate comes from where the sampling put the points near the edge and
+    from the noise, neither of which the rim points' residuals describe (on a grid or on stripes
+    they are not independent, and the residual scatter is mostly the depth of the rim, not noise).
+    So the uncertainty is measured the way the sampling bias is (:mod:`holecli.robust.bias`):
+    synthetic holes of known center and radius are cut into the points around the real hole and
+    measured by the same estimator as the hole (the rim fit, the lattice's separating circle, the
+    largest empty circle); their errors are a sample of the errors the real measurement makes.
+
+    * in-plane center: the root mean square of the synthetic holes' center errors, per coordinate;
+    * radius, for an estimator whose bias is corrected by the synthetic holes' mean error (the rim
+      fit, the empty circle): the sample standard deviation ``s`` of their radial errors, times
+      ``sqrt(1 + 1/k)`` for ``k`` synthetic holes (the hole's own error less the mean of ``k``
+      others); for the lattice's separating circle, which is not corrected, their root mean square;
+    * for the rim fit, each is at least the least-squares covariance of the rim's circle fit
+      (``sigma^2 (J^T J)^-1``, ``sigma`` the rms radial residual): a burr or debris on the real rim
+      that the synthetic holes do not have widens it;
+    * a countersunk hole's edge is where the cone meets the surface: its center and radius come
+      from the least-squares covariance of that cone fit;
+    * the real hole's reflections near its edge are given to the synthetic holes too
+      (:func:`synthetic_reflections`).
+
+    What the synthetic holes cannot show (the edge of a real hole is not a clean cut through the
+    points: range noise seen off the ray, the wall's top, the profiler's lattice) is a *method term*
+    added in quadrature, ``a h`` and ``b sigma_h`` per estimator (:data:`METHOD_TERMS`; ``h`` the
+    point spacing, ``sigma_h`` the surface's height noise), as ISO 15530-3 adds the bias seen on
+    calibrated workpieces: the scenes of ``benchmarks/uncertainty.py`` with seeds 0-39 and 100-139
+    are those workpieces (the smallest terms that give each simulator's scenes a 95 % coverage),
+    and the benchmark's default seeds (200 on) validate them.
+
+    With few synthetic holes the spread is itself uncertain: a ``k``-sample standard deviation is
+    widened by the ratio of Student's t to the normal quantile at 95 %, so that ``value +- 2u``
+    keeps its coverage.
+
+Surface (center along the normal, normal)
+    The local plane's least-squares covariance: the height at the center ``sigma^2 / n`` and the
+    slopes ``sigma^2 / sum s^2`` along the ring's principal axes (``sigma`` the plane's rms).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+# The method terms (a, b) of each estimator, for the in-plane center and the diameter: added in
+# quadrature as a h and b sigma_h (see the module docstring for how they were measured).
+METHOD_TERMS = {
+    "rim_fit": {"center": (0.05, 0.3), "diameter": (0.0, 0.5)},
+    "lattice": {"center": (0.006, 0.0), "diameter": (0.03, 0.0)},
+    "empty_circle": {"center": (0.03, 0.1), "diameter": (0.07, 2.0)},
+    "cone": {"center": (0.0, 0.0), "diameter": (0.002, 0.0)},
+}
+
+# Student's t at 97.5 % over the normal's 1.96, for a spread estimated from k - 1 degrees of
+# freedom: widens a few-sample spread so that +-2u keeps a 95 % coverage (index: degrees of freedom).
+_T_975 = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262,
+          10: 2.228}
+
+
+def small_sample_factor(degrees_of_freedom) -> float:
+    """Student's t over the normal quantile at 97.5 % for ``degrees_of_freedom`` (1 beyond 10... 30).
+
+    Parameters
+    ----------
+    degrees_of_freedom : int
+
+    Returns
+    -------
+    float
+        ``t_0.975(dof) / 1.96``; 1 from 30 degrees of freedom, interpolated in ``1/dof`` beyond 10.
+    """
+    dof = int(degrees_of_freedom)
+    if dof < 1:
+        raise ValueError(f"degrees_of_freedom must be >= 1, got {degrees_of_freedom}")
+    if dof in _T_975:
+        return _T_975[dof] / 1.96
+    # t_0.975 ~ 1.96 + 2.4 / dof beyond 10 degrees of freedom (2.086 at 20, 2.042 at 30)
+    return (1.96 + 2.4 / dof) / 1.96
+
+
+def circle_fit_covariance(rim_xy, center, radius):
+    """Least-squares covariance of a geometric circle fit's ``(cx, cy, r)``.
+
+    Parameters
+    ----------
+    rim_xy : (m, 2) float
+        The points the circle was fitted to, m > 3.
+    center : (2,) float
+    radius : float
+
+    Returns
+    -------
+    (3, 3) float or None
+        ``sigma^2 (J^T J)^-1`` with ``sigma^2`` the residuals' variance on ``m - 3`` degrees of
+        freedom; None for three points or fewer or a singular fit.
+    """
+    rim_xy = np.asarray(rim_xy, dtype=np.float64)
+    if len(rim_xy) <= 3:
+        return None
+    d = rim_xy - np.asarray(center, dtype=np.float64)
+    distance = np.hypot(d[:, 0], d[:, 1])
+    distance[distance == 0] = 1e-300
+    jacobian = np.column_stack([-d[:, 0] / distance, -d[:, 1] / distance, -np.ones(len(d))])
+    residuals = distance - radius
+    try:
+        inverse = np.linalg.inv(jacobian.T @ jacobian)
+    except np.linalg.LinAlgError:
+        return None
+    return inverse * float(residuals @ residuals) / (len(d) - 3)
+
+
+def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, height_noise, cone_covariance=None):
+    """Standard uncertainties of an edge's in-plane center (per coordinate) and of its diameter.
+
+    Parameters
+    ----------
+    estimator : str
+        ``"rim_fit"`` or ``"empty_circle"`` (bias corrected by the synthetic holes' mean error),
+        ``"lattice"`` (not corrected) or ``"cone"`` (a countersink's edge from its cone fit).
+    synthetic : holecli.robust.bias.SyntheticErrors or None
+        The estimator's errors on synthetic holes (None: none could be measured).
+    rim_xy : (m, 2) float
+        The rim points the hole's circle was fitted to (plane frame).
+    center : (2,) float
+        The rim circle's center.
+    radius : float
+        The rim circle's radius (before any correction).
+    spacing : float
+        The point spacing ``h``.
+    height_noise : float
+        The surface's height noise ``sigma_h``.
+    cone_covariance : (3, 3) float, optional
+        For ``"cone"``: the covariance of the cone edge's ``(cx, cy, R)``.
+
+    Returns
+    -------
+    center : float
+        Of each in-plane coordinate of the center.
+    diameter : float
+    """
+    u_center, u_radius = _sampled_uncertainty(estimator, synthetic, rim_xy, center, radius, cone_covariance)
+    (ca, cb), (da, db) = METHOD_TERMS[estimator]["center"], METHOD_TERMS[estimator]["diameter"]
+    return (math.hypot(u_center, ca * spacing, cb * height_noise),
+            math.hypot(2.0 * u_radius, da * spacing, db * height_noise))
+
+
+def _sampled_uncertainty(estimator, synthetic, rim_xy, center, radius, cone_covariance):
+    """The center's and the radius's uncertainty from the synthetic holes (or the cone's fit)."""
+    fit = circle_fit_covariance(rim_xy, center, radius)
+    fit_center = 0.0 if fit is None else math.sqrt(max(float(np.linalg.eigvalsh(fit[:2, :2])[-1]), 0.0))
+    fit_radius = 0.0 if fit is None else math.sqrt(max(float(fit[2, 2]), 0.0))
+    if estimator == "cone" and cone_covariance is not None:
+        cone_center = math.sqrt(max(float(np.linalg.eigvalsh(cone_covariance[:2, :2])[-1]), 0.0))
+        return cone_center, math.sqrt(max(float(cone_covariance[2, 2]), 0.0))
+    if synthetic is None or len(synthetic.radial) == 0:
+        return fit_center, fit_radius
+    k = len(synthetic.radial)
+    radial = np.asarray(synthetic.radial, dtype=np.float64)
+    shifts = np.asarray(synthetic.center, dtype=np.float64)
+    # the center errors: 2k values about zero (no correction is applied to the center)
+    spread_center = math.sqrt(float(np.mean(shifts ** 2))) * small_sample_factor(2 * k)
+    if estimator == "lattice":
+        spread_radius = math.sqrt(float(np.mean(radial ** 2))) * small_sample_factor(k)
+    elif k >= 2:
+        spread_radius = float(np.std(radial, ddof=1)) * math.sqrt(1.0 + 1.0 / k) * small_sample_factor(k - 1)
+    else:
+        spread_radius = 0.0
+    if estimator != "rim_fit":
+        return spread_center, spread_radius
+    return max(spread_center, fit_center), max(spread_radius, fit_radius)
+
+
+def plane_uncertainty(points, plane, at):
+    """Standard uncertainties of a local plane's height at ``at`` and of its normal's direction.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        The points the plane was fitted to (n > 3).
+    plane : holecli.geometry.plane.PlaneFit
+        Its fit (point, normal, rms).
+    at : (3,) float
+        Where the height is wanted (the hole's center).
+
+    Returns
+    -------
+    height : float
+        Along the normal, at ``at``.
+    normal_rad : float
+        Of the normal's direction (radians), along the worse-determined in-plane axis.
+    """
+    points = np.asarray(points, dtype=np.float64)
+    n = len(points)
+    if n <= 3:
+        return float("nan"), float("nan")
+    normal = np.asarray(plane.normal, dtype=np.float64)
+    centred = points - np.asarray(plane.point, dtype=np.float64)
+    in_plane = centred - np.outer(centred @ normal, normal)
+    scatter = in_plane.T @ in_plane
+    values, vectors = np.linalg.eigh(scatter)
+    # the two in-plane axes: the largest two eigenvalues (the third, along the normal, is ~0)
+    axes, spread = vectors[:, 1:], values[1:]
+    variance = float(plane.rms) ** 2 * n / (n - 3)
+    offset = (np.asarray(at, dtype=np.float64) - np.asarray(plane.point, dtype=np.float64)) @ axes
+    slopes = variance / np.maximum(spread, 1e-300)
+    height = math.sqrt(variance / n + float(np.sum(offset ** 2 * slopes)))
+    return height, math.sqrt(float(slopes.max()))
+
+
+def synthetic_reflections(inside_count, inner_radius, center, radii, band):
+    """Reflections for synthetic holes like those the real hole has near its edge.
+
+    A reflection (a speck of surface points inside the hole) deep inside the hole is removed with the
+    other specks; one within a cell or two of the edge joins the material and pulls the edge in, by
+    up to its depth. The synthetic holes that measure a hole's sampling bias and uncertainty must see
+    as many: each gets points uniform in the band ``[r - band, r]`` inside its edge at the density of
+    the real hole's surface points deeper inside (``inside_count`` within ``inner_radius``). The
+    positions are drawn with fixed seeds (one per synthetic hole): a result does not depend on global
+    random state.
+
+    Parameters
+    ----------
+    inside_count : int
+        Surface points of the real hole within ``inner_radius`` of its center.
+    inner_radius : float
+        > 0.
+    center : (2,) float
+    radii : sequence of float
+        The synthetic holes' radii.
+    band : float
+        Depth inside the edge within which a reflection joins the material.
+
+    Returns
+    -------
+    list of (m, 2) float or None
+        Per synthetic hole its reflections; None when the real hole has none.
+    """
+    if inside_count <= 0 or inner_radius <= 0:
+        return None
+    density = inside_count / (math.pi * inner_radius ** 2)
+    center = np.asarray(center, dtype=np.float64)
+    out = []
+    for i, radius in enumerate(radii):
+        rng = np.random.default_rng(i)
+        low = max(radius - band, 0.0)
+        count = int(rng.poisson(density * math.pi * (radius ** 2 - low ** 2)))
+        rho = np.sqrt(rng.uniform(low ** 2, radius ** 2, count))
+        phi = rng.uniform(0.0, 2.0 * math.pi, count)
+        out.append(center + np.column_stack([rho * np.cos(phi), rho * np.sin(phi)]))
+    return out
