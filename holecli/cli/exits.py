@@ -23,6 +23,7 @@ EXIT_NO_HOLE = 4
 EXIT_OUT_OF_TOLERANCE = 5
 EXIT_FILE_FAILED = 6
 EXIT_WARNING = 7  # --fail-on-warning: a hole has a selected warning
+EXIT_UNDECIDED = 8  # --decision-rule guarded: no check failed, but conformance of some is not proved
 EXIT_INTERRUPTED = 130
 # 128 + SIGPIPE (13), what a shell reports for a program killed by SIGPIPE (`yes | head -1` under
 # `set -o pipefail`): the reader of the output stopped reading before its end.
