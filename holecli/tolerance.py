@@ -77,7 +77,8 @@ from typing import Optional
 from holecli.errors import SpecError
 from holecli.io.decimal_text import parse_decimal
 
-__all__ = ["DECISION_RULES", "DEFAULT_COVERAGE_FACTOR", "Band", "NominalHole", "Spec", "check", "describe", "nominal_spec", "parse_band", "parse_spec"]
+__all__ = ["DECISION_RULES", "DEFAULT_COVERAGE_FACTOR", "Band", "NominalHole", "Spec", "check", "describe",
+           "nominal_spec", "parse_band", "parse_spec"]
 
 Vector = tuple[float, float, float]
 

@@ -36,8 +36,8 @@ import copy
 from dataclasses import dataclass
 from typing import Optional
 
-__all__ = ["LENGTH_CHECKS", "LENGTH_CONFORMANCE_CHECKS", "UNITS", "UnitChoice", "convert_length", "convert_record", "label_record",
-           "scale_factor", "table_decimals"]
+__all__ = ["LENGTH_CHECKS", "LENGTH_CONFORMANCE_CHECKS", "UNITS", "UnitChoice", "convert_length", "convert_record",
+           "label_record", "scale_factor", "table_decimals"]
 
 # Millimetres per unit.
 UNITS = {"mm": 1.0, "m": 1000.0, "in": 25.4}

@@ -245,13 +245,15 @@ def test_without_a_center_every_hole_is_checked():
     record = _record(_hole(0, (0, 0, 0), 3.01), _hole(1, (9, 0, 0), 3.2), _hole(2, (-9, 0, 0), 2.99))
     out = check(record, nominal_spec(diameter=3.0, tolerance=0.02))
     assert [hole["in_tolerance"] for hole in out["holes"]] == [True, False, True]
-    assert out["verdict"] == {"checked": 3, "out_of_tolerance": 1, "missing": [], "in_tolerance": False, **SIMPLE_VERDICT}
+    assert out["verdict"] == {"checked": 3, "out_of_tolerance": 1, "missing": [], "in_tolerance": False,
+                              **SIMPLE_VERDICT}
 
 
 def test_no_hole_at_all_means_the_nominal_is_missing():
     out = check(_record(), nominal_spec(diameter=3.0, tolerance=0.02))
     assert out["holes"] == []
-    assert out["verdict"] == {"checked": 0, "out_of_tolerance": 0, "missing": [None], "in_tolerance": False, **SIMPLE_VERDICT}
+    assert out["verdict"] == {"checked": 0, "out_of_tolerance": 0, "missing": [None], "in_tolerance": False,
+                              **SIMPLE_VERDICT}
 
 
 def test_check_keeps_the_record_and_adds_the_verdict_after_the_holes():
@@ -299,7 +301,8 @@ def test_the_nominal_center_picks_the_nearest_hole_and_leaves_the_others_uncheck
     assert second["position_deviation"]["in_plane"] == pytest.approx(0.02)
     assert first["in_tolerance"] is None and third["in_tolerance"] is None
     assert first["diameter_deviation"] is None and first["failed_checks"] is None
-    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 0, "missing": [], "in_tolerance": True, **SIMPLE_VERDICT}
+    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 0, "missing": [], "in_tolerance": True,
+                              **SIMPLE_VERDICT}
 
 
 def test_the_nominal_center_of_the_command_line_has_no_match_radius():
@@ -376,14 +379,16 @@ def test_spec_matching_names_missing_and_extra_holes():
     # a measured hole without a nominal one is reported, not checked, and does not fail the verdict
     assert extra["name"] is None and extra["in_tolerance"] is None
     assert extra["diameter_deviation"] is None and extra["position_deviation"] is None
-    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 0, "missing": ["A2"], "in_tolerance": False, **SIMPLE_VERDICT}
+    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 0, "missing": ["A2"], "in_tolerance": False,
+                              **SIMPLE_VERDICT}
 
 
 def test_spec_all_matched_and_in_tolerance():
     record = _record(_hole(0, (10.1, 0.0, 0.0), 4.03), _hole(1, (0.0, 0.05, 0.0), 3.03))
     out = check(record, parse_spec(SPEC_TEXT))
     assert [hole["name"] for hole in out["holes"]] == ["A2", "A1"]
-    assert out["verdict"] == {"checked": 2, "out_of_tolerance": 0, "missing": [], "in_tolerance": True, **SIMPLE_VERDICT}
+    assert out["verdict"] == {"checked": 2, "out_of_tolerance": 0, "missing": [], "in_tolerance": True,
+                              **SIMPLE_VERDICT}
 
 
 def test_spec_match_radius_is_the_nominal_diameter():
@@ -495,7 +500,8 @@ def test_a_check_without_its_measured_value_is_not_measured_and_fails(values, fa
     assert checked["in_tolerance"] is False
     assert checked["failed_checks"] == [failed]  # the diameter itself is in tolerance
     assert all(checked[key] is None for key in checked if key.endswith("_deviation") and key != "diameter_deviation")
-    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 1, "missing": [], "in_tolerance": False, **SIMPLE_VERDICT}
+    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 1, "missing": [], "in_tolerance": False,
+                              **SIMPLE_VERDICT}
     bare = check(_record(_hole(0, (0, 0, 0), 4.0)), nominal_spec(diameter=4.0, tolerance=0.1, **values))
     assert bare["holes"][0]["failed_checks"] == [failed]
 
@@ -605,7 +611,8 @@ def test_parse_spec_feature_keys_and_their_verdicts():
     assert first["countersink_angle_deviation"] == pytest.approx(0.4)
     assert (second["name"], second["in_tolerance"]) == ("T1", False)
     assert second["failed_checks"] == ["bore_diameter_not_measured"]
-    assert out["verdict"] == {"checked": 2, "out_of_tolerance": 1, "missing": [], "in_tolerance": False, **SIMPLE_VERDICT}
+    assert out["verdict"] == {"checked": 2, "out_of_tolerance": 1, "missing": [], "in_tolerance": False,
+                              **SIMPLE_VERDICT}
 
 
 @pytest.mark.parametrize(
@@ -746,14 +753,16 @@ def test_guarded_position_is_one_sided(in_plane, u, decision):
 @pytest.mark.parametrize(
     "nominal, hole_changes, uncertainty, check_name, value",
     [
-        ({"normal": (0, 0, 1), "max_tilt": 1.0}, {"normal": [0.0, math.sin(math.radians(0.9)), math.cos(math.radians(0.9))]},
+        ({"normal": (0, 0, 1), "max_tilt": 1.0},
+         {"normal": [0.0, math.sin(math.radians(0.9)), math.cos(math.radians(0.9))]},
          {"normal_deg": 0.1}, "tilt", 0.9),
         ({"max_perpendicularity": 0.5}, {"perpendicularity_deg": 0.45}, {"perpendicularity_deg": 0.05},
          "perpendicularity", 0.45),
         ({"countersink_angle": 100.0, "countersink_angle_tolerance": 1.0}, {"countersink": {"angle_deg": 100.9}},
          {"countersink": {"diameter": None, "angle_deg": 0.1, "depth": None, "diameter_at_depth": None}},
          "countersink_angle", 0.9),
-        ({"countersink_diameter": 7.0, "countersink_diameter_tolerance": "+0.1/-0"}, {"countersink": {"diameter": 7.09}},
+        ({"countersink_diameter": 7.0, "countersink_diameter_tolerance": "+0.1/-0"},
+         {"countersink": {"diameter": 7.09}},
          {"countersink": {"diameter": 0.01, "angle_deg": None, "depth": None, "diameter_at_depth": None}},
          "countersink_diameter", 0.09),
         ({"countersink_depth": 1.2, "countersink_depth_tolerance": 0.05}, {"countersink": {"depth": 1.24}},

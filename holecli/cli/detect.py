@@ -380,8 +380,9 @@ def undecided_line(record):
     unknown = sum(any(entry["reason"] == "uncertainty_unknown" for entry in (hole.get("conformance") or {}).values())
                   for hole in record["holes"])
     without = f", {unknown} with an uncertainty not known" if unknown else ""
+    rule = f"{verdict['decision_rule']}, k={verdict['coverage_factor']:g}"
     return (f"holecli: undecided: {verdict['undecided']} of {verdict['checked']} checked holes{without} "
-            f"({verdict['decision_rule']}, k={verdict['coverage_factor']:g}: conformance not proved) in {record['file']}")
+            f"({rule}: conformance not proved) in {record['file']}")
 
 
 def record_warned(record, selected):
@@ -441,8 +442,8 @@ def emit(text, output):
 @fail_on_warning_option
 @verbosity_option_decorators
 def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, units, output_units, method, view_dir, min_diameter,
-           max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor, fail_on_warning, quiet, verbose,
-           **nominal_options):
+           max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor, fail_on_warning, quiet,
+           verbose, **nominal_options):
     """Measure the holes in SCAN (.ply, .pcd, .csv, .txt, .xyz, .e57, .las or .laz; - reads it from
     stdin, with --input-format).
 

@@ -171,7 +171,8 @@ def batch_summary(tally, seconds, checked, earlier, output):
         text += f" ({count(tally.without_hole, 'file')} without a hole)"
     if checked:
         undecided = f", {tally.undecided} undecided" if tally.undecided else ""
-        text += f"; {tally.out_of_tolerance} out of tolerance{undecided}, {count(tally.missing, 'nominal hole')} missing"
+        text += (f"; {tally.out_of_tolerance} out of tolerance{undecided}, "
+                 f"{count(tally.missing, 'nominal hole')} missing")
     else:
         text += "; tolerances not checked"
     if tally.doubtful_holes:

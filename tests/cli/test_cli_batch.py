@@ -389,7 +389,8 @@ def test_detect_spec_matching_missing_and_extra(run, tmp_path):
     names = {tuple(round(c, 1) for c in hole["center"]): hole["name"] for hole in record["holes"]}
     assert names[tuple(round(c, 1) for c in left["center"])] == "L"
     assert names[tuple(round(c, 1) for c in right["center"])] is None  # measured, no nominal: reported
-    assert record["verdict"] == {"checked": 1, "out_of_tolerance": 0, "missing": ["FAR"], "in_tolerance": False, **SIMPLE_VERDICT}
+    assert record["verdict"] == {"checked": 1, "out_of_tolerance": 0, "missing": ["FAR"], "in_tolerance": False,
+                                 **SIMPLE_VERDICT}
     assert "missing: FAR" in result.stderr
     # every nominal matched: in tolerance, the extra measured hole does not fail the verdict
     spec.write_text(_spec_text([("L", left["center"], 1.5, "")]))
@@ -773,7 +774,8 @@ def test_spec_file_with_feature_checks_in_detect_and_batch(run, panel, tmp_path)
     assert by_name["C1"]["failed_checks"] == [] and by_name["B1"]["failed_checks"] == []
     assert by_name["T1"]["failed_checks"] == ["bore_diameter_not_measured"]
     assert by_name["L1"]["failed_checks"] == ["countersink_depth_not_measured"]
-    assert record["verdict"] == {"checked": 4, "out_of_tolerance": 2, "missing": [], "in_tolerance": False, **SIMPLE_VERDICT}
+    assert record["verdict"] == {"checked": 4, "out_of_tolerance": 2, "missing": [], "in_tolerance": False,
+                                 **SIMPLE_VERDICT}
     result = run("batch", panel, "--spec", spec, "--format", "csv")
     assert result.exit_code == cli.EXIT_OUT_OF_TOLERANCE, result.stderr
     rows = {row["name"]: row for row in csv.DictReader(io.StringIO(result.stdout))}
