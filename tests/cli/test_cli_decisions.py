@@ -83,6 +83,13 @@ def test_exit_8_is_documented_in_both_helps():
     assert cli.EXIT_UNDECIDED == EXIT_UNDECIDED == 8
 
 
+def test_the_readme_documents_exit_8_and_the_decision_rules(repo_root):
+    text = (repo_root / "README.md").read_text(encoding="utf-8")
+    assert "| 8 | undecided (`--decision-rule guarded`)" in text
+    assert "the first of this order wins: 130, 141, 3, 5, 8, 6, 7, 4, 0" in text
+    assert "### Decision rules" in text and "| `--coverage-factor K` |" in text
+
+
 def test_the_cli_decision_rules_are_the_cores():
     from holecli.cli.options import DECISION_RULES
 
