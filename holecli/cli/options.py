@@ -379,6 +379,11 @@ _FEATURE_OPTIONS = (
 )
 
 
+# The values of --decision-rule (holecli.tolerance.DECISION_RULES, spelled out here so that building
+# the options does not import it; a test keeps the two equal).
+DECISION_RULES = ("simple", "guarded")
+
+
 def tolerance_option_decorators(function):
     """The tolerance options shared by ``detect`` and ``batch``.
 
@@ -439,11 +444,6 @@ def tolerance_option_decorators(function):
                           "uncertainty in the record) [default: 2]. Needs tolerance options or --spec."),
     ]
     return _applied(options, function)
-
-
-# The values of --decision-rule (holecli.tolerance.DECISION_RULES, spelled out here so that building
-# the options does not import it; a test keeps the two equal).
-DECISION_RULES = ("simple", "guarded")
 
 
 def decision_from_options(decision_rule, coverage_factor, checked):
