@@ -646,6 +646,7 @@ class FileSummary:
     failed: bool
     holes: int = 0
     out_of_tolerance: int = 0
+    undecided: int = 0  # holes with an undecided check and none failed (--decision-rule guarded)
     missing: int = 0
     path: str = ""  # resolved_path of the file; "" in records of holecli 0.1
     warnings: tuple = ()  # per hole, the tuple of its warning codes
@@ -657,7 +658,8 @@ class FileSummary:
             return cls(file=record["file"], failed=True, path=path)
         verdict = record.get("verdict") or {}
         return cls(file=record["file"], failed=False, holes=len(record.get("holes", ())),
-                   out_of_tolerance=verdict.get("out_of_tolerance", 0), missing=len(verdict.get("missing", ())),
+                   out_of_tolerance=verdict.get("out_of_tolerance", 0), undecided=verdict.get("undecided", 0),
+                   missing=len(verdict.get("missing", ())),
                    path=path, warnings=tuple(tuple(warning["code"] for warning in hole.get("warnings", ()))
                                              for hole in record.get("holes", ())))
 
@@ -668,10 +670,17 @@ class FileSummary:
             return cls(file=file, failed=True, path=path)
         holes = [row for row in rows if row["hole"]]
         return cls(file=file, failed=False, holes=len(holes), path=path,
-                   out_of_tolerance=sum(row["in_tolerance"] == "false" for row in holes),
+                   # a hole not in tolerance fails a check, or else has an undecided one
+                   out_of_tolerance=sum(row["in_tolerance"] == "false" and not _only_undecided(row) for row in holes),
+                   undecided=sum(row["in_tolerance"] == "false" and _only_undecided(row) for row in holes),
                    missing=sum(row["in_tolerance"] == "false" for row in rows if not row["hole"]),
                    warnings=tuple(tuple(code for code in (row.get("warnings") or "").split(";") if code)
                                   for row in holes))
+
+
+def _only_undecided(row):
+    """Whether a CSV row's hole has an undecided check and no failed one."""
+    return not row.get("failed_checks") and bool(row.get("undecided_checks"))
 
 
 @dataclass
@@ -683,6 +692,7 @@ class Tally:
     holes: int = 0
     without_hole: int = 0
     out_of_tolerance: int = 0
+    undecided: int = 0
     missing: int = 0
     doubtful_holes: int = 0  # holes with a warning of holecli.robust.doubts (a doubtful result)
     warning_codes: dict = field(default_factory=dict)  # every warning code -> holes with it
@@ -698,6 +708,7 @@ class Tally:
         self.holes += summary.holes
         self.without_hole += summary.holes == 0
         self.out_of_tolerance += summary.out_of_tolerance
+        self.undecided += summary.undecided
         self.missing += summary.missing
         from holecli.robust.doubts import DOUBT_CODES
 

@@ -27,12 +27,17 @@ CSV_COLUMNS = (
     "max_holes", "full_only", "gauge_depth", "rng", "settings", "input_format", "scan", "spec_file", "spec_sha256", "nominal",
     "point_spacing", "gap_scale", "line_pitch", "period", "lattice", "height_noise", "triangle_area_bound",
     "candidates",
+) + (
+    # The decision rules (ISO 14253-1), after the older columns, which keep their positions: the
+    # undecided checks, the conformance of every check as compact JSON (value, limits, U, decision),
+    # and, with the provenance, options.tolerances' decision_rule and coverage_factor.
+    "undecided_checks", "conformance", "decision_rule", "coverage_factor",
 )
 
 # The columns of the provenance that come from the record's options and scales.
 _OPTION_COLUMNS = ("method", "view_dir", "min_diameter", "min_diameter_effective", "max_holes", "full_only",
                    "gauge_depth", "rng", "settings", "input_format", "scan")
-_TOLERANCE_COLUMNS = ("spec_file", "spec_sha256", "nominal")
+_TOLERANCE_COLUMNS = ("spec_file", "spec_sha256", "nominal", "decision_rule", "coverage_factor")
 _SCALE_COLUMNS = ("point_spacing", "gap_scale", "line_pitch", "period", "lattice", "height_noise",
                   "triangle_area_bound")
 
@@ -94,7 +99,7 @@ def _cell(value):
         # failed_checks, warnings, view_dir: a few words or numbers, never holding the separator
         return ";".join(repr(item) if isinstance(item, float) else str(item) for item in value)
     if isinstance(value, dict):
-        # settings, nominal: compact JSON in one cell
+        # settings, nominal, conformance: compact JSON in one cell
         return json.dumps(value, separators=(",", ":"), allow_nan=False)
     return str(value)
 

@@ -30,6 +30,32 @@ A check whose measured value is null (a hole without a countersink, a bore wall 
 *not measured*: it fails, with ``<check>_not_measured`` in ``failed_checks`` (``"bore_diameter_not_measured"``)
 and a null deviation, so that a value the scan does not show is never taken for one in tolerance.
 
+Decision rules (ISO 14253-1)
+----------------------------
+Every check of a checked hole gets an entry in the hole's ``conformance``, by check name::
+
+    {"value": v, "lower": L or None, "upper": T, "expanded_uncertainty": U or None,
+     "decision": "pass" | "fail" | "undecided", "reason": code}
+
+``value`` is what is compared (the deviation for a band check, the in-plane distance for position,
+the angle for tilt and perpendicularity; None when not measured), ``lower`` and ``upper`` the limits
+of the zone (``lower`` None for the checks of a largest value), ``expanded_uncertainty`` is
+``U = k * u`` with ``u`` the standard uncertainty of the measured value in the hole's ``uncertainty``
+(:data:`_UNCERTAINTY_PATHS`) and ``k`` the spec's ``coverage_factor`` (None when ``u`` is not known).
+
+simple (the default)
+    the value alone decides: ``pass`` inside the zone, ``fail`` outside it; U is reported, not used.
+guarded
+    ``pass`` when ``[value - U, value + U]`` lies inside the zone (conformance proved), ``fail`` when
+    it lies wholly outside (non-conformance proved), ``undecided`` when it straddles a limit. A check
+    whose ``u`` is not known is ``undecided`` (reason ``uncertainty_unknown``): a conformance that
+    cannot be proved is not proved.
+
+A check not measured fails under either rule (reason ``not_measured``). The ``reason`` codes:
+``inside``, ``outside`` (simple), ``inside_with_uncertainty``, ``outside_with_uncertainty``,
+``straddles_lower``, ``straddles_upper``, ``uncertainty_unknown`` (guarded), ``not_measured``.
+Every comparison allows :data:`_ROUND_OFF`, as without a decision rule.
+
 Matching
 --------
 A nominal hole with a center is matched to one measured hole: every pair closer than the nominal's
@@ -51,7 +77,8 @@ from typing import Optional
 from holecli.errors import SpecError
 from holecli.io.decimal_text import parse_decimal
 
-__all__ = ["Band", "NominalHole", "Spec", "check", "describe", "nominal_spec", "parse_band", "parse_spec"]
+__all__ = ["DECISION_RULES", "DEFAULT_COVERAGE_FACTOR", "Band", "NominalHole", "Spec", "check", "describe",
+           "nominal_spec", "parse_band", "parse_spec"]
 
 Vector = tuple[float, float, float]
 
@@ -98,6 +125,18 @@ _KEY_NAMES = {key: key for key in _SPEC_KEYS}
 _TOLERANCE_KEYS = ("tolerance", "position_tolerance", "max_tilt",
                    *(f"{feature.name}_tolerance" for feature in _FEATURE_CHECKS), "max_perpendicularity")
 
+# The decision rules of ISO 14253-1 that check() applies, and the default coverage factor (k = 2: about
+# 95 % coverage for a normal distribution, the usual choice of a calibration certificate).
+DECISION_RULES = ("simple", "guarded")
+DEFAULT_COVERAGE_FACTOR = 2.0
+
+# Where each check's standard uncertainty is in a hole's ``uncertainty`` (its value, or null).
+_UNCERTAINTY_PATHS = {
+    "diameter": ("diameter",), "position": ("center_in_plane",), "tilt": ("normal_deg",),
+    "countersink_diameter": ("countersink", "diameter"), "countersink_angle": ("countersink", "angle_deg"),
+    "countersink_depth": ("countersink", "depth"), "bore_diameter": ("bore", "diameter"),
+    "perpendicularity": ("perpendicularity_deg",),
+}
 
 
 @dataclass(frozen=True)
@@ -182,12 +221,33 @@ class Spec:
     sha256 : str or None
         SHA-256 (hex) of the spec file's bytes as read, for the record's provenance (filled in by
         whoever read the file: :func:`parse_spec` sees text only).
+    decision_rule : {"simple", "guarded"}
+        How a measured value and its uncertainty decide a check (ISO 14253-1, see the module's
+        docstring): ``simple`` by the value alone, ``guarded`` by the value +- its expanded uncertainty.
+    coverage_factor : float
+        ``k`` of the expanded uncertainty ``U = k * u``; a finite number > 0.
+
+    Raises
+    ------
+    SpecError
+        For a ``decision_rule`` not in :data:`DECISION_RULES` or a ``coverage_factor`` that is not a
+        finite number > 0 (the dataclass validates them on construction, and on ``replace``).
     """
 
     holes: tuple[NominalHole, ...]
     named: bool = False
     source: Optional[str] = None
     sha256: Optional[str] = None
+    decision_rule: str = "simple"
+    coverage_factor: float = DEFAULT_COVERAGE_FACTOR
+
+    def __post_init__(self):
+        if self.decision_rule not in DECISION_RULES:
+            raise SpecError(f"decision_rule must be one of {', '.join(DECISION_RULES)}, got {self.decision_rule!r}")
+        k = self.coverage_factor
+        if isinstance(k, bool) or not isinstance(k, (int, float)) or not math.isfinite(k) or k <= 0:
+            raise SpecError(f"coverage_factor must be a finite number > 0, got {k!r}")
+        object.__setattr__(self, "coverage_factor", float(k))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -465,9 +525,11 @@ def describe(spec) -> dict:
         nominal holes are in the file), ``nominal`` None; for the command line's tolerance options,
         ``spec_file`` and ``spec_sha256`` None and ``nominal`` the one nominal hole: every
         :class:`NominalHole` value by name (bands as ``{"lower", "upper"}``, None where not given).
+        Either way ``decision_rule`` and ``coverage_factor``, how the checks were decided.
     """
+    decision = {"decision_rule": spec.decision_rule, "coverage_factor": spec.coverage_factor}
     if spec.named:
-        return {"spec_file": spec.source, "spec_sha256": spec.sha256, "nominal": None}
+        return {"spec_file": spec.source, "spec_sha256": spec.sha256, "nominal": None, **decision}
     hole = spec.holes[0]
     nominal = {}
     for name, value in hole.__dict__.items():
@@ -478,7 +540,7 @@ def describe(spec) -> dict:
         elif isinstance(value, tuple):
             value = list(value)
         nominal[name] = value
-    return {"spec_file": None, "spec_sha256": None, "nominal": nominal}
+    return {"spec_file": None, "spec_sha256": None, "nominal": nominal, **decision}
 
 
 def check(record, spec) -> dict:
@@ -489,9 +551,11 @@ def check(record, spec) -> dict:
     record : dict
         A detection record (:meth:`holecli.results.Detection.to_dict`): ``holes`` with ``center``,
         ``diameter`` and ``normal``, and ``countersink``, ``bore`` and ``perpendicularity_deg`` for the
-        checks of those (missing counts as null).
+        checks of those (missing counts as null); optionally each hole's ``uncertainty``, the
+        standard uncertainties (k = 1) of its values (missing or null: not known).
     spec : Spec
-        From :func:`nominal_spec` or :func:`parse_spec`.
+        From :func:`nominal_spec` or :func:`parse_spec`; its ``decision_rule`` and
+        ``coverage_factor`` say how a value and its uncertainty decide a check.
 
     Returns
     -------
@@ -499,31 +563,41 @@ def check(record, spec) -> dict:
         The record, every hole with ``diameter_deviation``, ``position_deviation``
         (``{"in_plane", "along_normal"}``), ``tilt_deg``, ``countersink_diameter_deviation``,
         ``countersink_angle_deviation``, ``countersink_depth_deviation``, ``bore_diameter_deviation``,
-        ``in_tolerance`` and ``failed_checks`` (None where the check does not apply or its value is
-        not measured, all None for a hole no nominal applies to; a check not measured is in
-        ``failed_checks`` as ``<check>_not_measured``), and with
-        ``name`` when ``spec.named``; and ``verdict``: ``{"checked", "out_of_tolerance", "missing",
-        "in_tolerance"}`` after ``holes``. A record with ``options`` gets its ``tolerances``
-        (:func:`describe`).
+        ``in_tolerance``, ``failed_checks``, ``undecided_checks`` and ``conformance`` (None where the
+        check does not apply or its value is not measured, all None for a hole no nominal applies
+        to; a check not measured is in ``failed_checks`` as ``<check>_not_measured``; ``conformance``
+        the decision of every check, see the module's docstring; ``in_tolerance`` true only when
+        every check passes), and with ``name`` when ``spec.named``; and ``verdict``: ``{"checked",
+        "out_of_tolerance", "undecided", "missing", "in_tolerance", "decision_rule",
+        "coverage_factor"}`` after ``holes`` (``out_of_tolerance`` the holes with a failed check,
+        ``undecided`` those with an undecided check and none failed). A record with ``options`` gets
+        its ``tolerances`` (:func:`describe`).
+
+    Raises
+    ------
+    ValueError
+        When a hole's ``uncertainty`` holds a value that is not a finite number >= 0.
     """
     holes = record["holes"]
     assigned = _match(holes, spec.holes)
     checked_holes = []
-    checked = failed = 0
+    checked = failed = undecided = 0
     for index, hole in enumerate(holes):
         nominal = assigned.get(index)
         result = dict(hole)
         if spec.named:
             result["name"] = nominal.name if nominal else None
-        result.update(_verdict(hole, nominal))
+        result.update(_verdict(hole, nominal, spec.decision_rule, spec.coverage_factor))
         if nominal is not None:
             checked += 1
-            failed += not result["in_tolerance"]
+            failed += bool(result["failed_checks"])
+            undecided += not result["failed_checks"] and bool(result["undecided_checks"])
         checked_holes.append(result)
     matched = {id(nominal) for nominal in assigned.values()}
     missing = [nominal.name for nominal in spec.holes if id(nominal) not in matched]
-    verdict = {"checked": checked, "out_of_tolerance": failed, "missing": missing,
-               "in_tolerance": failed == 0 and not missing}
+    verdict = {"checked": checked, "out_of_tolerance": failed, "undecided": undecided, "missing": missing,
+               "in_tolerance": failed == 0 and undecided == 0 and not missing,
+               "decision_rule": spec.decision_rule, "coverage_factor": spec.coverage_factor}
     out = {}
     for key, value in record.items():
         out[key] = checked_holes if key == "holes" else value
@@ -554,18 +628,23 @@ def _match(holes, nominals) -> dict:
     return assigned
 
 
-def _verdict(hole, nominal) -> dict:
+def _verdict(hole, nominal, rule="simple", coverage_factor=DEFAULT_COVERAGE_FACTOR) -> dict:
     out = {"diameter_deviation": None, "position_deviation": None, "tilt_deg": None,
            **{f"{feature.name}_deviation": None for feature in _FEATURE_CHECKS},
-           "in_tolerance": None, "failed_checks": None}
+           "in_tolerance": None, "failed_checks": None, "undecided_checks": None, "conformance": None}
     if nominal is None:
         return out
-    failed = []
+    uncertainty = hole.get("uncertainty") or {}
+    conformance = {}
+
+    def decide(name, value, lower, upper, size):
+        expanded = _expanded_uncertainty(uncertainty, name, coverage_factor, hole.get("index"))
+        conformance[name] = _decision(value, lower, upper, expanded, size, rule)
+
     if nominal.diameter is not None:
         deviation = hole["diameter"] - nominal.diameter
         out["diameter_deviation"] = deviation
-        if not _within(deviation, nominal.band, nominal.diameter):
-            failed.append("diameter")
+        decide("diameter", deviation, nominal.band.lower, nominal.band.upper, nominal.diameter)
     normal = _unit(hole["normal"])
     if nominal.center is not None:
         offset = [m - c for m, c in zip(hole["center"], nominal.center)]
@@ -573,41 +652,69 @@ def _verdict(hole, nominal) -> dict:
         in_plane = math.hypot(*(o - along * n for o, n in zip(offset, normal)))
         out["position_deviation"] = {"in_plane": in_plane, "along_normal": along}
         if nominal.position_tolerance is not None:
-            if in_plane > nominal.position_tolerance * (1 + _ROUND_OFF):
-                failed.append("position")
+            decide("position", in_plane, None, nominal.position_tolerance, nominal.position_tolerance)
     if nominal.normal is not None:
         tilt = _line_angle_deg(normal, _unit(nominal.normal))
         out["tilt_deg"] = tilt
-        if nominal.max_tilt is not None and tilt > nominal.max_tilt * (1 + _ROUND_OFF):
-            failed.append("tilt")
+        if nominal.max_tilt is not None:
+            decide("tilt", tilt, None, nominal.max_tilt, nominal.max_tilt)
     for feature in _FEATURE_CHECKS:
         nominal_value = getattr(nominal, feature.name)
         if nominal_value is None:
             continue
         part, key = feature.path
         measured = (hole.get(part) or {}).get(key)
-        if measured is None:
-            failed.append(f"{feature.name}_not_measured")
-            continue
-        deviation = measured - nominal_value
+        deviation = None if measured is None else measured - nominal_value
         out[f"{feature.name}_deviation"] = deviation
-        if not _within(deviation, getattr(nominal, f"{feature.name}_band"), nominal_value):
-            failed.append(feature.name)
+        band = getattr(nominal, f"{feature.name}_band")
+        decide(feature.name, deviation, band.lower, band.upper, nominal_value)
     if nominal.max_perpendicularity is not None:
-        perpendicularity = hole.get("perpendicularity_deg")
-        if perpendicularity is None:
-            failed.append("perpendicularity_not_measured")
-        elif perpendicularity > nominal.max_perpendicularity * (1 + _ROUND_OFF):
-            failed.append("perpendicularity")
-    out["in_tolerance"] = not failed
-    out["failed_checks"] = failed
+        decide("perpendicularity", hole.get("perpendicularity_deg"), None, nominal.max_perpendicularity,
+               nominal.max_perpendicularity)
+    out["failed_checks"] = [name + ("_not_measured" if entry["value"] is None else "")
+                            for name, entry in conformance.items() if entry["decision"] == "fail"]
+    out["undecided_checks"] = [name for name, entry in conformance.items() if entry["decision"] == "undecided"]
+    out["in_tolerance"] = not out["failed_checks"] and not out["undecided_checks"]
+    out["conformance"] = conformance
     return out
 
 
-def _within(deviation, band, size) -> bool:
-    """Whether ``deviation`` is in ``band``, limits included, with the round-off of a quantity of ``size``."""
+def _decision(value, lower, upper, expanded, size, rule) -> dict:
+    """The conformance entry of one check: ``value`` against the zone ``[lower, upper]`` (``lower``
+    None: no lower limit) by ``rule``, with the expanded uncertainty ``expanded`` (None: not known) and
+    the round-off of a quantity of ``size``."""
+    entry = {"value": value, "lower": lower, "upper": upper, "expanded_uncertainty": expanded}
     slack = _ROUND_OFF * size
-    return band.lower - slack <= deviation <= band.upper + slack
+    low = -math.inf if lower is None else lower - slack
+    high = upper + slack
+    if value is None:
+        decision, reason = "fail", "not_measured"
+    elif rule == "simple":
+        decision, reason = ("pass", "inside") if low <= value <= high else ("fail", "outside")
+    elif expanded is None:
+        decision, reason = "undecided", "uncertainty_unknown"
+    elif value - expanded > high or value + expanded < low:
+        decision, reason = "fail", "outside_with_uncertainty"
+    elif low <= value - expanded and value + expanded <= high:
+        decision, reason = "pass", "inside_with_uncertainty"
+    else:
+        below, above = value - expanded < low, value + expanded > high
+        decision = "undecided"
+        reason = "straddles_both" if below and above else ("straddles_lower" if below else "straddles_upper")
+    return {**entry, "decision": decision, "reason": reason}
+
+
+def _expanded_uncertainty(uncertainty, check_name, coverage_factor, index):
+    """``k * u`` of a check from a hole's ``uncertainty`` (a dict), or None when ``u`` is not known."""
+    value = uncertainty
+    path = _UNCERTAINTY_PATHS[check_name]
+    for key in path:
+        value = value.get(key) if isinstance(value, dict) else None
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+        raise ValueError(f"hole {index}: uncertainty.{'.'.join(path)} must be a finite number >= 0, got {value!r}")
+    return coverage_factor * float(value)
 
 
 def _unit(vector):

@@ -17,7 +17,10 @@ The lengths of a record (every other number is not one):
   ``.rms``; ``counterbore.diameter``, ``.depth``, ``.rms``; ``bore.diameter``, ``.rms``,
   ``.depth_range``, ``.floor_depth``, ``.floor_rms``; the verdict's ``diameter_deviation``,
   ``position_deviation`` (``in_plane``, ``along_normal``), ``countersink_diameter_deviation``,
-  ``countersink_depth_deviation``, ``bore_diameter_deviation``;
+  ``countersink_depth_deviation``, ``bore_diameter_deviation``; ``value``, ``lower``, ``upper`` and
+  ``expanded_uncertainty`` of the ``conformance`` entries of the checks of lengths
+  (:data:`LENGTH_CONFORMANCE_CHECKS`: not ``tilt``, ``countersink_angle`` and ``perpendicularity``,
+  in degrees);
 - per rejected candidate (``--explain``): ``center``, ``diameter``, ``shape.length``,
   ``shape.width``, and ``value`` and ``limit`` of the checks that compare lengths
   (:data:`LENGTH_CHECKS`).
@@ -33,8 +36,8 @@ import copy
 from dataclasses import dataclass
 from typing import Optional
 
-__all__ = ["LENGTH_CHECKS", "UNITS", "UnitChoice", "convert_length", "convert_record", "label_record",
-           "scale_factor", "table_decimals"]
+__all__ = ["LENGTH_CHECKS", "LENGTH_CONFORMANCE_CHECKS", "UNITS", "UnitChoice", "convert_length", "convert_record",
+           "label_record", "scale_factor", "table_decimals"]
 
 # Millimetres per unit.
 UNITS = {"mm": 1.0, "m": 1000.0, "in": 25.4}
@@ -42,6 +45,12 @@ UNITS = {"mm": 1.0, "m": 1000.0, "in": 25.4}
 # The rejection checks whose value and limit are lengths (diameters, a scatter of radii); the other
 # checks compare counts or degrees.
 LENGTH_CHECKS = frozenset({"below_min_diameter", "not_round", "beyond_max_holes"})
+
+# The tolerance checks (holecli.tolerance) whose conformance entries are lengths; the others, tilt,
+# countersink_angle and perpendicularity, are in degrees.
+LENGTH_CONFORMANCE_CHECKS = frozenset({"diameter", "position", "countersink_diameter", "countersink_depth",
+                                       "bore_diameter"})
+_CONFORMANCE_LENGTHS = ("value", "lower", "upper", "expanded_uncertainty")
 
 # Decimals of a length in ``--format table``: a tenth of a micrometre in mm and m; in inches 0.00001
 # (a quarter of a micrometre, a step finer than inch gauges read).
@@ -235,6 +244,9 @@ def _scale_hole(hole, factor):
         _scale_keys(uncertainty, _UNCERTAINTY_LENGTHS, factor)
         for part, keys in _UNCERTAINTY_PART_LENGTHS.items():
             _scale_keys(uncertainty.get(part), keys, factor)
+    for check, entry in (hole.get("conformance") or {}).items():
+        if check in LENGTH_CONFORMANCE_CHECKS:
+            _scale_keys(entry, _CONFORMANCE_LENGTHS, factor)
 
 
 def _scale_rejection(rejection, factor):

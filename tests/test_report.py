@@ -20,7 +20,7 @@ DOCUMENTED_COLUMNS = (
     "countersink_depth_deviation,bore_diameter_deviation,in_tolerance,failed_checks,"
     "schema_version,holecli_version,units,method,view_dir,min_diameter,min_diameter_effective,max_holes,full_only,"
     "gauge_depth,rng,settings,input_format,scan,spec_file,spec_sha256,nominal,point_spacing,gap_scale,line_pitch,period,lattice,"
-    "height_noise,triangle_area_bound,candidates"
+    "height_noise,triangle_area_bound,candidates,undecided_checks,conformance,decision_rule,coverage_factor"
 ).split(",")
 # The provenance columns (issue 13): the same in every row of a record.
 PROVENANCE = DOCUMENTED_COLUMNS.index("schema_version")

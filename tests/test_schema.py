@@ -69,7 +69,8 @@ def test_the_record_names_the_spec_file_and_the_sha256_of_its_bytes(panel_record
     with open(_sample("panel_tolerances.toml"), "rb") as stream:
         digest = hashlib.sha256(stream.read()).hexdigest()
     assert panel_record["options"]["tolerances"] == {"spec_file": _sample("panel_tolerances.toml"),
-                                                     "spec_sha256": digest, "nominal": None}
+                                                     "spec_sha256": digest, "nominal": None,
+                                                     "decision_rule": "simple", "coverage_factor": 2.0}
     assert panel_record["options"]["gauge_depth"] == 0.5
     assert panel_record["schema_version"] == SCHEMA_VERSION and panel_record["holecli_version"] == __version__
 

@@ -2,13 +2,14 @@
 
 import copy
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from holecli.errors import SpecError
 from holecli.simulation import synth
-from holecli.tolerance import Band, check, nominal_spec, parse_band, parse_spec
+from holecli.tolerance import Band, check, describe, nominal_spec, parse_band, parse_spec
 
 SPEC_TEXT = """
 # two holes of a bracket
@@ -27,6 +28,10 @@ center = [10, 0, 0]
 diameter = 4
 tolerance = 0.05
 """
+
+
+# What check() adds to every verdict under the default decision rule.
+SIMPLE_VERDICT = {"undecided": 0, "decision_rule": "simple", "coverage_factor": 2.0}
 
 
 def _hole(index, center, diameter, normal=(0.0, 0.0, 1.0)):
@@ -233,20 +238,22 @@ def test_diameter_verdict(diameter, tolerance, expected):
     assert hole["position_deviation"] is None and hole["tilt_deg"] is None
     assert "name" not in hole
     assert out["verdict"] == {"checked": 1, "out_of_tolerance": 0 if expected else 1, "missing": [],
-                              "in_tolerance": expected}
+                              "in_tolerance": expected, **SIMPLE_VERDICT}
 
 
 def test_without_a_center_every_hole_is_checked():
     record = _record(_hole(0, (0, 0, 0), 3.01), _hole(1, (9, 0, 0), 3.2), _hole(2, (-9, 0, 0), 2.99))
     out = check(record, nominal_spec(diameter=3.0, tolerance=0.02))
     assert [hole["in_tolerance"] for hole in out["holes"]] == [True, False, True]
-    assert out["verdict"] == {"checked": 3, "out_of_tolerance": 1, "missing": [], "in_tolerance": False}
+    assert out["verdict"] == {"checked": 3, "out_of_tolerance": 1, "missing": [], "in_tolerance": False,
+                              **SIMPLE_VERDICT}
 
 
 def test_no_hole_at_all_means_the_nominal_is_missing():
     out = check(_record(), nominal_spec(diameter=3.0, tolerance=0.02))
     assert out["holes"] == []
-    assert out["verdict"] == {"checked": 0, "out_of_tolerance": 0, "missing": [None], "in_tolerance": False}
+    assert out["verdict"] == {"checked": 0, "out_of_tolerance": 0, "missing": [None], "in_tolerance": False,
+                              **SIMPLE_VERDICT}
 
 
 def test_check_keeps_the_record_and_adds_the_verdict_after_the_holes():
@@ -257,10 +264,10 @@ def test_check_keeps_the_record_and_adds_the_verdict_after_the_holes():
     assert list(out) == ["file", "points", "method", "holes", "verdict", "timing"]
     for key in record["holes"][0]:
         assert out["holes"][0][key] == record["holes"][0][key]
-    assert list(out["holes"][0])[-9:] == ["diameter_deviation", "position_deviation", "tilt_deg",
-                                          "countersink_diameter_deviation", "countersink_angle_deviation",
-                                          "countersink_depth_deviation", "bore_diameter_deviation", "in_tolerance",
-                                          "failed_checks"]
+    assert list(out["holes"][0])[-11:] == ["diameter_deviation", "position_deviation", "tilt_deg",
+                                           "countersink_diameter_deviation", "countersink_angle_deviation",
+                                           "countersink_depth_deviation", "bore_diameter_deviation", "in_tolerance",
+                                           "failed_checks", "undecided_checks", "conformance"]
 
 
 # --- verdicts: position and tilt ---------------------------------------------------------------------
@@ -294,7 +301,8 @@ def test_the_nominal_center_picks_the_nearest_hole_and_leaves_the_others_uncheck
     assert second["position_deviation"]["in_plane"] == pytest.approx(0.02)
     assert first["in_tolerance"] is None and third["in_tolerance"] is None
     assert first["diameter_deviation"] is None and first["failed_checks"] is None
-    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 0, "missing": [], "in_tolerance": True}
+    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 0, "missing": [], "in_tolerance": True,
+                              **SIMPLE_VERDICT}
 
 
 def test_the_nominal_center_of_the_command_line_has_no_match_radius():
@@ -371,14 +379,16 @@ def test_spec_matching_names_missing_and_extra_holes():
     # a measured hole without a nominal one is reported, not checked, and does not fail the verdict
     assert extra["name"] is None and extra["in_tolerance"] is None
     assert extra["diameter_deviation"] is None and extra["position_deviation"] is None
-    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 0, "missing": ["A2"], "in_tolerance": False}
+    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 0, "missing": ["A2"], "in_tolerance": False,
+                              **SIMPLE_VERDICT}
 
 
 def test_spec_all_matched_and_in_tolerance():
     record = _record(_hole(0, (10.1, 0.0, 0.0), 4.03), _hole(1, (0.0, 0.05, 0.0), 3.03))
     out = check(record, parse_spec(SPEC_TEXT))
     assert [hole["name"] for hole in out["holes"]] == ["A2", "A1"]
-    assert out["verdict"] == {"checked": 2, "out_of_tolerance": 0, "missing": [], "in_tolerance": True}
+    assert out["verdict"] == {"checked": 2, "out_of_tolerance": 0, "missing": [], "in_tolerance": True,
+                              **SIMPLE_VERDICT}
 
 
 def test_spec_match_radius_is_the_nominal_diameter():
@@ -490,7 +500,8 @@ def test_a_check_without_its_measured_value_is_not_measured_and_fails(values, fa
     assert checked["in_tolerance"] is False
     assert checked["failed_checks"] == [failed]  # the diameter itself is in tolerance
     assert all(checked[key] is None for key in checked if key.endswith("_deviation") and key != "diameter_deviation")
-    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 1, "missing": [], "in_tolerance": False}
+    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 1, "missing": [], "in_tolerance": False,
+                              **SIMPLE_VERDICT}
     bare = check(_record(_hole(0, (0, 0, 0), 4.0)), nominal_spec(diameter=4.0, tolerance=0.1, **values))
     assert bare["holes"][0]["failed_checks"] == [failed]
 
@@ -600,7 +611,8 @@ def test_parse_spec_feature_keys_and_their_verdicts():
     assert first["countersink_angle_deviation"] == pytest.approx(0.4)
     assert (second["name"], second["in_tolerance"]) == ("T1", False)
     assert second["failed_checks"] == ["bore_diameter_not_measured"]
-    assert out["verdict"] == {"checked": 2, "out_of_tolerance": 1, "missing": [], "in_tolerance": False}
+    assert out["verdict"] == {"checked": 2, "out_of_tolerance": 1, "missing": [], "in_tolerance": False,
+                              **SIMPLE_VERDICT}
 
 
 @pytest.mark.parametrize(
@@ -625,3 +637,209 @@ def test_parse_spec_feature_keys_and_their_verdicts():
 def test_parse_spec_refuses_bad_feature_keys(changes, match):
     with pytest.raises(SpecError, match=match):
         parse_spec(_spec_with(**changes))
+
+
+# --- decision rules (ISO 14253-1) ----------------------------------------------------------------------
+
+
+def _uncertain_hole(diameter, u_diameter=None, **uncertainty):
+    hole = _hole(0, (0, 0, 0), diameter)
+    hole["uncertainty"] = {"center_in_plane": None, "center_along_normal": None, "diameter": u_diameter,
+                           "normal_deg": None, "countersink": None, "counterbore": None, "bore": None,
+                           "axis_deg": None, "perpendicularity_deg": None, **uncertainty}
+    return hole
+
+
+def _h9(rule="guarded", coverage_factor=2.0):
+    """3 +0.036/-0 (an H9 hole) under ``rule``."""
+    return replace(nominal_spec(diameter=3.0, tolerance="+0.036/-0"), decision_rule=rule,
+                   coverage_factor=coverage_factor)
+
+
+@pytest.mark.parametrize(
+    "diameter, u, decision, reason",
+    [
+        (3.018, 0.002, "pass", "inside_with_uncertainty"),  # 3.014 .. 3.022: inside [3, 3.036]
+        (3.004, 0.002, "pass", "inside_with_uncertainty"),  # 3.000 .. 3.008: on the lower limit is inside
+        (2.9969, 0.002, "undecided", "straddles_lower"),  # the README's H9 case: 2.9929 .. 3.0009
+        (3.0031, 0.002, "undecided", "straddles_lower"),  # inside by value, not by value - U
+        (3.0349, 0.002, "undecided", "straddles_upper"),
+        (3.0371, 0.002, "undecided", "straddles_upper"),  # outside by value, not by value - U
+        (2.9950, 0.002, "fail", "outside_with_uncertainty"),  # 2.991 .. 2.999: wholly below
+        (3.0410, 0.002, "fail", "outside_with_uncertainty"),  # 3.037 .. 3.045: wholly above
+        (3.018, 0.02, "undecided", "straddles_both"),  # U wider than the zone
+    ],
+)
+def test_guarded_decides_by_the_value_and_its_expanded_uncertainty(diameter, u, decision, reason):
+    out = check(_record(_uncertain_hole(diameter, u)), _h9())
+    hole = out["holes"][0]
+    entry = hole["conformance"]["diameter"]
+    assert entry == {"value": pytest.approx(diameter - 3.0, abs=1e-12), "lower": 0.0, "upper": 0.036,
+                     "expanded_uncertainty": pytest.approx(2 * u), "decision": decision, "reason": reason}
+    assert hole["failed_checks"] == (["diameter"] if decision == "fail" else [])
+    assert hole["undecided_checks"] == (["diameter"] if decision == "undecided" else [])
+    assert hole["in_tolerance"] is (decision == "pass")
+    verdict = out["verdict"]
+    assert (verdict["out_of_tolerance"], verdict["undecided"]) == (decision == "fail", decision == "undecided")
+    assert verdict["in_tolerance"] is (decision == "pass")
+    assert (verdict["decision_rule"], verdict["coverage_factor"]) == ("guarded", 2.0)
+
+
+@pytest.mark.parametrize("diameter, expected", [(2.9969, "fail"), (3.0031, "pass"), (3.0371, "fail"), (3.018, "pass")])
+def test_simple_decides_by_the_value_alone_and_reports_u(diameter, expected):
+    simple = check(_record(_uncertain_hole(diameter, 0.002)), _h9("simple"))
+    hole = simple["holes"][0]
+    assert hole["conformance"]["diameter"]["decision"] == expected
+    assert hole["conformance"]["diameter"]["expanded_uncertainty"] == pytest.approx(0.004)
+    assert hole["undecided_checks"] == [] and simple["verdict"]["undecided"] == 0
+    # the same verdict as without any uncertainty (today's behaviour)
+    plain = check(_record(_hole(0, (0, 0, 0), diameter)), nominal_spec(diameter=3.0, tolerance="+0.036/-0"))
+    for key in ("in_tolerance", "failed_checks", "diameter_deviation"):
+        assert plain["holes"][0][key] == hole[key]
+    assert plain["verdict"] == simple["verdict"]
+    assert plain["holes"][0]["conformance"]["diameter"]["expanded_uncertainty"] is None
+
+
+@pytest.mark.parametrize("uncertainty", [None, {}, {"diameter": None}])
+def test_guarded_without_u_is_undecided_even_far_inside(uncertainty):
+    hole = dict(_hole(0, (0, 0, 0), 3.018), uncertainty=uncertainty)
+    out = check(_record(hole), _h9())
+    entry = out["holes"][0]["conformance"]["diameter"]
+    assert entry["decision"] == "undecided" and entry["reason"] == "uncertainty_unknown"
+    assert entry["expanded_uncertainty"] is None
+    assert out["holes"][0]["undecided_checks"] == ["diameter"] and out["verdict"]["undecided"] == 1
+
+
+def test_guarded_without_an_uncertainty_key_at_all_is_undecided():
+    out = check(_record(_hole(0, (0, 0, 0), 3.018)), _h9())
+    assert out["holes"][0]["conformance"]["diameter"]["reason"] == "uncertainty_unknown"
+
+
+@pytest.mark.parametrize("rule", ["simple", "guarded"])
+def test_a_check_not_measured_fails_under_either_rule(rule):
+    hole = _uncertain_hole(3.018, 0.001, bore={"diameter": 0.001, "floor_depth": None})
+    spec = replace(nominal_spec(bore_diameter=4.0, bore_diameter_tolerance=0.02), decision_rule=rule)
+    out = check(_record(hole), spec)
+    assert out["holes"][0]["failed_checks"] == ["bore_diameter_not_measured"]
+    entry = out["holes"][0]["conformance"]["bore_diameter"]
+    assert (entry["value"], entry["decision"], entry["reason"]) == (None, "fail", "not_measured")
+
+
+@pytest.mark.parametrize("coverage_factor, decision", [(1.0, "pass"), (3.0, "undecided")])
+def test_the_coverage_factor_scales_u(coverage_factor, decision):
+    # 3.0025 with u = 0.001: 3.0015 .. 3.0035 at k = 1, 2.9995 .. 3.0055 at k = 3
+    out = check(_record(_uncertain_hole(3.0025, 0.001)), _h9(coverage_factor=coverage_factor))
+    entry = out["holes"][0]["conformance"]["diameter"]
+    assert entry["expanded_uncertainty"] == pytest.approx(coverage_factor * 0.001)
+    assert entry["decision"] == decision
+    assert out["verdict"]["coverage_factor"] == coverage_factor
+
+
+@pytest.mark.parametrize(
+    "in_plane, u, decision",
+    [(0.05, 0.01, "pass"), (0.09, 0.01, "undecided"), (0.11, 0.01, "undecided"), (0.13, 0.01, "fail"),
+     (0.099, 0.0, "pass")],
+)
+def test_guarded_position_is_one_sided(in_plane, u, decision):
+    hole = _uncertain_hole(3.0, center_in_plane=u)
+    hole["center"] = [in_plane, 0.0, 0.0]
+    out = check(_record(hole), replace(nominal_spec(center=(0, 0, 0), position_tolerance=0.1), decision_rule="guarded"))
+    entry = out["holes"][0]["conformance"]["position"]
+    assert entry["lower"] is None and entry["upper"] == 0.1
+    assert entry["value"] == pytest.approx(in_plane) and entry["decision"] == decision
+    assert entry["expanded_uncertainty"] == pytest.approx(2 * u)
+
+
+@pytest.mark.parametrize(
+    "nominal, hole_changes, uncertainty, check_name, value",
+    [
+        ({"normal": (0, 0, 1), "max_tilt": 1.0},
+         {"normal": [0.0, math.sin(math.radians(0.9)), math.cos(math.radians(0.9))]},
+         {"normal_deg": 0.1}, "tilt", 0.9),
+        ({"max_perpendicularity": 0.5}, {"perpendicularity_deg": 0.45}, {"perpendicularity_deg": 0.05},
+         "perpendicularity", 0.45),
+        ({"countersink_angle": 100.0, "countersink_angle_tolerance": 1.0}, {"countersink": {"angle_deg": 100.9}},
+         {"countersink": {"diameter": None, "angle_deg": 0.1, "depth": None, "diameter_at_depth": None}},
+         "countersink_angle", 0.9),
+        ({"countersink_diameter": 7.0, "countersink_diameter_tolerance": "+0.1/-0"},
+         {"countersink": {"diameter": 7.09}},
+         {"countersink": {"diameter": 0.01, "angle_deg": None, "depth": None, "diameter_at_depth": None}},
+         "countersink_diameter", 0.09),
+        ({"countersink_depth": 1.2, "countersink_depth_tolerance": 0.05}, {"countersink": {"depth": 1.24}},
+         {"countersink": {"diameter": None, "angle_deg": None, "depth": 0.01, "diameter_at_depth": None}},
+         "countersink_depth", 0.04),
+        ({"bore_diameter": 4.0, "bore_diameter_tolerance": 0.02}, {"bore": {"diameter": 4.015}},
+         {"bore": {"diameter": 0.005, "floor_depth": None}}, "bore_diameter", 0.015),
+    ],
+)
+def test_every_check_takes_its_own_uncertainty(nominal, hole_changes, uncertainty, check_name, value):
+    # each value is inside its zone by the value alone, and value + 2u straddles the upper limit
+    hole = dict(_uncertain_hole(3.0, **uncertainty), **hole_changes)
+    simple = check(_record(hole), nominal_spec(**nominal))
+    guarded = check(_record(hole), replace(nominal_spec(**nominal), decision_rule="guarded"))
+    assert simple["holes"][0]["conformance"][check_name]["decision"] == "pass"
+    entry = guarded["holes"][0]["conformance"][check_name]
+    assert entry["value"] == pytest.approx(value)
+    u = uncertainty[next(iter(uncertainty))]
+    u = u if not isinstance(u, dict) else next(v for v in u.values() if v is not None)
+    assert entry["expanded_uncertainty"] == pytest.approx(2 * u)
+    assert (entry["decision"], entry["reason"]) == ("undecided", "straddles_upper")
+    assert guarded["holes"][0]["undecided_checks"] == [check_name]
+
+
+def test_a_fail_and_an_undecided_check_count_the_hole_out_of_tolerance():
+    hole = _uncertain_hole(3.05, 0.001, center_in_plane=0.01)
+    hole["center"] = [0.095, 0.0, 0.0]
+    spec = replace(nominal_spec(diameter=3.0, tolerance="+0.036/-0", center=(0, 0, 0), position_tolerance=0.1),
+                   decision_rule="guarded")
+    out = check(_record(hole), spec)
+    assert out["holes"][0]["failed_checks"] == ["diameter"] and out["holes"][0]["undecided_checks"] == ["position"]
+    assert out["verdict"] == {"checked": 1, "out_of_tolerance": 1, "undecided": 0, "missing": [], "in_tolerance": False,
+                              "decision_rule": "guarded", "coverage_factor": 2.0}
+
+
+def test_an_unchecked_hole_has_no_conformance():
+    out = check(_record(_hole(0, (0, 0, 0), 3.0), _hole(1, (9, 0, 0), 3.0)),
+                replace(nominal_spec(diameter=3.0, tolerance=0.01, center=(0, 0, 0)), decision_rule="guarded"))
+    assert out["holes"][1]["conformance"] is None and out["holes"][1]["undecided_checks"] is None
+
+
+@pytest.mark.parametrize(
+    "changes, match",
+    [
+        ({"decision_rule": "strict"}, "decision_rule must be one of simple, guarded, got 'strict'"),
+        ({"coverage_factor": 0}, "coverage_factor must be a finite number > 0, got 0"),
+        ({"coverage_factor": -1.0}, "coverage_factor must be a finite number > 0"),
+        ({"coverage_factor": math.nan}, "coverage_factor must be a finite number > 0, got nan"),
+        ({"coverage_factor": math.inf}, "coverage_factor must be a finite number > 0, got inf"),
+        ({"coverage_factor": True}, "coverage_factor must be a finite number > 0, got True"),
+        ({"coverage_factor": "2"}, "coverage_factor must be a finite number > 0, got '2'"),
+    ],
+)
+def test_the_decision_rule_and_coverage_factor_are_validated(changes, match):
+    with pytest.raises(SpecError, match=match):
+        replace(nominal_spec(diameter=3.0, tolerance=0.01), **changes)
+
+
+@pytest.mark.parametrize("u", [-0.001, math.nan, "0.001"])
+def test_an_invalid_uncertainty_is_refused(u):
+    with pytest.raises(ValueError, match=r"hole 0: uncertainty.diameter must be a finite number >= 0"):
+        check(_record(_uncertain_hole(3.0, u)), _h9())
+
+
+def test_describe_records_the_decision_rule():
+    spec = _h9(coverage_factor=3)
+    described = describe(spec)
+    assert described["decision_rule"] == "guarded" and described["coverage_factor"] == 3.0
+    named = describe(replace(parse_spec(SPEC_TEXT), decision_rule="guarded"))
+    assert (named["decision_rule"], named["coverage_factor"]) == ("guarded", 2.0)
+    assert describe(nominal_spec(diameter=3.0, tolerance=0.01))["decision_rule"] == "simple"
+    record = dict(_record(_uncertain_hole(3.0, 0.001)), options={"method": "robust"})
+    assert check(record, spec)["options"]["tolerances"] == described
+
+
+def test_conformance_is_json_ready():
+    import json
+
+    out = check(_record(_uncertain_hole(3.0031, 0.002)), _h9())
+    assert json.loads(json.dumps(out, allow_nan=False)) == out

@@ -151,6 +151,31 @@ def test_angles_counts_and_directions_never_convert():
     assert record["holes"][0]["diameter"] == 3.0  # pure
 
 
+def test_convert_record_converts_the_conformance_of_length_checks_only():
+    from holecli.tolerance import check, nominal_spec
+
+    uncertainty = {"center_in_plane": 0.01, "diameter": 0.002, "normal_deg": 0.1,
+                   "countersink": {"diameter": None, "angle_deg": 0.2, "depth": None, "diameter_at_depth": None},
+                   "perpendicularity_deg": 0.05}
+    hole = {"index": 0, "center": [0.03, 0.0, 0.0], "diameter": 3.01, "normal": [0.0, 0.0, 1.0],
+            "countersink": {"angle_deg": 100.4}, "perpendicularity_deg": 0.3, "uncertainty": uncertainty}
+    record = {"file": "a.ply", "method": "robust", "holes": [hole]}
+    spec = nominal_spec(diameter=3.0, tolerance="+0.036/-0", center=(0.0, 0.0, 0.0), position_tolerance=0.1,
+                        normal=(0.0, 0.0, 1.0), max_tilt=1.0, countersink_angle=100.0, countersink_angle_tolerance=1.0,
+                        max_perpendicularity=0.5)
+    checked = check(record, spec)
+    out = units.convert_record(checked, "mm", "m")["holes"][0]["conformance"]
+    before = checked["holes"][0]["conformance"]
+    for name in ("diameter", "position"):  # lengths: by 1/1000
+        for key in ("value", "upper", "expanded_uncertainty"):
+            assert out[name][key] == pytest.approx(before[name][key] / 1000, rel=1e-12), (name, key)
+    assert out["diameter"]["lower"] == 0.0 and out["position"]["lower"] is None
+    for name in ("tilt", "countersink_angle", "perpendicularity"):  # degrees: as they were
+        assert out[name] == before[name], name
+    assert out["countersink_angle"]["expanded_uncertainty"] == pytest.approx(0.4)
+    assert {entry["decision"] for entry in out.values()} == {"pass"}
+
+
 def test_scale_factor_and_unknown_units():
     assert units.scale_factor("in", "m") == pytest.approx(0.0254)
     with pytest.raises(ValueError, match="unknown unit 'ft'"):

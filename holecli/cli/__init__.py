@@ -27,7 +27,8 @@ import click
 
 from holecli import __version__
 from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_BROKEN_PIPE, EXIT_CODES_HELP, EXIT_FILE_FAILED, EXIT_INPUT,
-                               EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_USAGE, Failure,
+                               EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_UNDECIDED,
+                               EXIT_USAGE, Failure,
                                fail, run_guarded, write_stdout)
 from holecli.cli.options import (MAX_SPEC_BYTES, TOLERANCE_OPTION_NAMES, Decimal, FloatTuple, ToleranceBand,
                                  detection_option_decorators, detection_options, nominal_from_options, read_small_text,
@@ -35,7 +36,8 @@ from holecli.cli.options import (MAX_SPEC_BYTES, TOLERANCE_OPTION_NAMES, Decimal
 
 __all__ = [
     "BATCH_EXIT_CODES_HELP", "CONTEXT", "EXIT_BROKEN_PIPE", "EXIT_CODES_HELP", "EXIT_FILE_FAILED", "EXIT_INPUT", "EXIT_INTERNAL",
-    "EXIT_INTERRUPTED", "EXIT_NO_HOLE", "EXIT_OK", "EXIT_OUT_OF_TOLERANCE", "EXIT_USAGE", "MAX_SPEC_BYTES",
+    "EXIT_INTERRUPTED", "EXIT_NO_HOLE", "EXIT_OK", "EXIT_OUT_OF_TOLERANCE", "EXIT_UNDECIDED", "EXIT_USAGE",
+    "MAX_SPEC_BYTES",
     "TOLERANCE_OPTION_NAMES", "Decimal", "Failure", "FloatTuple", "ToleranceBand", "detection_option_decorators",
     "detection_options", "fail", "main", "nominal_from_options", "read_small_text", "read_spec", "run_guarded",
     "tolerance_option_decorators", "write_stdout",

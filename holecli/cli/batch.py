@@ -13,12 +13,12 @@ import time
 import click
 
 from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_BROKEN_PIPE, EXIT_FILE_FAILED, EXIT_INPUT,
-                               EXIT_INTERRUPTED, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_USAGE, EXIT_WARNING,
-                               Failure, broken_pipe, run_guarded, write_stdout)
-from holecli.cli.options import (check_verbosity, detection_option_decorators, detection_options,
+                               EXIT_INTERRUPTED, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_UNDECIDED, EXIT_USAGE,
+                               EXIT_WARNING, Failure, broken_pipe, run_guarded, write_stdout)
+from holecli.cli.options import (check_verbosity, decision_from_options, detection_option_decorators, detection_options,
                                  fail_on_warning_option, input_format_option, nominal_from_options, read_spec,
                                  reading_option_decorators, tolerance_option_decorators, unit_choice,
-                                 verbosity_option_decorators, warned)
+                                 verbosity_option_decorators, warned, with_decision)
 from holecli.cli.progress import BatchDisplay, batch_summary, verbose_text
 from holecli.errors import LoadError
 
@@ -90,12 +90,15 @@ def batch_exit_code(tally, fail_on_warning=None):
     Returns
     -------
     int
-        :data:`EXIT_OUT_OF_TOLERANCE`, else :data:`EXIT_FILE_FAILED`, else :data:`EXIT_WARNING` (a hole
-        has a warning that ``fail_on_warning`` selects), else :data:`EXIT_NO_HOLE`, else :data:`EXIT_OK`
-        (an interrupt, 130, is decided by :func:`run_batch`).
+        :data:`EXIT_OUT_OF_TOLERANCE`, else :data:`EXIT_UNDECIDED` (a hole with an undecided check and
+        none failed, ``--decision-rule guarded``), else :data:`EXIT_FILE_FAILED`, else
+        :data:`EXIT_WARNING` (a hole has a warning that ``fail_on_warning`` selects), else
+        :data:`EXIT_NO_HOLE`, else :data:`EXIT_OK` (an interrupt, 130, is decided by :func:`run_batch`).
     """
     if tally.out_of_tolerance or tally.missing:
         return EXIT_OUT_OF_TOLERANCE
+    if tally.undecided:
+        return EXIT_UNDECIDED
     if tally.failed:
         return EXIT_FILE_FAILED
     if warned(tally.warning_codes, fail_on_warning):
@@ -131,8 +134,8 @@ def batch_exit_code(tally, fail_on_warning=None):
 @fail_on_warning_option
 @verbosity_option_decorators
 def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, explain, scan_index, units, output_units,
-          method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, fail_on_warning, quiet, verbose,
-          **nominal_options):
+          method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor,
+          fail_on_warning, quiet, verbose, **nominal_options):
     """Measure every point cloud in the folders and files PATH.
 
     A folder contributes the .ply, .pcd, .csv, .txt, .xyz, .e57, .las and .laz files directly in it (any case; with
@@ -148,6 +151,7 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
       holecli batch scans/ --recursive --pattern 'panel7_*' --format csv -o panel7.csv
       holecli batch scans/ --spec part.toml --jobs 4 -o shift.jsonl
       holecli batch scans/ --spec part.toml -o shift.jsonl --resume
+      holecli batch scans/ --spec part.toml --decision-rule guarded --coverage-factor 2 -o shift.jsonl
       holecli batch scans/*.ply --nominal-diameter 3 --tolerance 0.02 | jq -c 'select(.verdict.in_tolerance | not)'
       holecli batch scans/ --input-format xyz --pattern '*.asc' -o -
       holecli batch scans/ -q -o results.jsonl
@@ -160,6 +164,7 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
         options["input_format"] = input_format
     # the tolerance options (--nominal-diameter, ..., --max-perpendicularity) by their parameter names
     nominal = nominal_from_options(spec_file, **nominal_options)
+    decision = decision_from_options(decision_rule, coverage_factor, nominal is not None or spec_file is not None)
     if resume and (output is None or output == "-"):
         raise click.UsageError("--resume needs --output (the file to go on with)")
     if explain and fmt == "csv":
@@ -171,7 +176,7 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
         from holecli import batch as batching
         from holecli.io import SUPPORTED_EXTENSIONS
 
-        spec = read_spec(spec_file) if spec_file is not None else nominal
+        spec = with_decision(read_spec(spec_file) if spec_file is not None else nominal, decision)
         try:
             files = batching.find_scans(paths, recursive=recursive, pattern=pattern,
                                         exclude=[output] if output else (),

@@ -9,12 +9,12 @@ import sys
 
 import click
 
-from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_WARNING,
-                               Failure, run_guarded, write_stdout)
-from holecli.cli.options import (INPUT_FORMATS, check_verbosity, detection_option_decorators, detection_options,
-                                 fail_on_warning_option, input_format_option, nominal_from_options, read_spec,
-                                 reading_option_decorators, tolerance_option_decorators, unit_choice,
-                                 verbosity_option_decorators, warned)
+from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_UNDECIDED,
+                               EXIT_WARNING, Failure, run_guarded, write_stdout)
+from holecli.cli.options import (INPUT_FORMATS, check_verbosity, decision_from_options, detection_option_decorators,
+                                 detection_options, fail_on_warning_option, input_format_option, nominal_from_options,
+                                 read_spec, reading_option_decorators, tolerance_option_decorators, unit_choice,
+                                 verbosity_option_decorators, warned, with_decision)
 from holecli.errors import HoleCliError
 
 
@@ -185,10 +185,15 @@ def render_table(records):
         caption = (f"plane rms {plane['rms']:.{digits}f} {unit}" if unit else f"plane rms {plane['rms']:.4g}") \
             + f", {record['timing']['elapsed_ms']:.1f} ms"
         if verdict is not None:
-            caption += (f"; {'IN' if verdict['in_tolerance'] else 'OUT OF'} TOLERANCE: {verdict['checked']} "
-                        f"checked, {verdict['out_of_tolerance']} out")
+            out = verdict["out_of_tolerance"] or verdict["missing"]
+            state = "IN TOLERANCE" if verdict["in_tolerance"] else ("OUT OF TOLERANCE" if out else "UNDECIDED")
+            caption += f"; {state}: {verdict['checked']} checked, {verdict['out_of_tolerance']} out"
+            if verdict.get("undecided"):
+                caption += f", {verdict['undecided']} undecided"
             if verdict["missing"]:
                 caption += ", missing: " + ", ".join(str(name) for name in verdict["missing"])
+            if "decision_rule" in verdict:
+                caption += f" ({verdict['decision_rule']} rule, k={verdict['coverage_factor']:g})"
         units_note = f", lengths in {unit}" if unit else ""
         table = Table(title=f"{record['file']}  ({record['points']} points, method {record['method']}{units_note})",
                       caption=caption)
@@ -248,8 +253,9 @@ _FAILED_CHECK_VALUES = {
 
 
 def verdict_cell(hole):
-    """The ``tolerance`` cell of a hole in ``--format table``: its name, and ``in``, ``not checked``
-    or ``OUT:`` with every failed check and its value.
+    """The ``tolerance`` cell of a hole in ``--format table``: its name, and ``in``, ``not checked``,
+    ``OUT:`` with every failed check and its value or ``UNDECIDED:`` with every undecided check; then,
+    for a hole with ``conformance``, one line per check with its value, limits, U and decision.
 
     Parameters
     ----------
@@ -261,13 +267,22 @@ def verdict_cell(hole):
     str
         E.g. ``"A1: OUT: diameter -0.0029, countersink_angle +1.21, bore_diameter not measured"``
         (deviations signed; ``position`` with its in-plane distance, ``tilt`` and
-        ``perpendicularity`` with their angle).
+        ``perpendicularity`` with their angle), and lines such as
+        ``"diameter -0.0031 in [+0, +0.036] U 0.004: undecided"`` or
+        ``"position 0.061 <= 0.1 U -: fail"`` (U ``-`` when not known).
     """
     name = f"{hole['name']}: " if hole.get("name") else ""
     if hole["in_tolerance"] is None:
         return name + "not checked"
-    if hole["in_tolerance"]:
-        return name + "in"
+    lines = [name + ("in" if hole["in_tolerance"] else _failures(hole))]
+    for check, entry in (hole.get("conformance") or {}).items():
+        lines.append(conformance_text(check, entry))
+    return "\n".join(lines)
+
+
+def _failures(hole):
+    """``OUT: ...`` with the failed checks and their values, ``; undecided: ...`` with the undecided ones
+    (``UNDECIDED: ...`` alone when none failed)."""
     failures = []
     for check in hole["failed_checks"]:
         if check.endswith("_not_measured"):
@@ -280,7 +295,34 @@ def verdict_cell(hole):
             number = hole.get(field)
             value = "" if number is None else (f"{number:+.4g}" if field.endswith("_deviation") else f"{number:.4g}")
         failures.append(f"{check} {value}".rstrip())
-    return name + "OUT: " + ", ".join(failures)
+    undecided = ", ".join(hole.get("undecided_checks") or ())
+    if not failures:
+        return "UNDECIDED: " + undecided
+    return "OUT: " + ", ".join(failures) + (f"; undecided: {undecided}" if undecided else "")
+
+
+def conformance_text(check, entry):
+    """One check of a hole's ``conformance`` as text: ``diameter -0.0031 in [+0, +0.036] U 0.004: undecided``.
+
+    Parameters
+    ----------
+    check : str
+        The check's name.
+    entry : dict
+        Its conformance entry (``value``, ``lower``, ``upper``, ``expanded_uncertainty``, ``decision``).
+
+    Returns
+    -------
+    str
+        A deviation and a band's limits signed; a largest value (``lower`` None) as ``<= limit``;
+        ``not measured`` for a null value, ``U -`` for an uncertainty not known.
+    """
+    band = entry["lower"] is not None
+    value = entry["value"]
+    value_text = "not measured" if value is None else (f"{value:+.4g}" if band else f"{value:.4g}")
+    limits = f"in [{entry['lower']:+.4g}, {entry['upper']:+.4g}]" if band else f"<= {entry['upper']:.4g}"
+    expanded = entry["expanded_uncertainty"]
+    return f"{check} {value_text} {limits} U {'-' if expanded is None else f'{expanded:.2g}'}: {entry['decision']}"
 
 
 def _rejected_table(rejected, digits=4):
@@ -319,6 +361,28 @@ def warning_lines(record):
     return [f"holecli: warning: {record['file']} hole {hole['index']}: {warning['code']}: {warning['message']}"
             for hole in record.get("holes", ()) for warning in hole.get("warnings", ())
             if warning["code"] in DOUBT_CODES]
+
+
+def undecided_line(record):
+    """The stderr line of a record whose verdict is undecided (no check failed, some undecided):
+    ``holecli: undecided: 1 of 2 checked holes (guarded, k=2: conformance not proved) in FILE``.
+
+    Parameters
+    ----------
+    record : dict
+        A checked ``detect`` record.
+
+    Returns
+    -------
+    str
+    """
+    verdict = record["verdict"]
+    unknown = sum(any(entry["reason"] == "uncertainty_unknown" for entry in (hole.get("conformance") or {}).values())
+                  for hole in record["holes"])
+    without = f", {unknown} with an uncertainty not known" if unknown else ""
+    rule = f"{verdict['decision_rule']}, k={verdict['coverage_factor']:g}"
+    return (f"holecli: undecided: {verdict['undecided']} of {verdict['checked']} checked holes{without} "
+            f"({rule}: conformance not proved) in {record['file']}")
 
 
 def record_warned(record, selected):
@@ -378,7 +442,8 @@ def emit(text, output):
 @fail_on_warning_option
 @verbosity_option_decorators
 def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, units, output_units, method, view_dir, min_diameter,
-           max_holes, full_only, gauge_depth, spec_file, fail_on_warning, quiet, verbose, **nominal_options):
+           max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor, fail_on_warning, quiet,
+           verbose, **nominal_options):
     """Measure the holes in SCAN (.ply, .pcd, .csv, .txt, .xyz, .e57, .las or .laz; - reads it from
     stdin, with --input-format).
 
@@ -392,6 +457,7 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
       holecli detect scan.csv --format csv --output result.csv
       holecli detect scan.pcd --view-dir 0,0,1 --full-only --format table
       holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0
+      holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0 --decision-rule guarded
       holecli detect scan.ply --nominal-center 3.65,5.14,5.53 --position-tolerance 0.1 \\
           --nominal-normal 0.18,-0.5,0.85 --max-tilt 1
       holecli detect scan.ply --countersink-angle 100 --countersink-angle-tolerance 1 \\
@@ -422,12 +488,13 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
         options["input_format"] = input_format
     # the tolerance options (--nominal-diameter, ..., --max-perpendicularity) by their parameter names
     nominal = nominal_from_options(spec_file, **nominal_options)
+    decision = decision_from_options(decision_rule, coverage_factor, nominal is not None or spec_file is not None)
 
     def body():
         from holecli.cli.progress import DetectStatus
         from holecli.tolerance import check
 
-        spec = read_spec(spec_file) if spec_file is not None else nominal
+        spec = with_decision(read_spec(spec_file) if spec_file is not None else nominal, decision)
         if plot_file is not None:
             from holecli.cli.plot import measure_with_points, require_matplotlib
 
@@ -460,16 +527,21 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
     if not quiet and not record["holes"]:
         click.echo(f"holecli: no hole found in {record['file']}", err=True)
     verdict = record.get("verdict")
-    if verdict is not None and not verdict["in_tolerance"]:
+    if verdict is not None and (verdict["out_of_tolerance"] or verdict["missing"]):
         if quiet:
             sys.exit(EXIT_OUT_OF_TOLERANCE)
         missing = f", missing: {', '.join(str(name) for name in verdict['missing'])}" if verdict["missing"] else ""
         not_measured = sum(any(check.endswith("_not_measured") for check in hole.get("failed_checks") or ())
                            for hole in record["holes"])
         unmeasured = f" ({not_measured} with a check not measured)" if not_measured else ""
+        undecided = f", {verdict['undecided']} undecided" if verdict["undecided"] else ""
         click.echo(f"holecli: out of tolerance: {verdict['out_of_tolerance']} of {verdict['checked']} checked "
-                   f"holes{unmeasured}{missing} in {record['file']}", err=True)
+                   f"holes{unmeasured}{undecided}{missing} in {record['file']}", err=True)
         sys.exit(EXIT_OUT_OF_TOLERANCE)
+    if verdict is not None and verdict["undecided"]:
+        if not quiet:
+            click.echo(undecided_line(record), err=True)
+        sys.exit(EXIT_UNDECIDED)
     if record_warned(record, fail_on_warning):
         sys.exit(EXIT_WARNING)
     sys.exit(EXIT_OK if record["holes"] else EXIT_NO_HOLE)

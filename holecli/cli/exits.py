@@ -23,6 +23,7 @@ EXIT_NO_HOLE = 4
 EXIT_OUT_OF_TOLERANCE = 5
 EXIT_FILE_FAILED = 6
 EXIT_WARNING = 7  # --fail-on-warning: a hole has a selected warning
+EXIT_UNDECIDED = 8  # --decision-rule guarded: no check failed, but conformance of some is not proved
 EXIT_INTERRUPTED = 130
 # 128 + SIGPIPE (13), what a shell reports for a program killed by SIGPIPE (`yes | head -1` under
 # `set -o pipefail`): the reader of the output stopped reading before its end.
@@ -40,7 +41,10 @@ EXIT_CODES_HELP = (
     "     nominal hole is missing (the record is still printed; takes precedence over 4)\n"
     "  6  holecli batch only: some file could not be measured\n"
     "  7  --fail-on-warning: a hole has one of the warnings given (the record is still printed;\n"
-    "     5 takes precedence)\n"
+    "     5 and 8 take precedence)\n"
+    "  8  undecided (--decision-rule guarded): no check failed and no nominal hole is missing, but a\n"
+    "     check's value +- its expanded uncertainty straddles a limit, or its uncertainty is not\n"
+    "     known (the record is still printed; 5 takes precedence over 8, 8 over 7 and 4)\n"
     "  130  interrupted (Ctrl-C or SIGTERM)\n"
     "  141  broken pipe: the reader of the output (| head -1) stopped reading before its end"
 )
@@ -56,6 +60,8 @@ BATCH_EXIT_CODES_HELP = (
     "       or invalid, the output cannot be written or resumed\n"
     "  5    some checked hole is out of tolerance or has a check not measured, or a nominal hole\n"
     "       is missing\n"
+    "  8    --decision-rule guarded: no check failed, but some check is undecided (its value +- its\n"
+    "       expanded uncertainty straddles a limit, or its uncertainty is not known)\n"
     "  6    some file could not be measured (its record has \"error\")\n"
     "  7    --fail-on-warning: some hole has one of the warnings given\n"
     "  4    some file has no hole\n"

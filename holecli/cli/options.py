@@ -9,6 +9,8 @@
 * ``--input-format``: :func:`input_format_option`.
 * ``--quiet`` and ``--verbose`` of every command: :func:`verbosity_option_decorators`.
 * ``--fail-on-warning`` of ``detect`` and ``batch``: :func:`fail_on_warning_option`, :func:`warned`.
+* ``--decision-rule`` and ``--coverage-factor`` (with the tolerance options): :func:`decision_from_options`,
+  :func:`with_decision`.
 
 Nothing heavy is imported at module level: ``holecli --help`` builds these options.
 """
@@ -377,6 +379,11 @@ _FEATURE_OPTIONS = (
 )
 
 
+# The values of --decision-rule (holecli.tolerance.DECISION_RULES, spelled out here so that building
+# the options does not import it; a test keeps the two equal).
+DECISION_RULES = ("simple", "guarded")
+
+
 def tolerance_option_decorators(function):
     """The tolerance options shared by ``detect`` and ``batch``.
 
@@ -427,8 +434,56 @@ def tolerance_option_decorators(function):
         click.option("--spec", "spec_file", type=click.Path(path_type=str), default=None, metavar="FILE",
                      help="TOML file of the part's nominal holes ([[hole]] tables, see README); "
                           "not with the options above."),
+        click.option("--decision-rule", type=click.Choice(DECISION_RULES), default=None,
+                     help="How a check is decided (ISO 14253-1): simple, by the measured value alone "
+                          "[default]; guarded, pass only when the value +- its expanded uncertainty U is "
+                          "inside the limits, fail when wholly outside, else undecided (exit 8); a value "
+                          "without an uncertainty is undecided. Needs tolerance options or --spec."),
+        click.option("--coverage-factor", type=Decimal(min=0, min_open=True), default=None, metavar="K",
+                     help="Coverage factor k of the expanded uncertainty U = k * u (u the standard "
+                          "uncertainty in the record) [default: 2]. Needs tolerance options or --spec."),
     ]
     return _applied(options, function)
+
+
+def decision_from_options(decision_rule, coverage_factor, checked):
+    """The :class:`holecli.tolerance.Spec` fields of ``--decision-rule`` and ``--coverage-factor``.
+
+    Parameters
+    ----------
+    decision_rule : {"simple", "guarded"} or None
+        ``--decision-rule`` (None: not given, simple).
+    coverage_factor : float or None
+        ``--coverage-factor`` (None: not given, 2; click has refused anything but a number > 0).
+    checked : bool
+        Whether tolerance options or ``--spec`` are given.
+
+    Returns
+    -------
+    dict
+        ``decision_rule`` and ``coverage_factor``, for :func:`dataclasses.replace` of the spec.
+
+    Raises
+    ------
+    click.UsageError
+        When either is given without tolerances to check.
+    """
+    from holecli.tolerance import DEFAULT_COVERAGE_FACTOR
+
+    given = [name for name, value in (("--decision-rule", decision_rule), ("--coverage-factor", coverage_factor))
+             if value is not None]
+    if given and not checked:
+        raise click.UsageError(f"{' and '.join(given)} need{'s' if len(given) == 1 else ''} tolerance options "
+                               "or --spec (there is nothing to decide without tolerances)")
+    return {"decision_rule": decision_rule or "simple",
+            "coverage_factor": DEFAULT_COVERAGE_FACTOR if coverage_factor is None else coverage_factor}
+
+
+def with_decision(spec, decision):
+    """``spec`` (or None) with the ``decision`` of :func:`decision_from_options`."""
+    import dataclasses
+
+    return None if spec is None else dataclasses.replace(spec, **decision)
 
 
 def nominal_from_options(spec_file=None, **options):

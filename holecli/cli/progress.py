@@ -170,7 +170,9 @@ def batch_summary(tally, seconds, checked, earlier, output):
     if tally.without_hole:
         text += f" ({count(tally.without_hole, 'file')} without a hole)"
     if checked:
-        text += f"; {tally.out_of_tolerance} out of tolerance, {count(tally.missing, 'nominal hole')} missing"
+        undecided = f", {tally.undecided} undecided" if tally.undecided else ""
+        text += (f"; {tally.out_of_tolerance} out of tolerance{undecided}, "
+                 f"{count(tally.missing, 'nominal hole')} missing")
     else:
         text += "; tolerances not checked"
     if tally.doubtful_holes:

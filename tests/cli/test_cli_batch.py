@@ -24,7 +24,10 @@ RECORD_KEYS = {"schema_version", "holecli_version", "file", "points", "dropped_p
 BATCH_RECORD_KEYS = RECORD_KEYS | {"path"}
 VERDICT_HOLE_KEYS = {"diameter_deviation", "position_deviation", "tilt_deg", "countersink_diameter_deviation",
                      "countersink_angle_deviation", "countersink_depth_deviation", "bore_diameter_deviation",
-                     "in_tolerance", "failed_checks"}
+                     "in_tolerance", "failed_checks", "undecided_checks", "conformance"}
+
+# What the verdict says of the default decision rule.
+SIMPLE_VERDICT = {"undecided": 0, "decision_rule": "simple", "coverage_factor": 2.0}
 
 
 def _scan(seed, holes=((0.0, 0.0, 2.5),), extent=(-2.8, 2.8, -2.8, 2.8)):
@@ -187,7 +190,7 @@ def test_batch_exit_5_out_of_tolerance_over_6_and_4(run, good_scans, tmp_path):
     assert result.exit_code == cli.EXIT_OUT_OF_TOLERANCE, result.stderr
     records = {record["file"]: record for record in _lines(result.stdout)}
     assert records[str(plain)]["verdict"] == {"checked": 0, "out_of_tolerance": 0, "missing": [None],
-                                              "in_tolerance": False}
+                                              "in_tolerance": False, **SIMPLE_VERDICT}
     assert all(records[str(path)]["verdict"]["in_tolerance"] for path in good_scans)
     assert "0 out of tolerance, 1 nominal hole missing" in result.stderr
     result = run("batch", *good_scans, "--nominal-diameter", "2.0", "--tolerance", "0.1")
@@ -304,7 +307,7 @@ def test_detect_diameter_tolerance_forms_and_exit_codes(run, one_scan, tolerance
     assert hole["diameter_deviation"] == pytest.approx(hole["diameter"] - nominal, abs=1e-12)
     assert hole["in_tolerance"] is in_tolerance
     assert record["verdict"] == {"checked": 1, "out_of_tolerance": 0 if in_tolerance else 1, "missing": [],
-                                 "in_tolerance": in_tolerance}
+                                 "in_tolerance": in_tolerance, **SIMPLE_VERDICT}
     assert ("out of tolerance" in result.stderr) is not in_tolerance
 
 
@@ -386,7 +389,8 @@ def test_detect_spec_matching_missing_and_extra(run, tmp_path):
     names = {tuple(round(c, 1) for c in hole["center"]): hole["name"] for hole in record["holes"]}
     assert names[tuple(round(c, 1) for c in left["center"])] == "L"
     assert names[tuple(round(c, 1) for c in right["center"])] is None  # measured, no nominal: reported
-    assert record["verdict"] == {"checked": 1, "out_of_tolerance": 0, "missing": ["FAR"], "in_tolerance": False}
+    assert record["verdict"] == {"checked": 1, "out_of_tolerance": 0, "missing": ["FAR"], "in_tolerance": False,
+                                 **SIMPLE_VERDICT}
     assert "missing: FAR" in result.stderr
     # every nominal matched: in tolerance, the extra measured hole does not fail the verdict
     spec.write_text(_spec_text([("L", left["center"], 1.5, "")]))
@@ -770,7 +774,8 @@ def test_spec_file_with_feature_checks_in_detect_and_batch(run, panel, tmp_path)
     assert by_name["C1"]["failed_checks"] == [] and by_name["B1"]["failed_checks"] == []
     assert by_name["T1"]["failed_checks"] == ["bore_diameter_not_measured"]
     assert by_name["L1"]["failed_checks"] == ["countersink_depth_not_measured"]
-    assert record["verdict"] == {"checked": 4, "out_of_tolerance": 2, "missing": [], "in_tolerance": False}
+    assert record["verdict"] == {"checked": 4, "out_of_tolerance": 2, "missing": [], "in_tolerance": False,
+                                 **SIMPLE_VERDICT}
     result = run("batch", panel, "--spec", spec, "--format", "csv")
     assert result.exit_code == cli.EXIT_OUT_OF_TOLERANCE, result.stderr
     rows = {row["name"]: row for row in csv.DictReader(io.StringIO(result.stdout))}
