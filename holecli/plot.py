@@ -103,6 +103,17 @@ def _number(value, unit="", digits=4):
     return "-" if value is None else f"{value:.{digits}g}{unit}"
 
 
+# The coverage factor of the expanded uncertainties the text box gives (value ± k u).
+COVERAGE_FACTOR = 2.0
+
+
+def _with_expanded(label, value, standard, unit):
+    """``label: value ± U unit (k=2)``, or without ``± U`` when the uncertainty is not known."""
+    if standard is None:
+        return f"{label}: {value:.4f}{unit}"
+    return f"{label}: {value:.4f} ± {COVERAGE_FACTOR * standard:.2g}{unit} (k={COVERAGE_FACTOR:g})"
+
+
 def hole_text(hole, unit=None):
     """The text box of a hole: its values, one per line.
 
@@ -119,8 +130,9 @@ def hole_text(hole, unit=None):
     u = f" {unit}" if unit else ""
     lines = [
         f"hole {hole.index}" + (" (partial, arc %.0f°)" % hole.arc_deg if hole.partial else ""),
-        f"diameter: {hole.diameter:.4f}{u}",
-        "center: (" + ", ".join(f"{c:.4f}" for c in hole.center) + f"){u}",
+        _with_expanded("diameter", hole.diameter, None if hole.uncertainty is None else hole.uncertainty.diameter, u),
+        "center: (" + ", ".join(f"{c:.4f}" for c in hole.center) + f"){u}"
+        + ("" if hole.uncertainty is None else f" ± {COVERAGE_FACTOR * hole.uncertainty.center_in_plane:.2g} in plane"),
         "normal: (" + ", ".join(f"{c:.4f}" for c in hole.normal) + ")",
         f"type: {hole.type or '-'}",
         f"fit rms: {hole.fit_rms:.3g}{u}, rim points: {hole.rim_points}",

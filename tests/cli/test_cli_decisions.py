@@ -1,8 +1,10 @@
 """Decision rules on the command line (ISO 14253-1, issue 14): --decision-rule, --coverage-factor, exit 8.
 
-Real detection output carries no ``uncertainty`` yet: under the guarded rule every check is then
-undecided, which is a real end-to-end path to exit 8. Where a known uncertainty is needed,
-``holecli.tolerance.check`` is wrapped to give each hole one (detect runs in-process).
+Real ``robust`` output carries each hole's ``uncertainty``: a nominal equal to the measured diameter
+with a one-sided band (``+0.1/-0``) straddles the lower limit, a real end-to-end path to exit 8. The
+``paper`` method gives no uncertainty: under the guarded rule its checks are undecided. Where a chosen
+uncertainty is needed, ``holecli.tolerance.check`` is wrapped to give each hole one (detect runs
+in-process).
 """
 
 import csv
@@ -96,17 +98,35 @@ def test_the_cli_decision_rules_are_the_cores():
     assert DECISION_RULES == tolerance.DECISION_RULES
 
 
-def test_simple_is_the_default_and_reports_no_u(run, scan, measured):
-    result, record = _detect(run, scan, "--nominal-diameter", measured, "--tolerance", "0.1")
+def test_simple_is_the_default_and_reports_u(run, scan, measured):
+    result, record = _detect(run, scan, "--nominal-diameter", measured, "--tolerance", "+0.1/-0")
     assert result.exit_code == cli.EXIT_OK, result.stderr
-    entry = record["holes"][0]["conformance"]["diameter"]
-    assert entry["decision"] == "pass" and entry["expanded_uncertainty"] is None
+    hole = record["holes"][0]
+    entry = hole["conformance"]["diameter"]
+    assert entry["decision"] == "pass"
+    assert entry["expanded_uncertainty"] == pytest.approx(2.0 * hole["uncertainty"]["diameter"])
     assert (record["verdict"]["decision_rule"], record["verdict"]["coverage_factor"]) == ("simple", 2.0)
     assert record["options"]["tolerances"]["decision_rule"] == "simple"
 
 
-def test_guarded_without_an_uncertainty_is_undecided_exit_8(run, scan, measured):
+def test_guarded_with_the_measured_uncertainty_straddling_a_limit_is_undecided_exit_8(run, scan, measured):
+    result, record = _detect(run, scan, "--nominal-diameter", measured, "--tolerance", "+0.1/-0",
+                             "--decision-rule", "guarded")
+    assert result.exit_code == EXIT_UNDECIDED, result.stderr
+    hole = record["holes"][0]
+    assert hole["uncertainty"]["diameter"] > 0
+    assert hole["conformance"]["diameter"]["reason"] == "straddles_lower"
+    assert "holecli: undecided: 1 of 1 checked holes (guarded, k=2: conformance not proved)" in result.stderr
+    # the same hole against a band its interval clears passes
     result, record = _detect(run, scan, "--nominal-diameter", measured, "--tolerance", "0.1",
+                             "--decision-rule", "guarded")
+    assert result.exit_code == cli.EXIT_OK, result.stderr
+    assert record["holes"][0]["conformance"]["diameter"]["reason"] == "inside_with_uncertainty"
+
+
+def test_guarded_without_an_uncertainty_is_undecided_exit_8(run, scan, measured):
+    # the paper method gives no uncertainty
+    result, record = _detect(run, scan, "--method", "paper", "--nominal-diameter", measured, "--tolerance", "0.1",
                              "--decision-rule", "guarded", "--coverage-factor", "3")
     assert result.exit_code == EXIT_UNDECIDED, result.stderr
     hole = record["holes"][0]
@@ -118,8 +138,8 @@ def test_guarded_without_an_uncertainty_is_undecided_exit_8(run, scan, measured)
     assert (f"holecli: undecided: 1 of 1 checked holes, 1 with an uncertainty not known (guarded, k=3: "
             f"conformance not proved) in {scan}") in result.stderr
     assert "out of tolerance" not in result.stderr
-    quiet = run("detect", scan, "--nominal-diameter", measured, "--tolerance", "0.1", "--decision-rule", "guarded",
-                "-q")
+    quiet = run("detect", scan, "--method", "paper", "--nominal-diameter", measured, "--tolerance", "0.1",
+                "--decision-rule", "guarded", "-q")
     assert quiet.exit_code == EXIT_UNDECIDED and quiet.stderr == ""
 
 
@@ -177,8 +197,9 @@ def test_5_takes_precedence_over_8(run, two_holes, with_uncertainty):
 
 
 def test_5_over_8_for_a_check_not_measured(run, scan, measured):
-    # the diameter undecided (no u), the bore of a through hole not measured: a fail under either rule
-    result, record = _detect(run, scan, "--nominal-diameter", measured, "--tolerance", "0.1", "--decision-rule",
+    # the diameter undecided (its interval straddles the lower limit), the bore of a through hole not
+    # measured: a fail under either rule
+    result, record = _detect(run, scan, "--nominal-diameter", measured, "--tolerance", "+0.1/-0", "--decision-rule",
                              "guarded", "--bore-diameter", "2.5", "--bore-diameter-tolerance", "0.1")
     assert result.exit_code == cli.EXIT_OUT_OF_TOLERANCE
     hole = record["holes"][0]
@@ -187,7 +208,7 @@ def test_5_over_8_for_a_check_not_measured(run, scan, measured):
 
 def test_8_takes_precedence_over_7(run, scan, measured):
     # the through hole has the warning bore_not_seen, which --fail-on-warning any selects
-    options = ("--nominal-diameter", measured, "--tolerance", "0.1", "--fail-on-warning", "any")
+    options = ("--nominal-diameter", measured, "--tolerance", "+0.1/-0", "--fail-on-warning", "any")
     assert run("detect", scan, *options).exit_code == EXIT_WARNING
     assert run("detect", scan, *options, "--decision-rule", "guarded").exit_code == EXIT_UNDECIDED
 
@@ -252,7 +273,7 @@ def test_the_table_cell_lists_the_conformance_of_every_check():
 
 
 def test_csv_has_the_conformance_and_the_decision_rule(run, scan, measured):
-    result = run("detect", scan, "--format", "csv", "--nominal-diameter", measured, "--tolerance", "0.1",
+    result = run("detect", scan, "--format", "csv", "--nominal-diameter", measured, "--tolerance", "+0.1/-0",
                  "--decision-rule", "guarded", "--coverage-factor", "2.5")
     assert result.exit_code == EXIT_UNDECIDED
     rows = list(csv.reader(io.StringIO(result.stdout)))
@@ -265,29 +286,32 @@ def test_csv_has_the_conformance_and_the_decision_rule(run, scan, measured):
 
 def test_batch_guarded_without_an_uncertainty_exits_8(run, scan, tmp_path):
     output = tmp_path / "out.csv"
-    result = run("batch", scan, "--nominal-diameter", "2.5", "--tolerance", "0.1", "--decision-rule", "guarded",
-                 "--format", "csv", "-o", output)
+    result = run("batch", scan, "--method", "paper", "--nominal-diameter", "2.5", "--tolerance", "0.1",
+                 "--decision-rule", "guarded", "--format", "csv", "-o", output)
     assert result.exit_code == EXIT_UNDECIDED, result.stderr
     assert "0 out of tolerance, 1 undecided, 0 nominal holes missing" in result.stderr
     # a resumed CSV counts the undecided hole as undecided, not as out of tolerance
     rows = [dict(zip(BATCH_CSV_COLUMNS, row)) for row in list(csv.reader(io.StringIO(output.read_text())))[1:]]
     summary = FileSummary.of_csv_rows(str(scan), rows)
     assert (summary.out_of_tolerance, summary.undecided) == (0, 1)
-    resumed = run("batch", scan, "--nominal-diameter", "2.5", "--tolerance", "0.1", "--decision-rule", "guarded",
-                  "--format", "csv", "-o", output, "--resume")
+    resumed = run("batch", scan, "--method", "paper", "--nominal-diameter", "2.5", "--tolerance", "0.1",
+                  "--decision-rule", "guarded", "--format", "csv", "-o", output, "--resume")
     assert resumed.exit_code == EXIT_UNDECIDED, resumed.stderr
 
 
-def test_batch_5_over_8_over_6(run, scan, tmp_path):
+def test_batch_5_over_8_over_6(run, scan, measured, tmp_path):
     plain = tmp_path / "plain.ply"
     save_points(plain, _scan(5, holes=()).points)
     broken = tmp_path / "empty.csv"
     broken.write_text("")
-    guarded = ("--nominal-diameter", "2.5", "--tolerance", "0.1", "--decision-rule", "guarded")
+    guarded = ("--method", "paper", "--nominal-diameter", "2.5", "--tolerance", "0.1", "--decision-rule", "guarded")
     assert run("batch", scan, broken, *guarded).exit_code == EXIT_UNDECIDED  # 8 before 6
     assert run("batch", scan, broken, "--nominal-diameter", "2.5", "--tolerance", "0.1").exit_code == \
         cli.EXIT_FILE_FAILED  # simple: in tolerance, a file failed
-    assert run("batch", scan, plain, *guarded).exit_code == cli.EXIT_OUT_OF_TOLERANCE  # missing: 5 before 8
+    # robust: the hole's interval straddles the lower limit (undecided), the plain scan's hole is missing
+    straddling = ("--nominal-diameter", measured, "--tolerance", "+0.1/-0", "--decision-rule", "guarded")
+    assert run("batch", scan, *straddling).exit_code == EXIT_UNDECIDED
+    assert run("batch", scan, plain, *straddling).exit_code == cli.EXIT_OUT_OF_TOLERANCE  # missing: 5 before 8
 
 
 @pytest.mark.parametrize(
@@ -318,3 +342,16 @@ def test_the_csv_summary_of_an_undecided_record_matches_the_record():
     RecordWriter(calls.append, "csv", header=False).write(record)
     rows = [dict(zip(BATCH_CSV_COLUMNS, row)) for row in csv.reader(io.StringIO(calls[0]))]
     assert FileSummary.of_csv_rows("g.ply", rows) == FileSummary.of_record(record)
+
+
+def test_the_h9_example_of_issue_14_is_undecided_in_guarded_mode(run, repo_root):
+    """The exact Table I grid: a 3.000 hole measured 2.9969; H9 (+0.036/-0) fails it on the value alone
+    (simple) but its interval straddles the lower limit (guarded: undecided, exit 8)."""
+    scan = repo_root / "sample_clouds" / "table1.ply"
+    options = ("--nominal-diameter", "3", "--tolerance", "+0.036/-0")
+    simple = run("detect", scan, *options)
+    assert simple.exit_code == cli.EXIT_OUT_OF_TOLERANCE
+    guarded = run("detect", scan, *options, "--decision-rule", "guarded")
+    assert guarded.exit_code == EXIT_UNDECIDED, guarded.stderr
+    entry = json.loads(guarded.stdout)["holes"][0]["conformance"]["diameter"]
+    assert (entry["decision"], entry["reason"]) == ("undecided", "straddles_lower")
