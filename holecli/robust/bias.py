@@ -57,15 +57,9 @@ class RimScales:
 
 def synthetic_rim_fit(xy, center, radius, scales, allow_open=True, *, settings=DEFAULT_SETTINGS):
     """The fitted radius of the rim of a synthetic hole of ``radius`` cut at ``center`` into ``xy``
-    (:func:`synthetic_rim_circle`'s radius), None when the synthetic hole gives no usable rim."""
-    circle = synthetic_rim_circle(xy, center, radius, scales, allow_open, settings=settings)
-    return None if circle is None else circle[1]
-
-
-def synthetic_rim_circle(xy, center, radius, scales, allow_open=True, *, settings=DEFAULT_SETTINGS):
-    """The fitted center and radius of the rim of a synthetic hole (:func:`synthetic_rim`), or None."""
+    (:func:`synthetic_rim`'s fit), None when the synthetic hole gives no usable rim."""
     rim = synthetic_rim(xy, center, radius, scales, allow_open, settings=settings)
-    return None if rim is None else (np.asarray(rim.fit.center, dtype=np.float64), float(rim.fit.radius))
+    return None if rim is None else float(rim.fit.radius)
 
 
 @dataclass(frozen=True, eq=False)

@@ -296,11 +296,9 @@ def _uncertainty(countersink, cone, counterbore, bore, cylinder, c, n, axis, bor
                                       floor_depth=None if bore.floor_depth is None else bore.floor_rms)
     if counterbore is not None:
         out["counterbore"] = CounterboreUncertainty(diameter=None, depth=floor_rms)
-    if axis is not None:
-        if axis_covariance is not None:
-            out["axis_deg"] = math.degrees(math.sqrt(max(float(np.linalg.eigvalsh(axis_covariance)[-1]), 0.0)))
-        elif floor_rms is not None:
-            out["axis_deg"] = None  # the floor's normal: given with the surface's (see holecli.robust.method)
+    # an axis from a floor's normal gets the surface normal's uncertainty (holecli.robust.method)
+    if axis is not None and axis_covariance is not None:
+        out["axis_deg"] = math.degrees(math.sqrt(max(float(np.linalg.eigvalsh(axis_covariance)[-1]), 0.0)))
     return out
 
 
