@@ -138,7 +138,9 @@ def measure(task):
     return dict(description, kind=kind, seed=seed, estimator=u.estimator,
                 center=[float(in_plane @ first), float(in_plane @ second)], u_center=u.center_in_plane,
                 diameter=float(hole.diameter - truth["diameter"]), u_diameter=u.diameter,
-                along=along, u_along=u.center_along_normal, angle=angle, u_angle=u.normal_deg)
+                along=along, u_along=u.center_along_normal, angle=angle, u_angle=u.normal_deg,
+                bias_correction=hole.bias_correction, warnings=[w.code for w in hole.warnings],
+                holes_found=len(holes))
 
 
 def coverage(errors, uncertainties):
