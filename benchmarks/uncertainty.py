@@ -104,6 +104,8 @@ def scan_scene(kind, seed):
     if kind == "scan_tilted":
         tilt = math.radians(float(rng.uniform(10.0, 40.0)))
         view = (0.0, math.sin(tilt), -math.cos(tilt))
+    else:
+        tilt = 0.0
     reach = 5.0 * diameter
     spec = ProfilerSpec(target=(0.0, 0.0, 0.0), standoff=100.0, view=view, line=(1.0, 0.0, 0.0), line_length=reach,
                         scan_length=reach, point_pitch=pitch, line_pitch=pitch, fan=bool(rng.integers(2)),
@@ -112,7 +114,7 @@ def scan_scene(kind, seed):
     points = scanned.scan.points
     points = points[np.isfinite(points).all(axis=1)]
     truth = next(h for h in scanned.truth["holes"] if h["inside_scan"])
-    return points, truth, dict(noise=noise, spacing=pitch, diameter=diameter)
+    return points, truth, dict(noise=noise, spacing=pitch, diameter=diameter, view_tilt_deg=math.degrees(tilt))
 
 
 def measure(task):
@@ -140,7 +142,8 @@ def measure(task):
                 diameter=float(hole.diameter - truth["diameter"]), u_diameter=u.diameter,
                 along=along, u_along=u.center_along_normal, angle=angle, u_angle=u.normal_deg,
                 bias_correction=hole.bias_correction, warnings=[w.code for w in hole.warnings],
-                holes_found=len(holes))
+                holes_found=len(holes), fit_rms=hole.fit_rms, rim_points=hole.rim_points,
+                view_tilt_deg=description.get("view_tilt_deg", 0.0))
 
 
 def coverage(errors, uncertainties):

@@ -16,6 +16,7 @@ whose edge lies well outside the hole.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -70,16 +71,40 @@ def _hinge(rho, depth, edge):
     return slope, float(residual @ residual)
 
 
-def _best_edge(rho, depth, low, high, steps):
+def _least_median_hinge(rho, depth, edge, max_slope):
+    """The hinge of :func:`_hinge` by least median of absolute residuals, over points below the
+    surface: the slope in ``[0, 2 max_slope]`` (steps of 1 %, then 0.05 % around the best) whose hinge
+    leaves the smallest median ``|depth - slope * max(edge - rho, 0)|``, and that median as the error.
+
+    A bore wall seen on one side of the hole (a tilted view) stands at one radius with its points
+    millimetres deep; on a coarse scan they can be as many as the cone's. In least squares they bend
+    the hinge to a wall's slope; the cone's points are still more than half of the points below the
+    surface, so the least median hinge follows them. Only points below the surface are given: the
+    surface's own points fit a hinge of any slope beyond its edge, and where they are most of the
+    points the median would be theirs."""
+    if len(rho) == 0:
+        return 0.0, np.inf
+    ramp = np.maximum(edge - rho, 0.0)
+    coarse = np.linspace(0.0, 2.0 * max_slope, 201)
+    errors = np.median(np.abs(depth[None, :] - coarse[:, None] * ramp[None, :]), axis=1)
+    best = float(coarse[int(np.argmin(errors))])
+    step = coarse[1] - coarse[0]
+    fine = np.linspace(best - step, best + step, 41)
+    errors = np.median(np.abs(depth[None, :] - fine[:, None] * ramp[None, :]), axis=1)
+    index = int(np.argmin(errors))
+    return float(fine[index]), float(errors[index])
+
+
+def _best_edge(rho, depth, low, high, steps, hinge=_hinge):
     edges = np.linspace(low, high, steps)
-    errors = np.array([_hinge(rho, depth, edge)[1] for edge in edges])
+    errors = np.array([hinge(rho, depth, edge)[1] for edge in edges])
     best = int(np.argmin(errors))
     # One finer pass around the best coarse edge.
     step = edges[1] - edges[0]
     fine = np.linspace(edges[best] - step, edges[best] + step, steps)
-    errors = np.array([_hinge(rho, depth, edge)[1] for edge in fine])
+    errors = np.array([hinge(rho, depth, edge)[1] for edge in fine])
     edge = float(fine[int(np.argmin(errors))])
-    return edge, _hinge(rho, depth, edge)[0]
+    return edge, hinge(rho, depth, edge)[0]
 
 
 def _depth_slope(rho, depth, bins_count, min_bin_points):
@@ -146,11 +171,22 @@ def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOP
     if below < settings.cone_min_points_below:
         return NotACone("points_below", float(below), float(settings.cone_min_points_below))
     keep = np.ones(len(rho), dtype=bool)
-    for _ in range(settings.cone_trim_rounds):
-        # Bore-wall and bottom points (far below the cone) are trimmed as outliers.
-        edge, slope = _best_edge(rho[keep], depth[keep], radius - width, radius + width, settings.cone_edge_steps)
+    for round_ in range(settings.cone_trim_rounds):
+        # Bore-wall and bottom points (far below the cone) are trimmed as outliers: the first hinge is
+        # fitted by least median (:func:`_least_median_hinge`) so that a wall seen on one side cannot bend it.
+        if round_ == 0:
+            deep = depth > clearly_below
+            edge, slope = _best_edge(rho[deep], depth[deep], radius - width, radius + width,
+                                     settings.cone_edge_steps,
+                                     hinge=partial(_least_median_hinge, max_slope=settings.cone_max_slope))
+        else:
+            edge, slope = _best_edge(rho[keep], depth[keep], radius - width, radius + width,
+                                     settings.cone_edge_steps)
         residual = depth - slope * np.maximum(edge - rho, 0.0)
-        scale = max(robust_sigma(residual[keep]), noise, 1e-12 * radius)
+        # The scale of the cone's own residuals, inside the edge: beyond it a noise-free surface's
+        # residuals are exact zeros, and where they are most of the points their MAD is zero.
+        on_cone = keep & (rho < edge)
+        scale = max(robust_sigma(residual[on_cone]) if on_cone.any() else 0.0, noise, 1e-12 * radius)
         new_keep = np.abs(residual) < settings.cone_trim_sigmas * scale
         if np.array_equal(new_keep, keep):
             break

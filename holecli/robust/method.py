@@ -324,6 +324,12 @@ def _cone_in_the_plane(scene, center, cone, settings):
 
     width = 2.0 * scene.alpha
     xy, depth = _points_around_edge(scene, center, cone.radius, width, settings)
+    # Only the points on the accepted cone: a bore wall seen on one side of a tilted scan would pull
+    # the free center and edge toward itself (soft_l1 tempers an outlier, not hundreds).
+    on_cone = depth - cone.slope * np.maximum(cone.radius - np.hypot(xy[:, 0] - center[0], xy[:, 1] - center[1]), 0.0)
+    spread = max(robust_sigma(on_cone), scene.height_noise, 1e-12 * cone.radius)
+    kept = np.abs(on_cone) < settings.cone_trim_sigmas * spread
+    xy, depth = xy[kept], depth[kept]
     if len(xy) < settings.cone_min_points_below:
         return center, cone.radius, None
     scale = max(scene.height_noise, 1e-12 * cone.radius)
