@@ -95,3 +95,69 @@ def test_plot_without_a_hole_draws_the_scan_and_exits_4(run, tmp_path):
     result = run("plot", sample("no_hole.csv"), "-o", str(out), "--dpi", "30")
     assert result.exit_code == cli.EXIT_NO_HOLE
     assert out.read_bytes().startswith(PNG_MAGIC)
+
+
+# --- detect --plot DIR/ -------------------------------------------------------------------------
+
+
+def test_detect_plot_into_an_existing_folder_writes_the_scan_stem(run, tmp_path):
+    result = run("detect", sample("table1.ply"), "--plot", str(tmp_path), "--format", "csv")
+    assert result.exit_code == cli.EXIT_OK, result.stderr
+    assert [p.name for p in tmp_path.iterdir()] == ["table1.png"]
+    assert png_pixels(tmp_path / "table1.png").std() > 10
+
+
+def test_detect_plot_into_a_new_folder_ending_with_a_slash_creates_it(run, tmp_path):
+    folder = tmp_path / "plots" / "shift1"
+    result = run("detect", sample("table1.ply"), "--plot", str(folder) + "/")
+    assert result.exit_code == cli.EXIT_OK, result.stderr
+    assert json.loads(result.stdout)["holes"]
+    assert [p.name for p in folder.iterdir()] == ["table1.png"]
+
+
+def test_detect_plot_file_without_a_slash_is_a_file(run, tmp_path):
+    out = tmp_path / "fit"  # not a folder, no slash: the PNG itself
+    result = run("detect", sample("table1.ply"), "--plot", str(out))
+    assert result.exit_code == cli.EXIT_OK, result.stderr
+    assert out.is_file() and out.read_bytes().startswith(PNG_MAGIC)
+
+
+def test_detect_plot_folder_that_cannot_be_made_is_one_error_line_and_exit_3(run, tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    for target, why in ((str(blocker) + "/", "not a folder"), (str(blocker / "sub") + "/", "cannot create")):
+        result = run("detect", sample("table1.ply"), "--plot", target)
+        assert result.exit_code == cli.EXIT_INPUT
+        assert result.stderr.startswith(f"Error: {blocker}") and why in result.stderr
+        assert result.stderr.count("\n") == 1
+        assert result.stdout == ""  # nothing measured
+
+
+def test_detect_plot_draws_the_verdict_of_the_tolerances(run, tmp_path, monkeypatch):
+    from holecli import plot
+
+    drawn = {}
+    figure = plot.figure
+
+    def spy(*args, **kwargs):
+        drawn.update(kwargs)
+        return figure(*args, **kwargs)
+
+    monkeypatch.setattr(plot, "figure", spy)
+    result = run("detect", sample("table1.ply"), "--nominal-diameter", "3", "--tolerance", "+0.036/-0",
+                 "--plot", str(tmp_path) + "/")
+    assert result.exit_code == cli.EXIT_OUT_OF_TOLERANCE
+    assert drawn["checked"][0]["failed_checks"] == ["diameter"]
+    assert plot.verdict_lines(drawn["checked"][0])[-1] == "verdict: fail: diameter"
+    assert (tmp_path / "table1.png").is_file()
+    drawn.clear()
+    assert run("detect", sample("table1.ply"), "--plot", str(tmp_path) + "/").exit_code == cli.EXIT_OK
+    assert drawn["checked"] is None
+
+
+def test_plot_names_of_scans():
+    from holecli.cli.plot import is_plot_folder, plot_name
+
+    assert plot_name("scans/part.7.ply") == "part.7.png"
+    assert plot_name("-") == "stdin.png"
+    assert is_plot_folder("new/") and not is_plot_folder("new.png")
