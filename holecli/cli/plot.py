@@ -1,7 +1,9 @@
 """``holecli plot``: draw the holes of one scan into a PNG (matplotlib, the optional extra ``plot``).
 
-Also the ``--plot FILE.png`` of ``holecli detect`` (:func:`write_plot`). matplotlib is imported here
-only when a picture is drawn: ``holecli detect`` without ``--plot`` never imports it.
+Also the ``--plot FILE.png|DIR/`` of ``holecli detect`` (:func:`write_plot`, :func:`plot_destination`)
+and the plot folder of ``holecli batch --plot`` (:func:`make_plot_folder`). matplotlib is imported
+here only when a picture is drawn: ``holecli detect`` and ``holecli batch`` without ``--plot`` never
+import it.
 """
 
 from __future__ import annotations
@@ -188,9 +190,11 @@ def plot_path_type():
 def plot(scan, output, input_format, scan_index, units, max_panels, dpi, method, view_dir, min_diameter, max_holes,
          full_only, gauge_depth, quiet, verbose):
     """Draw the holes found in SCAN into a PNG, for an inspector: per hole the points around it seen
-    along its normal (coloured by height above the surface) with the fitted edge circle, its center
-    and the countersink and bore circles, the edge's radial residuals against the angle, and a box of
-    its values (diameter, center, normal, type, countersink, warnings). Lengths in the file's units.
+    along its normal (coloured by height above the surface) with the fitted edge circle, its center,
+    the countersink and bore circles, the rim points used and rejected, the points inside the hole and
+    a scale bar; the edge's radial residuals against the angle; and a box of its values (diameter ± U,
+    center, normal, type, countersink, warnings, verdict). Lengths in the file's units. (holecli detect
+    --plot and holecli batch --plot draw the same, with the tolerance verdict.)
 
     Needs matplotlib: pip install 'holecli[plot]'.
 
