@@ -334,7 +334,8 @@ def _add_scale_bar(ax, span, label_unit, gid):
     from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
     length = scale_length(span)
-    bar = AnchoredSizeBar(ax.transData, length, f"{length:g} {label_unit}", loc="lower left", pad=0.4,
+    unit_text = "unit" if label_unit == "units" and length == 1 else label_unit
+    bar = AnchoredSizeBar(ax.transData, length, f"{length:g} {unit_text}", loc="lower left", pad=0.4,
                           borderpad=0.6, sep=3, color="black", frameon=True, size_vertical=span / 150.0,
                           fontproperties=FontProperties(size=8))
     bar.patch.set_alpha(0.85)

@@ -192,7 +192,7 @@ def test_a_scale_bar_of_a_round_length_in_each_view(drawn):
         assert len(bars) == 1
         label = bars[0].txt_label.get_text()
         number, unit = label.split()
-        assert unit == (detection.units or "units")
+        assert unit == (detection.units or ("unit" if float(number) == 1 else "units"))
         mantissa = float(number) / 10 ** np.floor(np.log10(float(number)))
         assert mantissa == pytest.approx(1) or mantissa == pytest.approx(2) or mantissa == pytest.approx(5)
         assert plot.VIEW_RADII * hole.diameter / 10 <= float(number) <= plot.VIEW_RADII * hole.diameter / 4 * 1.001
