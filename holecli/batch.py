@@ -36,7 +36,7 @@ from holecli.report import BATCH_CSV_COLUMNS, CSV_COLUMNS, csv_text, to_json_lin
 
 __all__ = ["FORMATS", "BatchOutput", "FileSummary", "OutputBusyError", "RecordWriter", "ResumeError", "Tally",
            "default_jobs", "error_record", "failure_message", "files_to_do", "find_scans", "measure_all", "measure_record",
-           "resolved_path"]
+           "plot_files", "resolved_path"]
 
 FORMATS = ("jsonl", "csv")
 
@@ -169,7 +169,7 @@ def failure_message(path, error) -> str:
     return " ".join(message.splitlines())
 
 
-def measure_record(path, options, spec=None, explain=False, scan=None, units=None) -> dict:
+def measure_record(path, options, spec=None, explain=False, scan=None, units=None, plot_file=None) -> dict:
     """The record of one file.
 
     Parameters
@@ -189,6 +189,11 @@ def measure_record(path, options, spec=None, explain=False, scan=None, units=Non
         The file's unit and the record's (``--units``, ``--output-units``): the record is converted
         (:meth:`holecli.units.UnitChoice.express`) before the tolerance check, whose values are in
         the output unit.
+    plot_file : str, optional
+        Also draw the holes into this PNG (:func:`holecli.plot.figure`, with the verdict when
+        ``spec`` is given; matplotlib, the extra ``plot``), written atomically. A PNG that cannot be
+        written (or drawn) makes the record an error record whose message still gives the result
+        (the holes found, their diameters, the verdict): the error record has no other field.
 
     Returns
     -------
@@ -205,7 +210,16 @@ def measure_record(path, options, spec=None, explain=False, scan=None, units=Non
 
     resolved = resolved_path(path)
     try:
-        detection = detect_file(path, **({} if scan is None else {"scan": scan}), **options)
+        if plot_file is None:
+            detection = detect_file(path, **({} if scan is None else {"scan": scan}), **options)
+        else:  # the points are drawn too
+            from holecli.io import read_cloud
+            from holecli.pipeline import read_and_detect
+
+            reading = dict(options)
+            input_format = reading.pop("input_format", None)
+            detection, cloud = read_and_detect(lambda: read_cloud(path, scan=scan, input_format=input_format),
+                                               scan=scan, input_format=input_format, **reading)
     except HoleCliError as error:
         return error_record(path, failure_message(path, error), resolved)
     except Exception as error:  # noqa: BLE001 - a bug in one file must not stop the batch
@@ -217,7 +231,82 @@ def measure_record(path, options, spec=None, explain=False, scan=None, units=Non
     except ValueError as error:  # an output unit without the file's
         return error_record(path, f"{path}: {error}", resolved)
     record["path"] = resolved
-    return tolerance.check(record, spec) if spec is not None else record
+    if spec is not None:
+        record = tolerance.check(record, spec)
+    if plot_file is not None:
+        problem = _draw(plot_file, detection, cloud.points, record, spec is not None, units)
+        if problem is not None:
+            return error_record(path, f"{problem} ({path} was measured: {_result_text(record)})", resolved)
+    return record
+
+
+def _draw(plot_file, detection, points, record, checked, units):
+    """Draw a file's holes into ``plot_file``; None, or the one-line message of why not."""
+    from holecli import plot
+    from holecli.io.outfile import write_bytes
+
+    try:
+        fig = plot.figure(detection, points, unit=units.file if units is not None else None,
+                          checked=record["holes"] if checked else None, checked_unit=record.get("units"))
+        payload = plot.png_bytes(fig)
+    except Exception as error:  # noqa: BLE001 - a bug in the drawing must not stop the batch
+        problem = " ".join(f"{type(error).__name__}: {error}".splitlines())
+        return f"{plot_file}: internal error (a bug: please report it) drawing the plot: {problem}"
+    try:
+        write_bytes(plot_file, payload)
+    except OSError as error:
+        return f"{plot_file}: cannot write the plot: {error.strerror or error}"
+    return None
+
+
+def _result_text(record):
+    """The result of a record in a few words: ``1 hole, diameter 2.4981 mm; out of tolerance``."""
+    holes = record.get("holes", ())
+    unit = f" {record['units']}" if record.get("units") else ""
+    text = f"{len(holes)} hole{'' if len(holes) == 1 else 's'}"
+    if holes:
+        shown = ", ".join(f"{hole['diameter']:.4f}" for hole in holes[:4]) + (", ..." if len(holes) > 4 else "")
+        text += f", diameter{'' if len(holes) == 1 else 's'} {shown}{unit}"
+    verdict = record.get("verdict")
+    if verdict is not None:
+        text += "; " + ("in tolerance" if verdict["in_tolerance"] else "out of tolerance"
+                        if verdict["out_of_tolerance"] or verdict["missing"] else "undecided")
+    return text
+
+
+def plot_files(paths, folder) -> dict:
+    """The PNG of each scan in the plot folder: its stem, made unique by ``-2``, ``-3``, ...
+
+    Parameters
+    ----------
+    paths : sequence of str
+        Every scan of the batch, in input order (those already done by an earlier run too, so that
+        a resumed run names its scans as the first did).
+    folder : str
+        The plot folder.
+
+    Returns
+    -------
+    dict
+        ``{path: folder/<stem>.png}``; the second scan with a stem (compared case-insensitively, for
+        the file systems that do) gets ``<stem>-2.png``, the third ``<stem>-3.png``, skipping a name
+        already taken.
+
+    Examples
+    --------
+    >>> plot_files(["a/x.ply", "b/x.ply", "x-2.csv", "c/X.pcd"], "plots")
+    {'a/x.ply': 'plots/x.png', 'b/x.ply': 'plots/x-2.png', 'x-2.csv': 'plots/x-2-2.png', 'c/X.pcd': 'plots/X-3.png'}
+    """
+    taken, files = set(), {}
+    for path in paths:
+        stem = os.path.splitext(os.path.basename(os.path.normpath(os.fspath(path))))[0] or "scan"
+        name, number = stem, 1
+        while name.casefold() in taken:
+            number += 1
+            name = f"{stem}-{number}"
+        taken.add(name.casefold())
+        files[path] = os.path.join(folder, name + ".png")
+    return files
 
 
 def error_record(path, message, resolved=None) -> dict:
@@ -306,11 +395,15 @@ def _die_with_parent(parent):
 
 
 def _measure_in_worker(path):
-    return measure_record(path, _WORKER["options"], _WORKER["spec"], _WORKER["explain"], **_WORKER["reading"])
+    reading = dict(_WORKER["reading"])
+    plots = reading.pop("plots", None)
+    if plots is not None and path in plots:
+        reading["plot_file"] = plots[path]
+    return measure_record(path, _WORKER["options"], _WORKER["spec"], _WORKER["explain"], **reading)
 
 
 def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_seconds=0.2, explain=False, scan=None,
-                units=None):
+                units=None, plots=None):
     """Measure ``paths`` in ``jobs`` worker processes and yield each record as its file finishes.
 
     Parameters
@@ -337,6 +430,9 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
         The scan of each E57 file (see :func:`measure_record`).
     units : holecli.units.UnitChoice, optional
         The file's and the record's units (see :func:`measure_record`).
+    plots : dict, optional
+        ``{path: PNG}`` (:func:`plot_files`): each file's holes are also drawn, in the worker that
+        measures it (see ``plot_file`` of :func:`measure_record`).
 
     Yields
     ------
@@ -356,7 +452,7 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
     input_format = options.get("input_format")
     preload = ("open3d",) if any(_is_compressed_pcd(path, input_format) for path in paths) else ()
     # --scan and --units/--output-units, passed on only when given
-    reading = {key: value for key, value in (("scan", scan), ("units", units)) if value is not None}
+    reading = {key: value for key, value in (("scan", scan), ("units", units), ("plots", plots)) if value is not None}
     while waiting or suspects:
         executor = ProcessPoolExecutor(max_workers=max(1, min(jobs, len(waiting) + len(suspects))),
                                        mp_context=context, initializer=_start_worker,

@@ -10,21 +10,26 @@ One row per hole (the first ``max_panels``):
 
 * the points around the hole seen along its normal, in the hole's plane frame (the in-plane
   offsets from its center, within :data:`VIEW_RADII` radii), coloured by their height above the
-  surface (along the normal), with the fitted edge circle and its center, and the countersink and
-  bore circles where they were measured;
+  surface (along the normal), with the fitted edge circle and its center, the countersink and bore
+  circles where they were measured, the rim points used and rejected and the surface points inside
+  the hole (:func:`rim_points`: the result does not carry its rim points, they are re-derived from
+  the scan), a scale bar of a round length (:func:`scale_length`) and the legend below the view;
 * the radial residuals of the edge against the angle (polar): for each angular sector, the
-  nearest surface point to the center, minus the fitted radius (the rim points themselves are not
-  in the result: these are the points that bound the hole);
-* a text box with the hole's values: diameter, center, normal, type, countersink, bore, warnings.
+  nearest surface point to the center, minus the fitted radius, the rejected ones marked;
+* a text box with the hole's values: diameter ± U, center, normal, type, countersink, bore,
+  warnings, and, last, its conformance and verdict (:func:`verdict_lines`) when the checked record
+  is given.
 """
 
 from __future__ import annotations
 
 import io
+from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["VIEW_RADII", "figure", "png_bytes", "plane_frame", "edge_residuals"]
+__all__ = ["VIEW_RADII", "RimPoints", "edge_residuals", "figure", "hole_text", "plane_frame", "png_bytes", "rim_points",
+           "scale_length", "verdict_lines"]
 
 # Points within this many hole radii of its center (in its plane) are drawn.
 VIEW_RADII = 2.0
@@ -63,6 +68,24 @@ def _local(points, hole):
     return d @ u, d @ v, d @ np.asarray(hole.normal, dtype=float)
 
 
+def _edge_points(points, hole, plane_rms=0.0, sectors=EDGE_SECTORS, min_radius=None):
+    """The local coordinates of the points around ``hole``, which of them are surface points, and
+    the index (into those arrays) of each angular sector's surface point nearest to the center (of
+    those at least ``min_radius`` from it, when given)."""
+    radius = hole.diameter / 2.0
+    a, b, h = _local(points, hole)
+    r = np.hypot(a, b)
+    band = max(SURFACE_BAND_RMS * plane_rms, 0.01 * radius)
+    surface = (np.abs(h) <= band) & (r <= VIEW_RADII * radius)
+    candidates = np.flatnonzero(surface if min_radius is None else surface & (r >= min_radius))
+    angle = np.arctan2(b[candidates], a[candidates])
+    sector = np.minimum(((angle + np.pi) / (2 * np.pi) * sectors).astype(int), sectors - 1)
+    order = np.lexsort((r[candidates], sector))  # by sector, then nearest first
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = sector[order][1:] != sector[order][:-1]
+    return a, b, r, surface, candidates[order[first]]
+
+
 def edge_residuals(points, hole, plane_rms=0.0, sectors=EDGE_SECTORS):
     """The edge of a hole as the scan shows it, against its fitted circle.
 
@@ -85,18 +108,119 @@ def edge_residuals(points, hole, plane_rms=0.0, sectors=EDGE_SECTORS):
     residual : (m,) float ndarray
         Its distance from the center minus the fitted radius (file units): positive outside the circle.
     """
+    a, b, r, _, chosen = _edge_points(points, hole, plane_rms, sectors)
+    return np.arctan2(b[chosen], a[chosen]), r[chosen] - hole.diameter / 2.0
+
+
+# A rim point is "used" when its radial residual is within this many robust standard deviations
+# (1.4826 MAD) of the fitted radius.
+RIM_ROBUST_SIGMAS = 4.0
+
+
+@dataclass(frozen=True)
+class RimPoints:
+    """The rim of a hole re-derived from the scan (the result does not carry its rim points).
+
+    Attributes
+    ----------
+    offsets : (m, 2) float ndarray
+        In-plane offsets ``(u, v)`` from the hole's center of each sector's surface point nearest to
+        the center (file units, the frame of :func:`plane_frame`).
+    residual : (m,) float ndarray
+        Their distance from the center minus the fitted radius.
+    used : (m,) bool ndarray
+        Within :data:`RIM_ROBUST_SIGMAS` robust standard deviations of the fitted radius.
+    inside : (k, 2) float ndarray
+        The other surface points within the fitted radius (outliers inside the hole).
+    limit : float
+        The largest ``|residual|`` of a used point.
+    """
+
+    offsets: np.ndarray
+    residual: np.ndarray
+    used: np.ndarray
+    inside: np.ndarray
+    limit: float
+
+    @property
+    def angle(self):
+        """The angle of each rim point, radians."""
+        return np.arctan2(self.offsets[:, 1], self.offsets[:, 0])
+
+
+def rim_points(points, hole, plane_rms=0.0, sectors=EDGE_SECTORS):
+    """The rim points of a hole, used and rejected, and the surface points inside it.
+
+    The result does not carry the points its edge was fitted to; they are re-derived here. For each
+    of ``sectors`` angular sectors, the surface point nearest to the center (as
+    :func:`edge_residuals`) gives the residuals ``r - R``; their robust spread is
+    ``sigma = 1.4826 * median(|r - R|)`` (the MAD about the fitted radius; of the sectors' nearest
+    points beyond ``R - 4 fit_rms``, since outliers inside the hole may be the nearest point of most
+    sectors) and the limit ``4 sigma`` (:data:`RIM_ROBUST_SIGMAS`; at least
+    1e-9 R). A sector's nearest point inside ``R - limit`` is *rejected* (an outlier inside the hole)
+    and the sector's rim is its nearest point beyond ``R - limit``, *used* when ``r - R <= limit``,
+    *rejected* otherwise (a gap). The other surface points inside ``R - limit`` are ``inside``.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        The scan's points.
+    hole : holecli.results.Hole
+        The hole.
+    plane_rms : float
+        The plane's rms (see :func:`edge_residuals`).
+    sectors : int
+        Angular sectors.
+
+    Returns
+    -------
+    RimPoints
+    """
     radius = hole.diameter / 2.0
-    a, b, h = _local(points, hole)
-    r = np.hypot(a, b)
-    band = max(SURFACE_BAND_RMS * plane_rms, 0.01 * radius)
-    keep = (np.abs(h) <= band) & (r <= VIEW_RADII * radius)
-    angle, r = np.arctan2(b[keep], a[keep]), r[keep]
-    sector = np.minimum(((angle + np.pi) / (2 * np.pi) * sectors).astype(int), sectors - 1)
-    order = np.lexsort((r, sector))  # by sector, then nearest first
-    first = np.ones(order.size, dtype=bool)
-    first[1:] = sector[order][1:] != sector[order][:-1]
-    chosen = order[first]
-    return angle[chosen], r[chosen] - radius
+    a, b, r, surface, nearest = _edge_points(points, hole, plane_rms, sectors)
+    # the spread from the sectors' nearest points not far inside (by the fit's own rms): outliers
+    # inside the hole may be the nearest point of most sectors
+    window = RIM_ROBUST_SIGMAS * max(hole.fit_rms, 1e-3 * radius)
+    _, _, _, _, near_edge = _edge_points(points, hole, plane_rms, sectors, min_radius=radius - window)
+    spread = 1.4826 * float(np.median(np.abs(r[near_edge] - radius))) if near_edge.size else 0.0
+    limit = max(RIM_ROBUST_SIGMAS * spread, 1e-9 * radius)
+    first = r[nearest] - radius
+    _, _, _, _, rim = _edge_points(points, hole, plane_rms, sectors, min_radius=radius - limit)
+    outliers = nearest[first < -limit]
+    chosen = np.concatenate([rim, outliers])
+    residual = r[chosen] - radius
+    used = np.zeros(chosen.size, dtype=bool)
+    used[:rim.size] = residual[:rim.size] <= limit
+    inside = surface & (r < radius - limit)
+    inside[outliers] = False
+    return RimPoints(offsets=np.column_stack([a[chosen], b[chosen]]), residual=residual, used=used,
+                     inside=np.column_stack([a[inside], b[inside]]), limit=limit)
+
+
+def scale_length(span):
+    """A round length (1, 2 or 5 times a power of ten) of about a quarter of ``span``.
+
+    Parameters
+    ----------
+    span : float
+        The width of the view (> 0).
+
+    Returns
+    -------
+    float
+        The largest round length not above ``span / 4``.
+
+    Examples
+    --------
+    >>> scale_length(12.0), scale_length(4.0), scale_length(0.03)
+    (2.0, 1.0, 0.005)
+    """
+    target = span / 4.0
+    power = 10.0 ** np.floor(np.log10(target))
+    for step in (5.0, 2.0, 1.0):
+        if step * power <= target * (1 + 1e-9):
+            return float(f"{step * power:.3g}")
+    return float(f"{power:.3g}")
 
 
 def _number(value, unit="", digits=4):
@@ -153,7 +277,74 @@ def hole_text(hole, unit=None):
     return "\n".join(lines)
 
 
-def figure(detection, points, max_panels=None, unit=None, title=None):
+def _conformance_line(check, entry):
+    """One check of a hole's ``conformance``: ``diameter -0.0031 in [+0, +0.036] U 0.011: fail``."""
+    band = entry.get("lower") is not None
+    value = entry.get("value")
+    value_text = "not measured" if value is None else (f"{value:+.4g}" if band else f"{value:.4g}")
+    limits = f"in [{entry['lower']:+.4g}, {entry['upper']:+.4g}]" if band else f"<= {entry['upper']:.4g}"
+    expanded = entry.get("expanded_uncertainty")
+    return f"  {check} {value_text} {limits} U {'-' if expanded is None else f'{expanded:.2g}'}: {entry['decision']}"
+
+
+def verdict_lines(checked_hole, unit=None):
+    """The tolerance lines of a hole's text box, the verdict last.
+
+    Parameters
+    ----------
+    checked_hole : dict or None
+        The hole of a record checked by :func:`holecli.tolerance.check` (with ``in_tolerance``,
+        ``failed_checks``, ``undecided_checks`` and ``conformance``); None, or a hole without
+        ``in_tolerance``, when no tolerance was given.
+    unit : str, optional
+        The unit of the record's values (the deviations and limits), for the header line.
+
+    Returns
+    -------
+    list of str
+        ``"verdict: no tolerance given"`` alone; else ``"tolerance (in UNIT):"``, one line per check
+        (value, limits, U, decision) and ``"verdict: pass"``, ``"verdict: fail: CHECK, ..."`` (with
+        ``"; undecided: CHECK, ..."`` when some are) or ``"verdict: undecided: CHECK, ..."``;
+        ``"verdict: not checked (no nominal applies)"`` for a hole that no nominal applies to.
+    """
+    if checked_hole is None or "in_tolerance" not in checked_hole:
+        return ["verdict: no tolerance given"]
+    if checked_hole["in_tolerance"] is None:
+        return ["verdict: not checked (no nominal applies)"]
+    lines = ["tolerance" + (f" (in {unit}):" if unit else ":")]
+    lines.extend(_conformance_line(check, entry) for check, entry in (checked_hole.get("conformance") or {}).items())
+    failed = list(checked_hole.get("failed_checks") or ())
+    undecided = list(checked_hole.get("undecided_checks") or ())
+    if checked_hole["in_tolerance"]:
+        lines.append("verdict: pass")
+    elif failed:
+        lines.append("verdict: fail: " + ", ".join(failed) + ("; undecided: " + ", ".join(undecided) if undecided else ""))
+    else:
+        lines.append("verdict: undecided: " + ", ".join(undecided))
+    return lines
+
+
+# The text box's colour by verdict.
+_VERDICT_COLOURS = {"pass": "#e3f5e1", "fail": "#fbe0e0", "undecided": "#fdf0d0"}
+
+
+def _add_scale_bar(ax, span, label_unit, gid):
+    """A scale bar of a round length (:func:`scale_length`) in the lower left corner of ``ax``."""
+    from matplotlib.font_manager import FontProperties
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+    length = scale_length(span)
+    unit_text = "unit" if label_unit == "units" and length == 1 else label_unit
+    bar = AnchoredSizeBar(ax.transData, length, f"{length:g} {unit_text}", loc="lower left", pad=0.4,
+                          borderpad=0.6, sep=3, color="black", frameon=True, size_vertical=span / 150.0,
+                          fontproperties=FontProperties(size=8))
+    bar.patch.set_alpha(0.85)
+    bar.set_gid(gid)
+    ax.add_artist(bar)
+    return bar
+
+
+def figure(detection, points, max_panels=None, unit=None, title=None, checked=None, checked_unit=None):
     """Draw the holes of a detection.
 
     Parameters
@@ -168,14 +359,22 @@ def figure(detection, points, max_panels=None, unit=None, title=None):
         The unit of the coordinates, for the labels (by default ``detection.units``, else "units").
     title : str, optional
         The figure's title (by default the file, its points and the holes found).
+    checked : list of dict, optional
+        The holes of the record checked against tolerances (:func:`holecli.tolerance.check`), matched
+        to the detection's by ``index``: each text box ends with their conformance and verdict
+        (:func:`verdict_lines`). None: "verdict: no tolerance given".
+    checked_unit : str, optional
+        The unit of the checked record's values (``--output-units``), for the text box.
 
     Returns
     -------
     matplotlib.figure.Figure
         On the Agg canvas. The axes of each hole's view have ``gid`` ``"hole N"`` (its
-        :class:`matplotlib.patches.Circle` of the edge has ``gid`` ``"edge N"``); its polar axes
-        ``"edge N"``, its text axes ``"text N"``. Without a hole, one axes shows the scan from above
-        the plane with "no hole found".
+        :class:`matplotlib.patches.Circle` of the edge has ``gid`` ``"edge N"``, its rim points the
+        collections ``"rim used N"`` and ``"rim rejected N"``, the surface points inside the radius
+        ``"inside N"``, its scale bar ``"scale bar N"``; the legend below it); its polar axes
+        ``"edge N"``, its text axes ``"text N"`` (the text ``"values N"``). Without a hole, one axes
+        ``"no hole"`` shows the scan from above the plane with "no hole found" (and ``"scale bar"``).
     """
     from matplotlib.figure import Figure
     from matplotlib.patches import Circle
@@ -184,13 +383,15 @@ def figure(detection, points, max_panels=None, unit=None, title=None):
     label_unit = unit or "units"
     points = np.asarray(points, dtype=float)
     holes = list(detection.holes if max_panels is None else detection.holes[:max_panels])
+    checked_by_index = None if checked is None else {hole.get("index"): hole for hole in checked}
     rows = max(len(holes), 1)
     fig = Figure(figsize=(14, 4.6 * rows), dpi=100, layout="constrained")
     if title is None:
         name = detection.file or "points"
         shown = "" if len(holes) == len(detection.holes) else f", first {len(holes)} shown"
         title = (f"{name}: {detection.points} points, {len(detection.holes)} hole"
-                 f"{'' if len(detection.holes) == 1 else 's'} (method {detection.method}{shown})")
+                 f"{'' if len(detection.holes) == 1 else 's'} (method {detection.method}{shown}; "
+                 f"lengths in {label_unit})")
     fig.suptitle(title, fontsize=12)
     if not holes:
         ax = fig.add_subplot(1, 1, 1, gid="no hole")
@@ -202,12 +403,17 @@ def figure(detection, points, max_panels=None, unit=None, title=None):
         ax.set_xlabel(f"u [{label_unit}]")
         ax.set_ylabel(f"v [{label_unit}]")
         ax.set_title("no hole found (the scan seen along the plane's normal)")
+        if len(points):
+            span = float(np.ptp(d @ u)) or 1.0
+            _add_scale_bar(ax, span, label_unit, "scale bar")
         return fig
     grid = fig.add_gridspec(rows, 3, width_ratios=[1.25, 0.9, 0.85])
     for row, hole in enumerate(holes):
         radius = hole.diameter / 2.0
         a, b, h = _local(points, hole)
         near = np.hypot(a, b) <= VIEW_RADII * radius
+        checked_hole = None if checked_by_index is None else checked_by_index.get(hole.index)
+        name = f" ({checked_hole['name']})" if checked_hole and checked_hole.get("name") else ""
         # the view along the normal: points near the hole coloured by height
         ax = fig.add_subplot(grid[row, 0], gid=f"hole {hole.index}")
         order = np.argsort(h[near])  # the highest on top
@@ -215,46 +421,69 @@ def figure(detection, points, max_panels=None, unit=None, title=None):
                              linewidths=0, rasterized=True)
         bar = fig.colorbar(scatter, ax=ax, shrink=0.9)
         bar.set_label(f"height above the surface [{label_unit}]")
+        # about one sector per rim point: a thinner sector of a coarse scan holds no edge point
+        rim = rim_points(points, hole, detection.plane.rms, sectors=int(np.clip(hole.rim_points, 24, EDGE_SECTORS)))
+        used, rejected = rim.offsets[rim.used], rim.offsets[~rim.used]
+        ax.scatter(used[:, 0], used[:, 1], s=18, marker="o", facecolors="none", edgecolors="black", linewidths=0.8,
+                   label=f"rim points used: {len(used)}", gid=f"rim used {hole.index}")
+        ax.scatter(rejected[:, 0], rejected[:, 1], s=28, marker="x", color="crimson", linewidths=1.2,
+                   label=f"rim points rejected: {len(rejected)} (|r − R| > {rim.limit:.2g})",
+                   gid=f"rim rejected {hole.index}")
+        if len(rim.inside):
+            ax.scatter(rim.inside[:, 0], rim.inside[:, 1], s=14, marker="D", color="cyan", edgecolors="black",
+                       linewidths=0.4, label=f"surface points inside the hole: {len(rim.inside)}",
+                       gid=f"inside {hole.index}")
         ax.add_patch(Circle((0, 0), radius, fill=False, color="red", lw=1.8, gid=f"edge {hole.index}",
-                            label=f"edge Ø {hole.diameter:.4f}"))
+                            label=f"edge Ø {hole.diameter:.4f} {label_unit}"))
         ax.plot([0], [0], "+", color="red", ms=12, mew=2, label="center")
         countersink = hole.countersink.diameter if hole.countersink is not None else None
         if countersink is not None and abs(countersink - hole.diameter) > 1e-9 * hole.diameter:
             ax.add_patch(Circle((0, 0), countersink / 2.0, fill=False, color="orange", lw=1.4, ls="--",
-                                gid=f"countersink {hole.index}", label=f"countersink Ø {countersink:.4f}"))
+                                gid=f"countersink {hole.index}",
+                                label=f"countersink Ø {countersink:.4f} {label_unit}"))
         bore = hole.bore.diameter if hole.bore is not None else None
         if bore is not None:
             ax.add_patch(Circle((0, 0), bore / 2.0, fill=False, color="magenta", lw=1.4, ls=":",
-                                gid=f"bore {hole.index}", label=f"bore Ø {bore:.4f}"))
+                                gid=f"bore {hole.index}", label=f"bore Ø {bore:.4f} {label_unit}"))
         extent = VIEW_RADII * radius
         ax.set_xlim(-extent, extent)
         ax.set_ylim(-extent, extent)
         ax.set_aspect("equal")
         ax.set_xlabel(f"in-plane offset u [{label_unit}]")
         ax.set_ylabel(f"in-plane offset v [{label_unit}]")
-        ax.set_title(f"hole {hole.index}: seen along its normal")
-        ax.legend(loc="upper right", fontsize=7, framealpha=0.8)
+        ax.set_title(f"hole {hole.index}{name}: seen along its normal [{label_unit}]")
+        _add_scale_bar(ax, 2 * extent, label_unit, f"scale bar {hole.index}")
+        # below the view: it covers nothing
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=7, frameon=False)
         ax.grid(True, lw=0.3, alpha=0.5)
         # the edge's radial residuals
         polar = fig.add_subplot(grid[row, 1], projection="polar", gid=f"edge {hole.index}")
-        # about one sector per rim point: a thinner sector of a coarse scan holds no edge point
-        angle, residual = edge_residuals(points, hole, detection.plane.rms,
-                                         sectors=int(np.clip(hole.rim_points, 24, EDGE_SECTORS)))
-        if angle.size:
+        span = 1.5 * rim.limit
+        if rim.used.any():
+            angle, residual = rim.angle[rim.used], rim.residual[rim.used]
             order = np.argsort(angle)
-            polar.plot(angle[order], residual[order], ".-", ms=3, lw=0.6, color="tab:blue")
-            span = max(1.2 * float(np.percentile(np.abs(residual), 98)), 1e-12)
-            polar.set_ylim(-span, span)
-        polar.plot(np.linspace(0, 2 * np.pi, 361), np.zeros(361), color="red", lw=1)
+            polar.plot(angle[order], residual[order], "o-", ms=2.5, lw=0.6, color="tab:blue")
+            span = max(1.2 * float(np.percentile(np.abs(residual), 98)), span)
+        # the rejected ones at the edge of the plot when they are beyond it (the center: far inside)
+        polar.plot(rim.angle[~rim.used], np.clip(rim.residual[~rim.used], -span, span), "x", ms=5, color="crimson")
+        polar.set_ylim(-span, span)
+        ring = np.linspace(0, 2 * np.pi, 361)
+        polar.plot(ring, np.zeros(361), color="red", lw=1)
+        for sign in (-1, 1):
+            polar.plot(ring, np.full(361, sign * rim.limit), color="0.5", lw=0.6, ls="--")
         polar.set_title(f"edge: nearest surface point − fitted radius [{label_unit}]\n"
-                        f"(red: the fitted circle; angle in the u, v frame)", fontsize=9)
+                        f"(red: the fitted circle; dashed: ±{RIM_ROBUST_SIGMAS:g} robust σ; x: rejected; "
+                        f"angle in the u, v frame)", fontsize=8.5)
         polar.tick_params(labelsize=7)
         # the values
         text = fig.add_subplot(grid[row, 2], gid=f"text {hole.index}")
         text.axis("off")
-        text.text(0.02, 0.98, hole_text(hole, unit), transform=text.transAxes, va="top", ha="left",
-                  family="monospace", fontsize=8.5,
-                  bbox={"boxstyle": "round", "facecolor": "#fff8e0", "edgecolor": "0.5"}, gid=f"values {hole.index}")
+        verdict = verdict_lines(checked_hole, checked_unit)
+        state = verdict[-1].removeprefix("verdict: ").split(":")[0]
+        text.text(0.02, 0.98, hole_text(hole, unit) + "\n" + "\n".join(verdict), transform=text.transAxes,
+                  va="top", ha="left", family="monospace", fontsize=8.5,
+                  bbox={"boxstyle": "round", "facecolor": _VERDICT_COLOURS.get(state, "#fff8e0"), "edgecolor": "0.5"},
+                  gid=f"values {hole.index}")
     return fig
 
 

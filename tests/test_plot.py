@@ -111,3 +111,141 @@ def test_plane_frame_is_orthonormal():
         u, v = plot.plane_frame(n)
         assert np.allclose([u @ u, v @ v, u @ v, u @ n, v @ n], [1, 1, 0, 0, 0], atol=1e-12)
         assert np.allclose(np.cross(u, v), n)
+
+
+# --- rim points, scale bar, verdict ------------------------------------------------------------
+
+
+def _view(fig, index=0):
+    [ax] = [ax for ax in fig.axes if ax.get_gid() == f"hole {index}"]
+    return ax
+
+
+def _collection(ax, gid):
+    found = [c for c in ax.collections if c.get_gid() == gid]
+    return found[0] if found else None
+
+
+def _text(fig, index=0):
+    [box] = [ax for ax in fig.axes if ax.get_gid() == f"text {index}"]
+    return "\n".join(t.get_text() for t in box.texts)
+
+
+@pytest.fixture(scope="module")
+def inside_hole():
+    """table1_inside100.csv: 100 reflections inside a 3.000 hole."""
+    path = REPO_ROOT / "sample_clouds" / "table1_inside100.csv"
+    detection = detect_file(path)
+    return detection, read_cloud(path).points
+
+
+def test_rim_points_of_a_clean_hole_are_used():
+    path = REPO_ROOT / "sample_clouds" / "table1.ply"
+    detection = detect_file(path)
+    hole = detection.holes[0]
+    rim = plot.rim_points(read_cloud(path).points, hole, detection.plane.rms, sectors=hole.rim_points)
+    assert rim.used.sum() >= 0.9 * rim.used.size >= 0.8 * hole.rim_points
+    assert np.all(np.abs(rim.residual[rim.used]) <= rim.limit)
+    assert rim.limit < 0.2 * hole.diameter / 2
+    assert rim.inside.shape[1] == 2
+
+
+def test_rim_points_reject_the_reflections_inside(inside_hole):
+    detection, points = inside_hole
+    hole = detection.holes[0]
+    rim = plot.rim_points(points, hole, detection.plane.rms, sectors=hole.rim_points)
+    radius = hole.diameter / 2
+    assert rim.used.sum() >= 0.8 * hole.rim_points  # the true rim, behind the reflections
+    assert (~rim.used).sum() >= 10 and len(rim.inside) >= 10
+    assert np.all(rim.residual[~rim.used] < -rim.limit) or np.all(np.abs(rim.residual[~rim.used]) > rim.limit)
+    assert np.all(np.hypot(*rim.inside.T) < radius)
+
+
+def test_the_view_draws_used_rejected_and_inside_points_with_a_legend_below(inside_hole):
+    detection, points = inside_hole
+    fig = plot.figure(detection, points, unit="mm")
+    ax = _view(fig)
+    used, rejected, inside = (_collection(ax, f"{kind} 0") for kind in ("rim used", "rim rejected", "inside"))
+    assert used is not None and used.get_offsets().shape[0] >= 50
+    assert rejected is not None and rejected.get_offsets().shape[0] >= 10
+    assert inside is not None and inside.get_offsets().shape[0] >= 10
+    assert used.get_paths()[0] is not rejected.get_paths()[0]  # two marker styles
+    legend = ax.get_legend()
+    labels = [t.get_text() for t in legend.get_texts()]
+    assert any(label.startswith("rim points used") for label in labels)
+    assert any(label.startswith("rim points rejected") for label in labels)
+    assert any(label.startswith("surface points inside the hole") for label in labels)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(fig)
+    fig.set_dpi(30)
+    canvas.draw()  # laid out and drawn
+    renderer = canvas.get_renderer()
+    assert legend.get_window_extent(renderer).y1 <= ax.get_window_extent(renderer).y0 + 1  # below the view
+
+
+def test_a_scale_bar_of_a_round_length_in_each_view(drawn):
+    detection, fig = drawn
+    for hole in detection.holes:
+        ax = _view(fig, hole.index)
+        bars = [a for a in ax.get_children() if a.get_gid() == f"scale bar {hole.index}"]
+        assert len(bars) == 1
+        label = bars[0].txt_label.get_text()
+        number, unit = label.split()
+        assert unit == (detection.units or ("unit" if float(number) == 1 else "units"))
+        mantissa = float(number) / 10 ** np.floor(np.log10(float(number)))
+        assert mantissa == pytest.approx(1) or mantissa == pytest.approx(2) or mantissa == pytest.approx(5)
+        assert plot.VIEW_RADII * hole.diameter / 10 <= float(number) <= plot.VIEW_RADII * hole.diameter / 4 * 1.001
+        assert "[" in ax.get_title()
+
+
+def test_scale_bar_label_has_the_unit_asked_for():
+    path = REPO_ROOT / "sample_clouds" / "table1.ply"
+    detection = detect_file(path)
+    fig = plot.figure(detection, read_cloud(path).points, unit="mm")
+    [bar] = [a for a in _view(fig).get_children() if a.get_gid() == "scale bar 0"]
+    assert bar.txt_label.get_text() == "1 mm"  # 3 mm hole: a 6 mm view
+    assert "[mm]" in _view(fig).get_xlabel()
+
+
+@pytest.mark.parametrize("span, length", [(12.0, 2.0), (4.0, 1.0), (0.03, 0.005), (20.0, 5.0), (400.0, 100.0)])
+def test_scale_length_is_round(span, length):
+    assert plot.scale_length(span) == pytest.approx(length)
+
+
+def _checked(path, **spec):
+    from holecli.tolerance import check, nominal_spec
+
+    detection = detect_file(path)
+    return detection, check(detection.to_dict(), nominal_spec(**spec))
+
+
+def test_the_text_box_without_tolerances_says_so(drawn):
+    detection, fig = drawn
+    for hole in detection.holes:
+        assert _text(fig, hole.index).endswith("verdict: no tolerance given")
+
+
+def test_the_text_box_ends_with_the_verdict_fail_and_the_check():
+    path = REPO_ROOT / "sample_clouds" / "table1.ply"
+    detection, record = _checked(path, diameter=3, tolerance="+0.036/-0")
+    assert record["holes"][0]["failed_checks"] == ["diameter"]
+    fig = plot.figure(detection, read_cloud(path).points, checked=record["holes"], checked_unit="mm")
+    text = _text(fig)
+    assert text.splitlines()[-1] == "verdict: fail: diameter"
+    assert "tolerance (in mm):" in text and "diameter -0.003107 in [+0, +0.036] U 0.011: fail" in text
+    hole = detection.holes[0]
+    assert f"diameter: {hole.diameter:.4f} ± {2 * hole.uncertainty.diameter:.2g}" in text
+
+
+def test_the_text_box_verdict_pass_and_undecided():
+    path = REPO_ROOT / "sample_clouds" / "table1.ply"
+    detection, record = _checked(path, diameter=3, tolerance=0.02)
+    fig = plot.figure(detection, read_cloud(path).points, checked=record["holes"])
+    assert _text(fig).splitlines()[-1] == "verdict: pass"
+    hole = dict(record["holes"][0], in_tolerance=False, failed_checks=[], undecided_checks=["diameter"])
+    assert plot.verdict_lines(hole)[-1] == "verdict: undecided: diameter"
+    hole.update(failed_checks=["position"])
+    assert plot.verdict_lines(hole)[-1] == "verdict: fail: position; undecided: diameter"
+    assert plot.verdict_lines(dict(hole, in_tolerance=None)) == ["verdict: not checked (no nominal applies)"]
+    assert plot.verdict_lines(None) == ["verdict: no tolerance given"]

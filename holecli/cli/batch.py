@@ -125,6 +125,10 @@ def batch_exit_code(tally, fail_on_warning=None):
               help="Worker processes [default: the number of cores].")
 @click.option("--resume", is_flag=True,
               help="Keep the records already in --output, skip their files and append the others.")
+@click.option("--plot", "plot_dir", type=click.Path(path_type=str), default=None, metavar="PLOTDIR",
+              help="Also draw each scan's holes into PLOTDIR/<scan stem>.png (created; a stem met again gets -2, -3, "
+                   "...), as holecli plot does, with the verdict when tolerances are given; PLOTDIR is never "
+                   "measured (needs pip install 'holecli[plot]').")
 @click.option("--explain", is_flag=True,
               help="Records also list every candidate that is not a hole, with the check that refused it "
                    "(\"rejected\"; JSON Lines only).")
@@ -133,7 +137,7 @@ def batch_exit_code(tally, fail_on_warning=None):
 @tolerance_option_decorators
 @fail_on_warning_option
 @verbosity_option_decorators
-def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, explain, scan_index, units, output_units,
+def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, plot_dir, explain, scan_index, units, output_units,
           method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor,
           fail_on_warning, quiet, verbose, **nominal_options):
     """Measure every point cloud in the folders and files PATH.
@@ -155,6 +159,7 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
       holecli batch scans/*.ply --nominal-diameter 3 --tolerance 0.02 | jq -c 'select(.verdict.in_tolerance | not)'
       holecli batch scans/ --input-format xyz --pattern '*.asc' -o -
       holecli batch scans/ -q -o results.jsonl
+      holecli batch scans/ --spec part.toml -o shift.jsonl --plot shift_plots/
     """
     check_verbosity(quiet, verbose)
     # --output-units without --units is checked on the files found, in the body (all E57 is fine)
@@ -177,12 +182,18 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
         from holecli.io import SUPPORTED_EXTENSIONS
 
         spec = with_decision(read_spec(spec_file) if spec_file is not None else nominal, decision)
+        if plot_dir is not None:
+            from holecli.cli.plot import require_matplotlib
+
+            require_matplotlib()  # before anything: a missing extra is said at once (the workers inherit it)
         try:
             files = batching.find_scans(paths, recursive=recursive, pattern=pattern,
                                         exclude=[output] if output else (),
                                         input_format=input_format)
         except LoadError as error:
             raise Failure(str(error), EXIT_INPUT) from None
+        if plot_dir is not None:  # its PNGs are never measured (with --input-format they would be)
+            files = [path for path in files if not _inside(path, plot_dir)]
         if not files:
             what = "files" if input_format else f"point-cloud files ({', '.join(SUPPORTED_EXTENSIONS)})"
             raise Failure(f"{', '.join(paths)}: no {what}" + (f" matching {pattern!r}" if pattern else "") + " found",
@@ -196,6 +207,12 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
         # lengths on the command line are in the output unit: the pipeline wants the file's
         options_now = dict(options, min_diameter=units_now.to_file_units(min_diameter),
                            gauge_depth=units_now.to_file_units(gauge_depth)) if method != "paper" else options
+        plots = None
+        if plot_dir is not None:  # before the output is opened (and emptied): nothing is measured without it
+            from holecli.cli.plot import make_plot_folder
+
+            make_plot_folder(plot_dir)
+            plots = batching.plot_files(files, plot_dir)  # every file, in order: a resumed run names them alike
         output_file = None
         try:
             if output is not None:
@@ -213,7 +230,8 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
             return run_batch(batching, todo, options_now, spec, jobs or batching.default_jobs(), write, fmt, header,
                              earlier, output, stop, explain, scan=scan_index,
                              units=units_now if units_now.file or units_now.output else None, quiet=quiet,
-                             verbose=verbose, fail_on_warning=fail_on_warning)
+                             verbose=verbose, fail_on_warning=fail_on_warning,
+                             plots=None if plots is None else {path: plots[path] for path in todo})
         finally:
             if output_file is not None:
                 output_file.close()
@@ -222,8 +240,16 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ex
         sys.exit(run_guarded(body, stop))
 
 
+def _inside(path, folder):
+    """Whether ``path`` is in ``folder`` or below it (symbolic links resolved)."""
+    import os
+
+    folder = os.path.realpath(folder)
+    return os.path.commonpath([os.path.realpath(path), folder]) == folder
+
+
 def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False, scan=None,
-              units=None, *, quiet=False, verbose=False, fail_on_warning=None):
+              units=None, *, quiet=False, verbose=False, fail_on_warning=None, plots=None):
     """The measuring loop of ``holecli batch``: records out, progress and summary on stderr.
 
     Parameters
@@ -264,6 +290,9 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         ``--verbose``: the scales and stage times of every file (:func:`verbose_text`).
     fail_on_warning : frozenset, optional
         ``--fail-on-warning`` (see :func:`batch_exit_code`).
+    plots : dict, optional
+        ``--plot``: ``{file: PNG}`` of the files to draw (:func:`holecli.batch.plot_files`), drawn
+        where each is measured.
 
     Returns
     -------
@@ -304,7 +333,7 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
 
     stop.defer()
     records = batching.measure_all(todo, options, spec, jobs=min(jobs, max(1, len(todo))), should_stop=should_stop,
-                                   explain=explain, scan=scan, units=units)
+                                   explain=explain, scan=scan, units=units, plots=plots)
     reader_gone = False
     with display, closing(records):
         for record in records:

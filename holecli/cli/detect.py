@@ -431,8 +431,10 @@ def emit(text, output):
               help="Output format: JSON record, CSV (one row per hole) or a table for people.")
 @click.option("--output", "-o", type=click.Path(dir_okay=False, allow_dash=True, path_type=str),
               help="Write the result to this file (a regular file atomically; - is stdout) instead of stdout.")
-@click.option("--plot", "plot_file", type=click.Path(dir_okay=False, path_type=str), default=None, metavar="FILE.png",
-              help="Also draw the holes into this PNG, as holecli plot does (needs pip install 'holecli[plot]').")
+@click.option("--plot", "plot_file", type=click.Path(path_type=str), default=None, metavar="FILE.png|DIR/",
+              help="Also draw the holes into this PNG, as holecli plot does, with the verdict when tolerances are "
+                   "given; a folder (existing, or ending with /: created) gets SCAN's stem .png "
+                   "(needs pip install 'holecli[plot]').")
 @click.option("--explain", is_flag=True,
               help="Also list every candidate that is not a hole, with the check that refused it "
                    "(\"rejected\" in JSON, a second table with --format table).")
@@ -466,6 +468,7 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
       holecli detect scan.ply --spec part.toml --format table
       holecli detect scan.ply --explain --format table
       holecli detect scan.ply --plot fit.png
+      holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0 --plot plots/
       cat scan.ply | holecli detect - --input-format ply -o -
       holecli detect scan.asc --input-format xyz
       holecli detect site.e57 --scan 1 --output-units mm
@@ -495,10 +498,12 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
         from holecli.tolerance import check
 
         spec = with_decision(read_spec(spec_file) if spec_file is not None else nominal, decision)
+        plot_path = None
         if plot_file is not None:
-            from holecli.cli.plot import measure_with_points, require_matplotlib
+            from holecli.cli.plot import measure_with_points, plot_destination, require_matplotlib
 
             require_matplotlib()  # before the detection: a missing extra is said at once
+            plot_path = plot_destination(plot_file, scan)  # and a folder that cannot be made
         with DetectStatus(scan, quiet=quiet) as status:
             run_options = {**options, "progress": status.stage} if status.shown else options
             if plot_file is None:
@@ -513,7 +518,8 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
         if plot_file is not None:
             from holecli.cli.plot import write_plot
 
-            write_plot(plot_file, detection, points, unit=choice.file)
+            write_plot(plot_path, detection, points, unit=choice.file,
+                       checked=record["holes"] if spec is not None else None, checked_unit=record.get("units"))
         return record
 
     record = run_guarded(body)

@@ -1,10 +1,14 @@
 """``holecli plot``: draw the holes of one scan into a PNG (matplotlib, the optional extra ``plot``).
 
-Also the ``--plot FILE.png`` of ``holecli detect`` (:func:`write_plot`). matplotlib is imported here
-only when a picture is drawn: ``holecli detect`` without ``--plot`` never imports it.
+Also the ``--plot FILE.png|DIR/`` of ``holecli detect`` (:func:`write_plot`, :func:`plot_destination`)
+and the plot folder of ``holecli batch --plot`` (:func:`make_plot_folder`). matplotlib is imported
+here only when a picture is drawn: ``holecli detect`` and ``holecli batch`` without ``--plot`` never
+import it.
 """
 
 from __future__ import annotations
+
+import os
 
 import click
 
@@ -58,8 +62,18 @@ def measure_with_points(path, options, scan=None):
     return detection, cloud.points
 
 
-def write_plot(path, detection, points, max_panels=None, dpi=None, unit=None):
+def write_plot(path, detection, points, max_panels=None, dpi=None, unit=None, checked=None, checked_unit=None):
     """Draw ``detection`` (:func:`holecli.plot.figure`) and write the PNG to ``path`` atomically.
+
+    Parameters
+    ----------
+    path : str
+        The PNG.
+    detection, points, max_panels, unit, checked, checked_unit
+        As for :func:`holecli.plot.figure` (``checked``: the holes of the checked record, for the
+        verdict).
+    dpi : int, optional
+        As for :func:`holecli.plot.png_bytes`.
 
     Raises
     ------
@@ -70,11 +84,88 @@ def write_plot(path, detection, points, max_panels=None, dpi=None, unit=None):
     from holecli import plot
     from holecli.io.outfile import write_bytes
 
-    payload = plot.png_bytes(plot.figure(detection, points, max_panels=max_panels, unit=unit), dpi=dpi)
+    fig = plot.figure(detection, points, max_panels=max_panels, unit=unit, checked=checked, checked_unit=checked_unit)
+    payload = plot.png_bytes(fig, dpi=dpi)
     try:
         write_bytes(path, payload)
     except OSError as error:
         raise Failure(f"{path}: cannot write the plot: {error.strerror or error}", EXIT_INPUT) from None
+
+
+def is_plot_folder(value):
+    """Whether a ``--plot`` value names a folder: an existing one, or any path ending with a separator.
+
+    Parameters
+    ----------
+    value : str
+
+    Returns
+    -------
+    bool
+    """
+    return os.path.isdir(value) or value.endswith(("/", os.sep))
+
+
+def plot_name(scan):
+    """The PNG name of a scan in a plot folder: its stem and ``.png`` (``stdin.png`` for ``-``).
+
+    Parameters
+    ----------
+    scan : str
+        The scan's path as given (``-``: standard input).
+
+    Returns
+    -------
+    str
+    """
+    from holecli.cli.detect import STDIN
+
+    stem = "stdin" if scan == STDIN else os.path.splitext(os.path.basename(os.path.normpath(scan)))[0]
+    return (stem or "scan") + ".png"
+
+
+def make_plot_folder(folder):
+    """Create the plot folder (and its parents) unless it exists.
+
+    Raises
+    ------
+    Failure
+        With the input/output code: ``FOLDER: cannot create the plot folder: <why>``, or
+        ``FOLDER: cannot draw into it: not a folder`` when it is a file.
+    """
+    shown = folder.rstrip("/" + os.sep) or folder
+    if os.path.exists(shown) and not os.path.isdir(shown):
+        raise Failure(f"{shown}: cannot draw into it: not a folder", EXIT_INPUT)
+    try:
+        os.makedirs(shown, exist_ok=True)
+    except OSError as error:
+        raise Failure(f"{shown}: cannot create the plot folder: {error.strerror or error}", EXIT_INPUT) from None
+
+
+def plot_destination(value, scan):
+    """The PNG that ``--plot VALUE`` of ``holecli detect SCAN`` writes, the folder created if needed.
+
+    Parameters
+    ----------
+    value : str
+        ``--plot``: a file (``fit.png``), or a folder (existing, or ending with ``/``) that then gets
+        ``<scan stem>.png`` (:func:`plot_name`).
+    scan : str
+        SCAN.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    Failure
+        See :func:`make_plot_folder`.
+    """
+    if not is_plot_folder(value):
+        return value
+    make_plot_folder(value)
+    return os.path.join(value, plot_name(scan))
 
 
 def plot_path_type():
@@ -99,9 +190,11 @@ def plot_path_type():
 def plot(scan, output, input_format, scan_index, units, max_panels, dpi, method, view_dir, min_diameter, max_holes,
          full_only, gauge_depth, quiet, verbose):
     """Draw the holes found in SCAN into a PNG, for an inspector: per hole the points around it seen
-    along its normal (coloured by height above the surface) with the fitted edge circle, its center
-    and the countersink and bore circles, the edge's radial residuals against the angle, and a box of
-    its values (diameter, center, normal, type, countersink, warnings). Lengths in the file's units.
+    along its normal (coloured by height above the surface) with the fitted edge circle, its center,
+    the countersink and bore circles, the rim points used and rejected, the points inside the hole and
+    a scale bar; the edge's radial residuals against the angle; and a box of its values (diameter ± U,
+    center, normal, type, countersink, warnings, verdict). Lengths in the file's units. (holecli detect
+    --plot and holecli batch --plot draw the same, with the tolerance verdict.)
 
     Needs matplotlib: pip install 'holecli[plot]'.
 
