@@ -1,0 +1,26 @@
+"""Registration: the rigid transform part (CAD) frame -> measuring frame from the part's reference holes.
+
+:mod:`.transform` holds the transform and the propagation of its uncertainty, :mod:`.rigid` the fit
+to matched holes, :mod:`.matching` the pairing of measured holes with nominal ones and the
+leave-one-out outlier check.
+"""
+
+from holecli.registration.transform import (
+    RegistrationError,
+    RigidTransform,
+    direction_covariance,
+    direction_uncertainty_deg,
+    point_covariance,
+)
+from holecli.registration.rigid import HoleResiduals, RigidFit, fit_rigid
+
+__all__ = [
+    "HoleResiduals",
+    "RegistrationError",
+    "RigidFit",
+    "RigidTransform",
+    "direction_covariance",
+    "direction_uncertainty_deg",
+    "fit_rigid",
+    "point_covariance",
+]
