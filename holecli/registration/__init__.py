@@ -13,14 +13,19 @@ from holecli.registration.transform import (
     point_covariance,
 )
 from holecli.registration.rigid import HoleResiduals, RigidFit, fit_rigid
+from holecli.registration.matching import HoleMatch, OutlierCheck, find_outliers, match_holes
 
 __all__ = [
+    "HoleMatch",
     "HoleResiduals",
+    "OutlierCheck",
     "RegistrationError",
     "RigidFit",
     "RigidTransform",
     "direction_covariance",
     "direction_uncertainty_deg",
+    "find_outliers",
     "fit_rigid",
+    "match_holes",
     "point_covariance",
 ]
