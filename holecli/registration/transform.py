@@ -118,6 +118,8 @@ class RigidTransform:
         matrix = np.asarray(matrix, dtype=np.float64)
         if matrix.shape != (4, 4):
             raise RegistrationError(f"a homogeneous transform must be a (4, 4) array, got shape {matrix.shape}")
+        if not np.all(np.isfinite(matrix)):
+            raise RegistrationError("a homogeneous transform must be finite, got NaN or inf entries")
         if not np.allclose(matrix[3], [0.0, 0.0, 0.0, 1.0], rtol=0.0, atol=ORTHONORMAL_TOLERANCE):
             raise RegistrationError(f"the last row of a homogeneous transform must be 0 0 0 1, got {matrix[3].tolist()}")
         return cls(matrix[:3, :3], matrix[:3, 3])
