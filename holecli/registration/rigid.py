@@ -350,7 +350,7 @@ def fit_rigid(
         covariance_determined = covariance_determined * (chi2 / dof) if dof > 0 else np.full((6, 6), np.nan)
 
     covariance = covariance_determined.copy()
-    for direction in free_global:
+    for direction in free_global if np.all(np.isfinite(covariance)) else ():
         mask = np.abs(np.outer(direction, direction)) > 1e-12
         covariance[mask] = np.inf * np.sign(np.outer(direction, direction)[mask])
 
