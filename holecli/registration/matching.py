@@ -27,14 +27,19 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 from scipy.spatial.distance import cdist
+from scipy.stats import chi2 as chi2_distribution
+from scipy.stats import f as f_distribution
 
 from holecli.registration.transform import RegistrationError, RigidTransform
 
 # Default pairing tolerance as a fraction of the smallest nominal hole-to-hole distance: a measured
 # hole further than this from every mapped nominal hole stays unmatched.
 TOLERANCE_FRACTION = 0.25
-# How many well-spread measured triplets to try as the base of a distance match.
+# Measured triplets tried as the base of a distance match, the best spread first: at least
+# BASE_TRIPLETS, then more (up to MAX_BASE_TRIPLETS) until one pairs every hole it can (a spurious
+# measured hole spoils the triplets it is in).
 BASE_TRIPLETS = 4
+MAX_BASE_TRIPLETS = 300
 # A candidate pairing counts as equally good as the best when its rms is below
 # TIE_FACTOR * best + TIE_FRACTION * tolerance (the second term covers noise around an exact fit).
 TIE_FACTOR = 1.5
@@ -111,18 +116,22 @@ def _result(pairs, count_measured, count_nominal, method, rms, ambiguous=False, 
 
 
 def _base_triplets(points, count):
-    """The measured triplets of largest triangle area (well conditioned for a 3-point Kabsch)."""
-    triplets = list(itertools.combinations(range(len(points)), 3))
-    areas = [np.linalg.norm(np.cross(points[b] - points[a], points[c] - points[a])) for a, b, c in triplets]
+    """Measured triplets by decreasing triangle area (the well conditioned first for a 3-point Kabsch)."""
+    triplets = np.array(list(itertools.combinations(range(len(points)), 3)))
+    a, b, c = points[triplets[:, 0]], points[triplets[:, 1]], points[triplets[:, 2]]
+    areas = np.linalg.norm(np.cross(b - a, c - a), axis=1)
     order = np.argsort(areas)[::-1][:count]
-    return [triplets[i] for i in order if areas[i] > 0]
+    return [tuple(triplets[i].tolist()) for i in order if areas[i] > 0]
 
 
 def _match_by_distances(nominal, measured, tolerance):
     nominal_distances = cdist(nominal, nominal)
     measured_distances = cdist(measured, measured)
     candidates = {}
-    for a, b, c in _base_triplets(measured, BASE_TRIPLETS):
+    most = min(len(nominal), len(measured))
+    for tried, (a, b, c) in enumerate(_base_triplets(measured, MAX_BASE_TRIPLETS)):
+        if tried >= BASE_TRIPLETS and candidates and max(len(key) for key in candidates) == most:
+            break
         target = (measured_distances[a, b], measured_distances[b, c], measured_distances[a, c])
         # Candidate nominal (i, j, k) for the ordered measured (a, b, c): the first pair by a vectorised
         # filter, then the third hole. O(k^3) distance look-ups at worst, few Kabsch fits.
@@ -262,6 +271,8 @@ class OutlierCheck:
     standardized : (n,) float
         The same residual in units of its own standard uncertainty, ``sqrt(r^T V^-1 r)`` with
         ``V`` the hole's center covariance plus the refit's prediction covariance (first round).
+    probability : (n,) float
+        The chance of a standardized residual at least as large from noise alone (first round).
     checked : bool
         False when there were too few holes to check.
     reason : str
@@ -271,6 +282,7 @@ class OutlierCheck:
     outliers: list
     predicted_residuals: np.ndarray
     standardized: np.ndarray
+    probability: np.ndarray
     checked: bool
     reason: str
 
@@ -299,6 +311,7 @@ def _leave_one_out(fit_function, nominal_centers, nominal_normals, measured_cent
     count = len(nominal_centers)
     predicted = np.empty(count)
     standardized = np.empty(count)
+    probability = np.empty(count)
     for i in range(count):
         keep = np.arange(count) != i
         kept_options = {
@@ -314,7 +327,24 @@ def _leave_one_out(fit_function, nominal_centers, nominal_normals, measured_cent
             standardized[i] = float(np.sqrt(residual @ np.linalg.pinv(covariance, hermitian=True) @ residual))
         else:
             standardized[i] = np.nan
-    return predicted, standardized
+        probability[i] = _tail_probability(standardized[i], fit, options)
+    return predicted, standardized, probability
+
+
+def _tail_probability(standardized, fit, options):
+    """Probability of a standardized residual at least this large from noise alone.
+
+    With the sigmas given its square is chi-square with 3 degrees of freedom; with the scale estimated
+    from the refit's ``dof`` residual components, a third of it is F(3, dof) (heavier tailed: three
+    holes' residuals estimate a scale poorly).
+    """
+    if not np.isfinite(standardized):
+        return np.nan
+    if any(options.get(key) is not None for key in ("center_sigma_inplane", "center_sigma_normal")):
+        return float(chi2_distribution.sf(standardized**2, 3))
+    if fit.dof <= 0:
+        return np.nan
+    return float(f_distribution.sf(standardized**2 / 3.0, 3, fit.dof))
 
 
 def find_outliers(
@@ -334,9 +364,12 @@ def find_outliers(
     compared with its nominal center mapped by that refit. The residual is standardized by its own
     uncertainty (the hole's center covariance plus the refit's covariance at that point, so that a
     hole the others pin down poorly, far from them or off the line of a near-collinear rest, is not
-    blamed for their leverage). The hole with the largest standardized residual is named when it
-    exceeds ``factor`` *and* its residual exceeds ``floor`` in file units; it is then set aside and the
-    check repeats on the rest while at least ``MIN_HOLES_FOR_OUTLIERS`` holes remain.
+    blamed for their leverage). The hole whose standardized residual is least likely from noise is
+    named when that chance is below the chance of ``factor`` standard uncertainties with known sigmas
+    (chi-square, 3 degrees of freedom; with the scale estimated from the refit's residuals, the
+    F(3, dof) distribution, which asks more of a refit of few holes) *and* its residual exceeds
+    ``floor`` in file units; it is then set aside and the check repeats on the rest while at least
+    ``MIN_HOLES_FOR_OUTLIERS`` holes remain.
 
     Only the largest is named per round because one misplaced hole spoils every refit it takes part
     in: the good holes' leave-one-out residuals then grow as well, though less. (Comparing each hole's
@@ -354,8 +387,8 @@ def find_outliers(
     names : sequence of str, optional
         Reported instead of indices.
     factor : float
-        Standard uncertainties (dimensionless) the residual must exceed; 5 flags noise with a
-        probability of about 1e-5 per hole when the sigmas are right (chi with 3 degrees of freedom).
+        Standard uncertainties (dimensionless) the residual must exceed with known sigmas; 5 flags
+        noise with a probability of about 1.5e-5 per hole when the sigmas are right.
     floor : float
         File units: a residual at or below it is never an outlier, whatever the sigmas claim (set it to
         what is too small to matter, a few times the centers' measurement uncertainty).
@@ -389,9 +422,11 @@ def find_outliers(
 
     if count < MIN_HOLES_FOR_OUTLIERS:
         nan = np.full(count, np.nan)
-        return OutlierCheck([], nan, nan.copy(), False,
+        return OutlierCheck([], nan, nan.copy(), nan.copy(), False,
                             f"{count} holes: leave-one-out needs at least {MIN_HOLES_FOR_OUTLIERS}")
 
+    # factor standard uncertainties of a 3D residual with known sigmas, as a tail probability.
+    threshold = float(chi2_distribution.sf(factor**2, 3))
     remaining = np.arange(count)
     outliers, reasons = [], []
     first = None
@@ -400,21 +435,22 @@ def find_outliers(
             key: (np.asarray(value)[remaining] if key in _SIGMA_OPTIONS and np.ndim(value) else value)
             for key, value in fit_options.items()
         }
-        predicted, standardized = _leave_one_out(
+        predicted, standardized, probability = _leave_one_out(
             fit_function, nominal_centers[remaining], nominal_normals[remaining],
             measured_centers[remaining], measured_normals[remaining], options,
         )
         if first is None:
-            first = (predicted, standardized)
-        candidates = np.where(predicted > floor, np.nan_to_num(standardized, nan=-np.inf), -np.inf)
-        worst = int(np.argmax(candidates))
-        if not candidates[worst] > factor:
+            first = (predicted, standardized, probability)
+        candidates = np.where(predicted > floor, np.nan_to_num(probability, nan=np.inf), np.inf)
+        worst = int(np.argmin(candidates))
+        if not candidates[worst] < threshold:
             break
         hole = int(remaining[worst])
         outliers.append(labels[hole])
         reasons.append(
             f"{labels[hole]}: placed {predicted[worst]:.6g} from its measured center by the other holes, "
-            f"{standardized[worst]:.3g} standard uncertainties (> {factor:g}) and > floor {floor:g}"
+            f"{standardized[worst]:.3g} standard uncertainties (chance {probability[worst]:.2g} from noise, "
+            f"< {threshold:.2g}, that of {factor:g} with known sigmas) and > floor {floor:g}"
         )
         remaining = remaining[remaining != hole]
     if outliers:
@@ -422,4 +458,4 @@ def find_outliers(
     else:
         reason = (f"no hole's leave-one-out residual exceeds both {factor:g} standard uncertainties "
                   f"and the floor {floor:g}")
-    return OutlierCheck(outliers, first[0], first[1], True, reason)
+    return OutlierCheck(outliers, *first, True, reason)

@@ -39,6 +39,13 @@ RANK_TOLERANCE = 1e-10
 # Holes count as collinear when their second principal spread is below this fraction of the first.
 COLLINEAR_TOLERANCE = 1e-9
 
+# Without sigmas, the normals' weight relative to the centers is estimated from the residuals (variance
+# components) in at most VARIANCE_ROUNDS fits, stopping when the ratio changes by less than
+# VARIANCE_RATIO_TOLERANCE; a group with less redundancy than MIN_REDUNDANCY keeps the start weight.
+VARIANCE_ROUNDS = 8
+VARIANCE_RATIO_TOLERANCE = 0.01
+MIN_REDUNDANCY = 1.0
+
 ROTATION_ABOUT_NORMAL = "rotation about the normal"
 ROTATION_ABOUT_LINE = "rotation about the line through the holes"
 
@@ -219,6 +226,41 @@ def _decompose(hessian):
     return pseudo_inverse, free.T
 
 
+def _gauss_newton(rotation, shift, data, center_weights, normal_weights, lever):
+    iterations = 0
+    for iterations in range(1, MAX_ITERATIONS + 1):
+        terms = _residuals_and_jacobian(rotation, shift, *data)
+        hessian, gradient, _ = _normal_equations(*terms, center_weights, normal_weights)
+        pseudo_inverse, _ = _decompose(hessian)
+        # The model's Jacobian is -J (J the residuals'): the step is -(J^T W J)^+ J^T W r.
+        step = -pseudo_inverse @ gradient
+        rotation = Rotation.from_rotvec(step[:3]).as_matrix() @ rotation
+        shift = shift + step[3:]
+        if np.linalg.norm(step[:3]) < STEP_TOLERANCE and np.linalg.norm(step[3:]) < STEP_TOLERANCE * lever:
+            break
+    return rotation, shift, iterations
+
+
+def _variance_ratio(rotation, shift, data, center_weights, normal_weights):
+    """Normals' over centers' variance factor (Foerstner's variance components), or None if not estimable.
+
+    Each group's factor is its weighted sum of squares over its redundancy ``m_g - trace(H^+ H_g)``.
+    """
+    center_res, normal_res, center_jac, normal_jac = _residuals_and_jacobian(rotation, shift, *data)
+    count = len(center_res)
+    zero = np.zeros(count)
+    hessian_c, _, chi2_c = _normal_equations(center_res, normal_res, center_jac, normal_jac, center_weights, zero)
+    hessian_n, _, chi2_n = _normal_equations(
+        center_res, normal_res, center_jac, normal_jac, np.zeros_like(center_weights), normal_weights
+    )
+    pseudo_inverse, _ = _decompose(hessian_c + hessian_n)
+    redundancy_c = 3 * count - np.trace(pseudo_inverse @ hessian_c)
+    redundancy_n = 2 * count - np.trace(pseudo_inverse @ hessian_n)
+    if min(redundancy_c, redundancy_n) < MIN_REDUNDANCY or chi2_c <= 0 or chi2_n <= 0:
+        return None
+    return (chi2_n / redundancy_n) / (chi2_c / redundancy_c)
+
+
 def fit_rigid(
     nominal_centers,
     nominal_normals,
@@ -250,9 +292,13 @@ def fit_rigid(
     -------
     RigidFit
         When a center sigma is given the covariance is the inverse of the weighted normal matrix
-        ``J^T W J`` (``covariance_source == "sigmas"``). Otherwise every center weighs 1 and the
-        covariance is that inverse times ``chi2 / dof`` (the residual variance per degree of freedom,
-        assuming the weights right up to one common scale); all NaN when ``dof == 0``.
+        ``J^T W J`` (``covariance_source == "sigmas"``). Otherwise every center weighs 1, the normals'
+        weight relative to the centers is re-estimated from the two groups' residuals (variance
+        components: each group's weighted sum of squares over its redundancy, iterated; kept at the
+        start value above when a group has less than one redundant component or no residual), and the
+        covariance is the inverse times ``chi2 / dof``, the residual variance per degree of freedom
+        (``covariance_source == "residuals"``); all NaN when ``dof == 0``. Within a group the weights
+        are then taken as right up to that group's scale.
 
     Raises
     ------
@@ -314,23 +360,20 @@ def fit_rigid(
     isotropic = 3.0 / (2 * sigma_inplane**2 + sigma_normal**2)
     rotation = _kabsch(nominal_local, measured_local, isotropic, nominal_normals, measured_normals, normal_weights)
     shift = np.zeros(3)  # translation in the centred frames
+    data = (nominal_local, nominal_normals, measured_local, measured_normals)
 
     iterations = 0
-    for iterations in range(1, MAX_ITERATIONS + 1):
-        terms = _residuals_and_jacobian(rotation, shift, nominal_local, nominal_normals, measured_local, measured_normals)
-        hessian, gradient, _ = _normal_equations(*terms, center_weights, normal_weights)
-        pseudo_inverse, _ = _decompose(hessian)
-        # Residual r(theta + d) = r - J_f d with J_f the model's Jacobian = -J here: d = -(J^T W J)^+ J^T W r.
-        step = -pseudo_inverse @ gradient
-        rotation = Rotation.from_rotvec(step[:3]).as_matrix() @ rotation
-        shift = shift + step[3:]
-        if np.linalg.norm(step[:3]) < STEP_TOLERANCE and np.linalg.norm(step[3:]) < STEP_TOLERANCE * lever:
+    for _ in range(VARIANCE_ROUNDS if source == "residuals" else 1):
+        rotation, shift, steps = _gauss_newton(rotation, shift, data, center_weights, normal_weights, lever)
+        iterations += steps
+        if source != "residuals":
             break
-        # Stop also when the step no longer changes the parameters at double precision.
-        if np.linalg.norm(step[:3]) < 1e-15 and np.linalg.norm(step[3:]) < 1e-15 * max(lever, np.abs(measured_centers).max()):
+        ratio = _variance_ratio(rotation, shift, data, center_weights, normal_weights)
+        if ratio is None or abs(ratio - 1.0) < VARIANCE_RATIO_TOLERANCE:
             break
+        normal_weights = normal_weights / ratio
 
-    terms = _residuals_and_jacobian(rotation, shift, nominal_local, nominal_normals, measured_local, measured_normals)
+    terms = _residuals_and_jacobian(rotation, shift, *data)
     hessian, _, chi2 = _normal_equations(*terms, center_weights, normal_weights)
     pseudo_inverse, free = _decompose(hessian)
 
