@@ -152,7 +152,9 @@ def _as_normals(values, name, count):
 
 
 def _as_sigma(value, name, count):
-    sigma = np.broadcast_to(np.asarray(value, dtype=np.float64), (count,)) if np.ndim(value) == 0 else np.asarray(value, dtype=np.float64)
+    sigma = np.asarray(value, dtype=np.float64)
+    if sigma.ndim == 0:
+        sigma = np.full(count, float(sigma))
     if sigma.shape != (count,):
         raise RegistrationError(f"{name} must be a scalar or ({count},), got shape {sigma.shape}")
     if not np.all(np.isfinite(sigma)) or np.any(sigma <= 0):
@@ -174,7 +176,11 @@ def _shortest_rotation(a, b):
 
 
 def _kabsch(nominal, measured, weights, nominal_dirs, measured_dirs, dir_weights):
-    """Weighted Kabsch on centred points plus directions; the shortest rotation when only one direction pair is defined."""
+    """Weighted Kabsch on centred points plus directions.
+
+    When the cross-covariance has rank one (one hole; collinear holes with normals along their line),
+    only one direction pair is defined and the shortest rotation between them is returned.
+    """
     cross = (nominal * weights[:, None]).T @ measured + (nominal_dirs * dir_weights[:, None]).T @ measured_dirs
     u, s, vt = np.linalg.svd(cross)
     if s[0] == 0.0:
@@ -209,7 +215,10 @@ def _normal_equations(center_res, normal_res, center_jac, normal_jac, center_wei
     hessian += np.einsum("n,nia,nib->ab", normal_weights, normal_jac, normal_jac)
     gradient = np.einsum("nia,nij,nj->a", center_jac, center_weights, center_res)
     gradient += np.einsum("n,nia,ni->a", normal_weights, normal_jac, normal_res)
-    chi2 = float(np.einsum("ni,nij,nj->", center_res, center_weights, center_res) + normal_weights @ np.sum(normal_res**2, axis=1))
+    chi2 = float(
+        np.einsum("ni,nij,nj->", center_res, center_weights, center_res)
+        + normal_weights @ np.sum(normal_res**2, axis=1)
+    )
     return hessian, gradient, chi2
 
 
@@ -316,8 +325,9 @@ def fit_rigid(
       they are all parallel to it; then it stays free and the result keeps the shortest rotation
       taking the nominal line onto the measured one.
 
-    Refinement does not move along a free direction (the step is the pseudo-inverse's), so the start's
-    choice stays. Its covariance is ``+-inf`` where it reaches (see :class:`RigidFit`).
+    The refinement's steps (the pseudo-inverse's) have no component along a free direction, so the
+    start's choice stays (exactly so without noise). Its covariance is ``+-inf`` where it reaches
+    (see :class:`RigidFit`).
     """
     nominal_centers = _as_points(nominal_centers, "nominal_centers")
     count = len(nominal_centers)
@@ -411,7 +421,8 @@ def fit_rigid(
     along = np.sum(center_res * measured_normals, axis=1)
     in_plane = np.linalg.norm(center_res - along[:, None] * measured_normals, axis=1)
     predicted_normals = transform.apply_directions(nominal_normals)
-    angle = np.degrees(np.arctan2(np.linalg.norm(np.cross(predicted_normals, measured_normals), axis=1), np.sum(predicted_normals * measured_normals, axis=1)))
+    sine = np.linalg.norm(np.cross(predicted_normals, measured_normals), axis=1)
+    angle = np.degrees(np.arctan2(sine, np.sum(predicted_normals * measured_normals, axis=1)))
     residuals = HoleResiduals(center_res, in_plane, along, angle)
     rms = float(np.sqrt(np.mean(np.sum(center_res**2, axis=1))))
     return RigidFit(

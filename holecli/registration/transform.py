@@ -121,7 +121,9 @@ class RigidTransform:
         if not np.all(np.isfinite(matrix)):
             raise RegistrationError("a homogeneous transform must be finite, got NaN or inf entries")
         if not np.allclose(matrix[3], [0.0, 0.0, 0.0, 1.0], rtol=0.0, atol=ORTHONORMAL_TOLERANCE):
-            raise RegistrationError(f"the last row of a homogeneous transform must be 0 0 0 1, got {matrix[3].tolist()}")
+            raise RegistrationError(
+                f"the last row of a homogeneous transform must be 0 0 0 1, got {matrix[3].tolist()}"
+            )
         return cls(matrix[:3, :3], matrix[:3, 3])
 
     @property
@@ -204,7 +206,11 @@ class RigidTransform:
         return RigidTransform(self.rotation @ other.rotation, self.rotation @ other.translation + self.translation)
 
     def to_dict(self):
-        """The transform as JSON-ready lists: matrix, rotation, translation, quaternion, roll/pitch/yaw, rotation vector."""
+        """The transform as JSON-ready lists.
+
+        Keys: ``matrix``, ``rotation``, ``translation``, ``quaternion_wxyz``, ``roll_pitch_yaw_deg``,
+        ``rotation_vector_rad``.
+        """
         return {
             "matrix": self.matrix.tolist(),
             "rotation": self.rotation.tolist(),
