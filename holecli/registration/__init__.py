@@ -2,7 +2,8 @@
 
 :mod:`.transform` holds the transform and the propagation of its uncertainty, :mod:`.rigid` the fit
 to matched holes, :mod:`.matching` the pairing of measured holes with nominal ones and the
-leave-one-out outlier check.
+leave-one-out outlier check, :mod:`.register` the whole registration (match, fit, outlier check,
+verdict) of measured holes to a spec's nominal holes.
 """
 
 from holecli.registration.transform import (
@@ -14,11 +15,14 @@ from holecli.registration.transform import (
 )
 from holecli.registration.rigid import HoleResiduals, RigidFit, fit_rigid
 from holecli.registration.matching import HoleMatch, OutlierCheck, find_outliers, match_holes
+from holecli.registration.register import RegisteredHole, Registration, register
 
 __all__ = [
     "HoleMatch",
     "HoleResiduals",
     "OutlierCheck",
+    "RegisteredHole",
+    "Registration",
     "RegistrationError",
     "RigidFit",
     "RigidTransform",
@@ -28,4 +32,5 @@ __all__ = [
     "fit_rigid",
     "match_holes",
     "point_covariance",
+    "register",
 ]
