@@ -162,7 +162,7 @@ def test_two_holes_use_the_normals(reg, part):
     assert result.exit_code == cli.EXIT_OK, result.stderr
     record = json.loads(result.stdout)
     assert record["free_dofs"] == []
-    assert _rotation_error_deg(record["transform"]["matrix"]) < 0.05
+    assert _rotation_error_deg(record["transform"]["matrix"]) < 0.005
 
 
 def test_one_hole_reports_the_free_rotation(reg, part):
