@@ -10,6 +10,8 @@ Where things are:
                            :mod:`holecli.__main__` once the signal handlers are installed)
 ``holecli.cli.detect``     ``holecli detect`` and its output (JSON, CSV, the table)
 ``holecli.cli.batch``      ``holecli batch``: the command, its measuring loop and its stop on signals
+``holecli.cli.register``   ``holecli register``: the part -> measuring frame transform from reference holes,
+                           corrected targets (JSON, CSV, the table)
 ``holecli.cli.simulate``   ``holecli simulate``
 ``holecli.cli.plot``       ``holecli plot`` and ``detect --plot`` (matplotlib, imported when drawing)
 ``holecli.cli.options``    parameter types and the options ``detect`` and ``batch`` share
@@ -57,15 +59,17 @@ def main():
       holecli detect scan.csv --format table
       holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0
       holecli batch scans/ --recursive --output results.jsonl
+      holecli register A1.ply A2.ply A3.ply --spec part.toml
       holecli simulate scene.ply
       holecli plot scan.ply -o fit.png
     """
 
 
 # The commands, each in its module (imported after main, which none of them needs).
-from holecli.cli import batch, detect, plot, simulate  # noqa: E402
+from holecli.cli import batch, detect, plot, register, simulate  # noqa: E402
 
 main.add_command(detect.detect)
 main.add_command(batch.batch)
 main.add_command(simulate.simulate)
 main.add_command(plot.plot)
+main.add_command(register.register)

@@ -1,0 +1,304 @@
+"""``holecli register``: the rigid transform part (CAD) frame -> measuring frame from scans of reference holes.
+
+Every SCAN is measured as ``holecli detect`` measures it; its holes are matched with the ``--spec``
+file's nominal holes and :func:`holecli.registration.register` fits the transform. The result (JSON,
+CSV or a table) goes to stdout or ``--output``, the corrected targets (``--targets``) to
+``--targets-output``; both are written, each atomically, only once the whole registration succeeded.
+"""
+
+from __future__ import annotations
+
+import csv
+import io as _stringio
+import os
+import sys
+
+import click
+
+from holecli.cli.exits import (EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_USAGE, Failure,
+                               run_guarded)
+from holecli.cli.options import Decimal, detection_option_decorators, detection_options
+
+REGISTER_EXIT_CODES_HELP = (
+    "\b\nExit codes:\n"
+    "  0  registered (and, with --max-residual, the verdict is pass)\n"
+    "  1  internal error (a bug: please report it)\n"
+    "  2  usage error (bad option or argument; a --name whose SCAN is not given or whose HOLE is not\n"
+    "     in the spec)\n"
+    "  3  input error: a SCAN or the --spec or --targets file is missing, unreadable or invalid, the\n"
+    "     holes cannot be registered (too few to match, none matched), or an output cannot be written\n"
+    "  4  a SCAN has no hole (nothing is written)\n"
+    "  5  --max-residual: the verdict is fail (a used hole's residual exceeds it, or an outlier was\n"
+    "     named); the output is still written\n"
+    "  130  interrupted (Ctrl-C or SIGTERM)\n"
+    "  141  broken pipe: the reader of the output (| head -1) stopped reading before its end"
+)
+
+SCHEMA = "holecli.register"
+SCHEMA_VERSION = 1
+
+CSV_HOLE_COLUMNS = ("name", "scan", "scan_hole", "used", "outlier", "measured_x", "measured_y", "measured_z",
+                    "nominal_x", "nominal_y", "nominal_z", "residual_in_plane", "residual_along_normal",
+                    "residual_normal_angle_deg")
+CSV_TRANSFORM_COLUMNS = ("t_x", "t_y", "t_z", "q_w", "q_x", "q_y", "q_z", "roll_deg", "pitch_deg", "yaw_deg",
+                         "u_t_x", "u_t_y", "u_t_z", "u_rot_x_deg", "u_rot_y_deg", "u_rot_z_deg", "rms",
+                         "free_dofs", "verdict")
+CSV_COLUMNS = CSV_HOLE_COLUMNS + CSV_TRANSFORM_COLUMNS
+
+
+class NamePair(click.ParamType):
+    """``--name SCAN=HOLE``."""
+
+    name = "SCAN=HOLE"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        scan, sep, hole = str(value).rpartition("=")
+        if not sep or not scan or not hole:
+            self.fail(f"{value!r}: expected SCAN=HOLE (a scan given as argument, a hole name of the spec)", param, ctx)
+        return scan, hole
+
+
+def _stem(path):
+    return os.path.splitext(os.path.basename(path))[0]
+
+
+def _scan_names(scans, pairs, hole_names, spec_file):
+    """{scan: hole name or None}: ``--name`` first, else the file stem when it is a spec hole's name."""
+    names = {}
+    for scan, hole in pairs:
+        matches = [s for s in scans if scan in (s, os.path.basename(s), _stem(s))]
+        if not matches:
+            raise Failure(f"--name {scan}={hole}: {scan} is not one of the SCAN arguments", EXIT_USAGE)
+        if hole not in hole_names:
+            raise Failure(f"--name {scan}={hole}: no hole {hole!r} in {spec_file} (its holes: "
+                          f"{', '.join(hole_names)})", EXIT_USAGE)
+        for match in matches:
+            names[match] = hole
+    for scan in scans:
+        if scan not in names:
+            names[scan] = _stem(scan) if _stem(scan) in hole_names else None
+    return names
+
+
+def _number(value):
+    return "" if value is None else repr(float(value))
+
+
+def render_csv(record):
+    """One row per matched hole (:data:`CSV_HOLE_COLUMNS`), the transform repeated on every row
+    (:data:`CSV_TRANSFORM_COLUMNS`); empty cells for values not known."""
+    buffer = _stringio.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(CSV_COLUMNS)
+    transform, uncertainty = record["transform"], record["uncertainty"]
+    common = [*map(_number, transform["translation"]), *map(_number, transform["quaternion_wxyz"]),
+              *map(_number, transform["roll_pitch_yaw_deg"]), *map(_number, uncertainty["translation"]),
+              *map(_number, uncertainty["rotation_deg"]), _number(record["rms"]), ";".join(record["free_dofs"]),
+              record["verdict"] or ""]
+    for hole in record["holes"]:
+        residual = hole["residual"]
+        writer.writerow([hole["name"], hole["scan"], hole["scan_hole"], str(hole["used"]).lower(),
+                         str(hole["outlier"]).lower(), *map(_number, hole["measured_center"]),
+                         *map(_number, hole["nominal_center"]), _number(residual["in_plane"]),
+                         _number(residual["along_normal"]), _number(residual["normal_angle_deg"]), *common])
+    return buffer.getvalue()
+
+
+def render_table(record):
+    """The ``--format table`` text: the transform with its uncertainties, then one row per hole."""
+    from rich.console import Console
+    from rich.table import Table
+
+    buffer = _stringio.StringIO()
+    console = Console(file=buffer, width=140, force_terminal=False, color_system=None)
+
+    def number(value, digits=4):
+        return "-" if value is None else f"{value:.{digits}f}"
+
+    transform, uncertainty = record["transform"], record["uncertainty"]
+    table = Table(title=f"part -> measuring frame ({len(record['holes'])} holes, spec {record['spec']['file']})",
+                  caption=("free: " + ", ".join(record["free_dofs"])) if record["free_dofs"] else None)
+    for column in ("quantity", "x", "y", "z", "u x", "u y", "u z"):
+        table.add_column(column, justify="left" if column == "quantity" else "right")
+    table.add_row("translation", *(number(v) for v in transform["translation"]),
+                  *(number(v, 6) for v in uncertainty["translation"]))
+    table.add_row("roll/pitch/yaw deg", *(number(v, 5) for v in transform["roll_pitch_yaw_deg"]),
+                  *(number(v, 6) for v in uncertainty["rotation_deg"]))
+    table.add_row("quaternion w,x,y,z", ", ".join(f"{v:.8f}" for v in transform["quaternion_wxyz"]), "", "", "", "", "")
+    console.print(table)
+    verdict = record["verdict"]
+    caption = f"rms {number(record['rms'], 6)}"
+    if record["max_residual"] is not None:
+        caption += f"; max residual {record['max_residual']:g}: {verdict.upper()}"
+        if record["failed"]:
+            caption += " (" + "; ".join(record["failed"]) + ")"
+    holes = Table(title="residuals after the fit", caption=caption)
+    for column in ("hole", "scan", "used", "in plane", "along normal", "normal deg"):
+        holes.add_column(column, justify="left" if column in ("hole", "scan", "used") else "right")
+    for hole in record["holes"]:
+        residual = hole["residual"]
+        holes.add_row(hole["name"], f"{hole['scan']} #{hole['scan_hole']}",
+                      "OUTLIER" if hole["outlier"] else "yes", number(residual["in_plane"], 6),
+                      number(residual["along_normal"], 6), number(residual["normal_angle_deg"], 4))
+    console.print(holes)
+    return buffer.getvalue()
+
+
+def render(record, fmt):
+    """The text of ``record`` as ``--format`` asks: JSON, CSV or a table."""
+    if fmt == "json":
+        from holecli import report
+
+        return report.to_json(record)
+    if fmt == "csv":
+        return render_csv(record)
+    return render_table(record)
+
+
+def _write(path, text, what):
+    from holecli.io.outfile import write_text
+
+    try:
+        write_text(path, text)
+    except OSError as error:
+        raise Failure(f"{path}: cannot write {what}: {error.strerror or error}", EXIT_INPUT) from None
+
+
+@click.command(epilog=REGISTER_EXIT_CODES_HELP)
+@click.argument("scans", metavar="SCAN...", nargs=-1, required=True, type=click.Path(path_type=str))
+@click.option("--spec", "spec_file", required=True, type=click.Path(dir_okay=False, path_type=str), metavar="FILE.toml",
+              help="The part's nominal holes ([[hole]] name, center, normal, ...), in the part (CAD) frame.")
+@click.option("--name", "name_pairs", type=NamePair(), multiple=True,
+              help="SCAN's hole is the spec hole HOLE (repeatable); by default a scan whose file stem is a spec "
+                   "hole's name is that hole, other scans' holes are matched by their mutual distances.")
+@click.option("--targets", "targets_file", type=click.Path(dir_okay=False, path_type=str), default=None,
+              metavar="FILE.csv",
+              help="Nominal drilling targets in the part frame (header name,x,y,z,nx,ny,nz); needs --targets-output.")
+@click.option("--targets-output", type=click.Path(dir_okay=False, allow_dash=True, path_type=str), default=None,
+              metavar="FILE.csv",
+              help="Write the targets mapped into the measuring frame here (name,x,y,z,nx,ny,nz,u_x,u_y,u_z,"
+                   "u_normal_deg; - is stdout, then the result needs --output).")
+@click.option("--max-residual", type=Decimal(min=0, min_open=True), default=None,
+              help="Verdict: fail when a used hole's in-plane or along-normal residual exceeds this (file units), "
+                   "or when an outlier is named.")
+@click.option("--outlier-factor", type=Decimal(min=0, min_open=True), default=5.0, show_default=True,
+              help="A hole is an outlier when the other holes place it more than this many standard "
+                   "uncertainties from where it was measured (leave-one-out, 4 or more holes).")
+@click.option("--outlier-floor", type=Decimal(min=0), default=0.0, show_default=True,
+              help="... and more than this far (file units).")
+@click.option("--format", "fmt", type=click.Choice(["json", "csv", "table"]), default="json", show_default=True,
+              help="Output format: JSON, CSV (one row per hole, the transform in columns) or a table for people.")
+@click.option("--output", "-o", type=click.Path(dir_okay=False, allow_dash=True, path_type=str), default=None,
+              help="Write the result to this file (atomically; - is stdout) instead of stdout.")
+@detection_option_decorators
+@click.option("--quiet", "-q", is_flag=True, help="Say nothing on stderr but errors (no warnings, no verdict line).")
+def register(scans, spec_file, name_pairs, targets_file, targets_output, max_residual, outlier_factor, outlier_floor,
+             fmt, output, method, view_dir, min_diameter, max_holes, full_only, gauge_depth, quiet):
+    """Register a part: fit the rigid transform from the part (CAD) frame of --spec to the frame of the
+    SCANs (a robot's, any measuring frame) from the part's reference holes.
+
+    Each SCAN is measured as holecli detect measures it (one scan per reference hole, or a scan holding
+    several). Its holes are matched with the spec's holes by name (a scan named after a hole, A1.ply
+    for hole A1, or --name SCAN=HOLE), else by their mutual distances (3 or more holes). The fit is a
+    weighted least squares on centers and normals; a hole that the others place far from where it was
+    measured is named as an outlier and left out. With two holes the normals fix the rotation about
+    the line through them; with one hole the rotation about its normal stays free (said in
+    "free_dofs").
+
+    \b
+    Examples:
+      holecli register A1.ply A2.ply A3.ply A4.ply --spec part.toml
+      holecli register A1.ply A2.ply A3.ply --spec part.toml --max-residual 0.05 --format table
+      holecli register left.ply right.ply --spec part.toml --name left.ply=A1 --name right.ply=A2
+      holecli register panel.ply --spec part.toml --format csv -o registration.csv
+      holecli register A*.ply --spec part.toml --targets targets.csv --targets-output corrected.csv
+    """
+    if targets_output is not None and targets_file is None:
+        raise click.UsageError("--targets-output needs --targets")
+    if targets_file is not None and targets_output is None:
+        raise click.UsageError("--targets needs --targets-output (where to write the corrected targets)")
+    if targets_output == "-" and (output is None or output == "-"):
+        raise click.UsageError("--targets-output - and the result cannot both go to stdout: give --output FILE")
+    options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
+
+    def body():
+        from holecli import __version__
+        from holecli.cli.detect import measure_file
+        from holecli.cli.options import read_spec
+        from holecli.errors import HoleCliError
+        from holecli.registration import RegistrationError
+        from holecli.registration import register as register_holes
+
+        spec = read_spec(spec_file)
+        hole_names = [hole.name for hole in spec.holes]
+        names = _scan_names(scans, name_pairs, hole_names, spec_file)
+        targets = None
+        if targets_file is not None:
+            from holecli.io.targets import read_targets
+
+            try:
+                targets = read_targets(targets_file)
+            except HoleCliError as error:
+                raise Failure(str(error), EXIT_INPUT) from None
+        measured, measured_names, origin, scan_records = [], [], [], []
+        for scan in scans:
+            detection = measure_file(scan, options)
+            if not detection.holes:
+                raise Failure(f"{scan}: no hole found", EXIT_NO_HOLE)
+            name = names[scan]
+            if name is not None and len(detection.holes) > 1:
+                raise Failure(f"{scan}: is hole {name!r} but holds {len(detection.holes)} holes (give --max-holes 1, "
+                              "or leave it unnamed to match its holes by distances)", EXIT_INPUT)
+            for hole in detection.holes:
+                measured.append(hole)
+                measured_names.append(name)
+                origin.append((scan, hole.index))
+            scan_records.append({"file": scan, "holes": len(detection.holes), "name": name})
+        try:
+            result = register_holes(measured, spec.holes,
+                                    measured_names=measured_names if any(measured_names) else None,
+                                    max_residual=max_residual, outlier_factor=outlier_factor,
+                                    outlier_floor=outlier_floor)
+        except RegistrationError as error:
+            raise Failure(f"{spec_file}: cannot register: {error}", EXIT_INPUT) from None
+        record = {"schema": SCHEMA, "schema_version": SCHEMA_VERSION, "holecli_version": __version__,
+                  "units": "file units of the scans and the spec",
+                  "spec": {"file": spec_file, "sha256": spec.sha256}, "scans": scan_records}
+        registration = result.to_dict()
+        for hole in registration["holes"]:
+            hole["scan"], hole["scan_hole"] = origin[hole["measured_index"]]
+        registration["match"]["unmatched_measured"] = [
+            {"scan": origin[i][0], "scan_hole": origin[i][1]} for i in registration["match"]["unmatched_measured"]]
+        record.update(registration)
+        record["targets"] = None
+        targets_text = None
+        if targets is not None:
+            from holecli.io.targets import format_targets
+
+            rows = result.corrected_targets(targets)
+            targets_text = format_targets(rows)
+            record["targets"] = {"file": targets_file, "output": targets_output, "count": len(rows)}
+        text = render(record, fmt)
+        # Both outputs are prepared before either is written; each is written atomically.
+        if targets_text is not None:
+            _write(targets_output, targets_text, "the corrected targets")
+        if output is None or output == "-":
+            from holecli.cli.exits import write_stdout
+
+            write_stdout(text)
+        else:
+            _write(output, text, "output")
+        return record
+
+    record = run_guarded(body)
+    if not quiet:
+        for warning in record["warnings"]:
+            click.echo(f"holecli: warning: register: {warning['code']}: {warning['message']}", err=True)
+    if record["verdict"] == "fail":
+        if not quiet:
+            click.echo(f"holecli: registration fails --max-residual {record['max_residual']:g}: "
+                       + "; ".join(record["failed"]), err=True)
+        sys.exit(EXIT_OUT_OF_TOLERANCE)
+    sys.exit(EXIT_OK)
