@@ -13,7 +13,7 @@ from holecli.cli.options import Decimal, FloatTuple, check_verbosity, read_small
 
 
 @click.command(epilog="\b\nExit codes: 0 written, 2 usage error, 3 the scene or the output is invalid.")
-@click.argument("output", type=click.Path(dir_okay=False, path_type=str))
+@click.argument("output", type=click.Path(dir_okay=False, path_type=str), required=False)
 @click.option("--diameter", type=Decimal(min=0, min_open=True), default=3.0, show_default=True,
               help="Hole diameter (ignored when --hole is given).")
 @click.option("--center", type=FloatTuple(2, "X,Y"), default="1,1", show_default=True,
@@ -96,6 +96,16 @@ from holecli.cli.options import Decimal, FloatTuple, check_verbosity, read_small
 @click.option("--metres", is_flag=True, help="Profiler: write the points in metres (the part is in mm).")
 @click.option("--float64", is_flag=True,
               help="Profiler: write double precision [default: float32, as sensors write].")
+@click.option("--cell", "cell_dir", type=click.Path(file_okay=False, path_type=str), default=None, metavar="DIR",
+              help="Write a registration scene into DIR (no OUTPUT): a panel with reference holes placed under "
+                   "a random rigid transform, a profiler scan of each hole (<name>.ply), part.toml, targets.csv "
+                   "and cell.truth.json; existing files of those names are replaced. Uses --holes, --displace, "
+                   "--seed and the profiler options --range-noise [default: 0.005 here], --spacing [default: "
+                   "0.05 here], --line-pitch, --standoff, --triangulation-deg, --float64.")
+@click.option("--holes", "cell_holes", type=click.IntRange(3, 8), default=4, show_default=True,
+              help="--cell: number of reference holes (R1, R2, ...).")
+@click.option("--displace", "displace", multiple=True, metavar="NAME=DX,DY",
+              help="--cell: drill reference hole NAME off its nominal centre by DX,DY (part frame, mm); repeatable.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Random seed.")
 @click.option("--truth", "truth_path", type=click.Path(dir_okay=False, path_type=str), default=None,
               help="Where to write the ground truth [default: OUTPUT with .truth.json].")
@@ -105,7 +115,7 @@ def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pat
              translation, noise_z, noise_normal, inside_points, countersink, countersink_angle, bore_depth, bottom_depth, outliers, ragged,
              nan_points, panel_file, mesh_file, target, standoff, view, line, line_length, scan_length, parallel_rays,
              triangulation_deg, max_incidence_deg, range_noise, range_quantum, dropout, jitter, keep_nan, metres,
-             float64, seed, truth_path, quiet, verbose):
+             float64, cell_dir, cell_holes, displace, seed, truth_path, quiet, verbose):
     """Write a synthetic scan to OUTPUT (.ply, .pcd, .csv, .txt or .xyz) and its ground truth.
 
     The defaults reproduce the paper's Table I scene: a 3 mm hole at (1, 1) on a 0.0908 mm grid
@@ -122,8 +132,16 @@ def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pat
       holecli simulate panel.ply --panel sample_clouds/panel.toml --spacing 0.1 --range-noise 0.005
       holecli simulate part.ply --mesh part.stl --view 0,-0.42,-0.91 --translation 1200,-300,800
       holecli simulate table1.ply -q
+      holecli simulate --cell cell --holes 4 --displace R2=0.2,0 --seed 1
     """
     check_verbosity(quiet, verbose)
+    if cell_dir is not None:
+        sys.exit(run_guarded(_simulate_cell, ctx, cell_dir, quiet, verbose))
+    cell_only = [name for name in _CELL_OPTIONS if _given(ctx, name)]
+    if cell_only:
+        raise click.UsageError(f"{', '.join(_option_name(name) for name in cell_only)} need --cell")
+    if output is None:
+        raise click.UsageError("Missing argument 'OUTPUT'.")
     if panel_file is not None or mesh_file is not None:
         sys.exit(run_guarded(_simulate_part, ctx, output, panel_file, mesh_file, truth_path, seed, quiet, verbose))
     profiler_only = [name for name in _PROFILER_OPTIONS if _given(ctx, name)]
@@ -188,6 +206,12 @@ _SYNTHETIC_OPTIONS = ("diameter", "center", "holes", "no_hole", "extent", "patte
                       "ragged", "nan_points")
 
 
+# The options of simulate that only --cell uses, and the others it accepts.
+_CELL_OPTIONS = ("cell_holes", "displace")
+_CELL_ACCEPTS = _CELL_OPTIONS + ("cell_dir", "seed", "range_noise", "spacing", "line_pitch", "standoff",
+                                 "triangulation_deg", "float64", "quiet", "verbose")
+
+
 def _given(ctx, name):
     from click.core import ParameterSource
 
@@ -195,7 +219,134 @@ def _given(ctx, name):
 
 
 def _option_name(name):
-    return "--hole" if name == "holes" else "--" + name.replace("_", "-")
+    names = {"holes": "--hole", "cell_holes": "--holes", "cell_dir": "--cell", "panel_file": "--panel",
+             "mesh_file": "--mesh", "truth_path": "--truth"}
+    return names.get(name, "--" + name.replace("_", "-"))
+
+
+def _parse_displace(values):
+    """{name: (dx, dy)} of the --displace values NAME=DX,DY."""
+    from holecli.io.decimal_text import parse_decimal
+
+    displaced = {}
+    for value in values:
+        name, sep, offset = value.partition("=")
+        parts = offset.split(",")
+        try:
+            numbers = tuple(parse_decimal(part.strip()) for part in parts) if sep else ()
+        except ValueError:
+            numbers = ()
+        if not name.strip() or len(numbers) != 2:
+            raise click.BadParameter(f"expected NAME=DX,DY (two numbers, mm), got {value!r}", param_hint="'--displace'")
+        if name.strip() in displaced:
+            raise click.BadParameter(f"hole {name.strip()!r} given twice", param_hint="'--displace'")
+        displaced[name.strip()] = numbers
+    return displaced
+
+
+def _simulate_cell(ctx, directory, quiet=False, verbose=False):
+    """``holecli simulate --cell DIR``: a registration scene, its scans and its truth."""
+    import json
+    from pathlib import Path
+
+    from holecli.errors import SpecError
+    from holecli.io import save_points
+    from holecli.io.outfile import write_text
+    from holecli.simulation.cell import random_cell, simulate_cell
+
+    p = ctx.params
+    if p["output"] is not None:
+        raise click.UsageError("--cell writes into its folder DIR: give no OUTPUT")
+    other = [name for name in p if name not in _CELL_ACCEPTS and name != "output" and _given(ctx, name)]
+    if other:
+        raise click.UsageError(f"{', '.join(_option_name(name) for name in other)} cannot be used with --cell")
+    displaced = _parse_displace(p["displace"])
+    names = [f"R{k + 1}" for k in range(p["cell_holes"])]
+    unknown = [name for name in displaced if name not in names]
+    if unknown:
+        raise click.BadParameter(f"no reference hole {unknown[0]!r} (the cell has {', '.join(names)})",
+                                 param_hint="'--displace'")
+    seed = p["seed"]
+    started = time.perf_counter()
+    try:
+        spec = random_cell(seed, p["cell_holes"], displaced=displaced,
+                           range_noise=p["range_noise"] if _given(ctx, "range_noise") else 0.005,
+                           point_pitch=p["spacing"] if _given(ctx, "spacing") else 0.05,
+                           line_pitch=p["line_pitch"], standoff=p["standoff"],
+                           triangulation_deg=p["triangulation_deg"])
+        cell = simulate_cell(spec, seed)
+    except SpecError as error:
+        raise Failure(f"{directory}: invalid cell: {error}", EXIT_INPUT) from None
+    generated = time.perf_counter()
+    folder = Path(directory)
+    truth = dict(cell.truth, seed=seed, units="mm",
+                 files={"scans": {scan.name: f"{scan.name}.ply" for scan in cell.scans}, "spec": "part.toml",
+                        "targets": "targets.csv"})
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        for scan in cell.scans:
+            save_points(folder / f"{scan.name}.ply", scan.points, float32=not p["float64"])
+        write_text(folder / "part.toml", _part_toml(cell))
+        write_text(folder / "targets.csv", _targets_csv(cell))
+        write_text(folder / "cell.truth.json", json.dumps(truth, indent=2) + "\n")
+    except OSError as error:
+        raise Failure(f"{directory}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
+    if verbose:
+        click.echo(f"holecli: cell: {len(cell.scans)} reference holes, {len(cell.targets)} targets, "
+                   f"displaced {', '.join(truth['displaced']) or 'none'}, seed {seed}\nholecli: time: simulate "
+                   f"{(generated - started) * 1e3:.1f} ms, write {(time.perf_counter() - generated) * 1e3:.1f} ms",
+                   err=True)
+    if not quiet:
+        points = sum(len(scan.points) for scan in cell.scans)
+        click.echo(f"wrote {len(cell.scans)} scans ({points} points), part.toml, targets.csv and cell.truth.json "
+                   f"to {directory}", err=True)
+    return EXIT_OK
+
+
+# Tolerances written into a cell's part.toml (mm, degrees): a reference hole's drawing.
+_CELL_DIAMETER_TOLERANCE = 0.05
+_CELL_POSITION_TOLERANCE = 0.1
+_CELL_COUNTERSINK_DIAMETER_TOLERANCE = 0.1
+_CELL_COUNTERSINK_ANGLE_TOLERANCE = 1.0
+
+
+def _toml_vector(values):
+    return "[" + ", ".join(repr(float(v)) for v in values) + "]"
+
+
+def _part_toml(cell):
+    """The nominal reference holes of ``cell`` as a :func:`holecli.tolerance.parse_spec` file (part frame)."""
+    lines = ["# The reference holes of a simulated cell as drawn, in the part frame (mm); the scans are in",
+             "# the measuring frame (see cell.truth.json).", ""]
+    for hole in cell.nominal:
+        lines += ["[[hole]]", f"name = {_toml_string(hole.name)}", f"center = {_toml_vector(hole.center)}",
+                  f"normal = {_toml_vector(hole.normal)}", f"diameter = {float(hole.diameter)!r}",
+                  f"tolerance = {_CELL_DIAMETER_TOLERANCE!r}", f"position_tolerance = {_CELL_POSITION_TOLERANCE!r}"]
+        if hole.countersink_diameter is not None:
+            lines += [f"countersink_diameter = {float(hole.countersink_diameter)!r}",
+                      f"countersink_diameter_tolerance = {_CELL_COUNTERSINK_DIAMETER_TOLERANCE!r}",
+                      "countersink_angle = 100.0",
+                      f"countersink_angle_tolerance = {_CELL_COUNTERSINK_ANGLE_TOLERANCE!r}"]
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _toml_string(text):
+    import json
+
+    return json.dumps(text)  # a JSON string is a TOML basic string for the names used here
+
+
+def _targets_csv(cell):
+    """``name,x,y,z,nx,ny,nz`` rows of the targets, part frame, full precision."""
+    import numpy as np
+
+    rows = ["name,x,y,z,nx,ny,nz"]
+    for target in cell.targets:
+        normal = np.asarray(target.normal, dtype=np.float64)
+        normal = normal / np.linalg.norm(normal)
+        rows.append(",".join([target.name] + [repr(float(v)) for v in (*target.point, *normal)]))
+    return "\n".join(rows) + "\n"
 
 
 def _simulate_part(ctx, output, panel_file, mesh_file, truth_path, seed, quiet=False, verbose=False):
