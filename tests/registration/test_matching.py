@@ -202,3 +202,33 @@ def test_without_sigmas_noise_alone_is_rarely_flagged():
         centers, normals, measured, measured_normals, _ = _scene(rng, 4 + seed % 2)
         flagged += bool(find_outliers(fit_rigid, centers, normals, measured, measured_normals, floor=0.02).outliers)
     assert flagged <= 4
+
+
+def test_a_displaced_hole_is_named_when_the_scans_are_far_more_precise_than_the_move():
+    # A cell's scans measure a center to 0.25 um in the plane: a refit to three holes that still
+    # hold the moved one is bent, its covariance does not know it, and it places a good hole further
+    # off (0.29 mm) than the moved hole's own 0.2 mm. The candidate is the hole whose removal leaves
+    # the others consistent (the refit's chi-square), not the largest standardized residual.
+    in_plane, along, normal_deg = 0.25e-3, 0.03e-3, 3e-4
+    failures = []
+    for seed in range(100):
+        rng = np.random.default_rng(3000 + seed)
+        count = 4 + seed % 2
+        centers = np.column_stack([rng.uniform(-150, 150, count), rng.uniform(-100, 100, count), np.zeros(count)])
+        normals = np.tile([0.0, 0.0, 1.0], (count, 1))
+        truth = RigidTransform(Rotation.from_euler("xyz", rng.uniform(-5, 5, 3), degrees=True).as_matrix(),
+                               rng.uniform(-500, 500, 3))
+        drilled = centers.copy()
+        bad = int(rng.integers(count))
+        angle = rng.uniform(0, 2 * np.pi)
+        drilled[bad, :2] += 0.2 * np.array([np.cos(angle), np.sin(angle)])
+        measured_normals = truth.apply_directions(normals)
+        measured = truth.apply_points(drilled)
+        measured += rng.normal(0, in_plane, (count, 3)) * [1, 1, 0] @ truth.rotation.T
+        measured += np.outer(rng.normal(0, along, count), measured_normals[0])
+        check = find_outliers(fit_rigid, centers, normals, measured, measured_normals, names=_names(count),
+                              floor=0.02, center_sigma_inplane=np.full(count, in_plane),
+                              center_sigma_normal=np.full(count, along), normal_sigma_deg=np.full(count, normal_deg))
+        if check.outliers != [f"H{bad}"]:
+            failures.append((seed, bad, check.outliers))
+    assert len(failures) <= 1, failures
