@@ -777,7 +777,7 @@ def _uncertainty(scene, measured):
     fit = measured.fit
     u_center, u_diameter = edge_uncertainty(measured.estimator, measured.synthetic, measured.rim_xy, fit.center,
                                             fit.radius, float(scene.sampling.spacing), float(scene.height_noise),
-                                            measured.cone_covariance)
+                                            measured.cone_covariance, diameter_correction=2.0 * measured.bias)
     height, normal = measured.surface_uncertainty
     if height is None:  # no local plane: the scan's plane (its height noise over its inliers)
         count = max(len(scene.surface_xy), 1)
