@@ -25,7 +25,7 @@ The targets of issue 15: median translation error <= 5 um, median rotation error
 median error of the targets at >= 250 mm <= 10 um, false outliers in <= 5 % of the cells, the moved
 hole named in >= 95 % of them. Exit status 1 when a target is missed.
 
-Run:  python benchmarks/register.py [--seeds 30] [--first-seed 0] [--jobs 2] [--view-dir]
+Run:  python benchmarks/register.py [--seeds 30] [--first-seed 0] [--jobs 2] [--view-dir] [--dump FILE.json]
 """
 
 from __future__ import annotations
@@ -173,6 +173,7 @@ def main(argv=None):
     parser.add_argument("--jobs", type=int, default=2, help="processes (default 2)")
     parser.add_argument("--view-dir", action="store_true",
                         help="give detect the sensor's view (holecli register --view-dir); default: none, as the CLI")
+    parser.add_argument("--dump", default=None, help="write every cell's figures to this JSON file")
     args = parser.parse_args(argv)
     wall, cpu = time.perf_counter(), time.process_time()
     seeds = range(args.first_seed, args.first_seed + args.seeds)
@@ -186,6 +187,10 @@ def main(argv=None):
         children = sum(os.times()[2:4])
     else:
         results = [measure(task) for task in tasks]
+    if args.dump:
+        import json
+
+        Path(args.dump).write_text(json.dumps(results))
     clean = [r for r in results if not r["displaced"]]
     moved = [r for r in results if r["displaced"]]
 
