@@ -35,6 +35,10 @@ MIN_POINTS_BELOW = DEFAULT_SETTINGS.cone_min_points_below
 DEPTH_BINS = DEFAULT_SETTINGS.cone_depth_bins
 MIN_BIN_POINTS = DEFAULT_SETTINGS.cone_min_bin_points
 DEPTH_SLOPE_RATIO = DEFAULT_SETTINGS.cone_depth_slope_ratio
+# A cone found by the least-median start must have its points below the surface spread over at least
+# this fraction of the radii from the edge to the innermost of them (interquartile range): not a
+# bore's wall, which stands at one radius (see fit_cone_edge).
+WALL_COLUMN_SPREAD = 0.2
 
 
 @dataclass(frozen=True)
@@ -53,7 +57,10 @@ class NotACone:
     ``check`` is ``"points_below"`` (too few points clearly below the surface inside the rim),
     ``"slope"`` (the wall's slope is outside [cone_min_slope, cone_max_slope]: a bore wall or no cone) or
     ``"flat_floor"`` (the depth does not grow toward the center as the cone's slope says: a flat
-    hole floor, value and limit as fractions of the fitted slope).
+    hole floor, value and limit as fractions of the fitted slope) or ``"wall_column"`` (a hinge found
+    from the least-median start whose points below the surface stand at one radius, a bore's wall:
+    value and limit the interquartile range of their radii over the edge's distance to the innermost,
+    :data:`WALL_COLUMN_SPREAD`).
     """
 
     check: str
@@ -135,6 +142,33 @@ def _depth_slope(rho, depth, bins_count, min_bin_points):
     return float(np.median((medians[i] - medians[j]) / (centers[j] - centers[i])))
 
 
+def _trimmed_hinge(rho, depth, radius, width, noise, settings, median_start):
+    """The hinge's edge and slope after trimming the points far off it (bore-wall and bottom points,
+    far below the cone), and the points kept.
+
+    The first hinge is a least-squares one, or with ``median_start`` a least median one over the
+    points below the surface (:func:`_least_median_hinge`); the next are least squares over the points
+    kept.
+    """
+    keep = np.ones(len(rho), dtype=bool)
+    for round_ in range(settings.cone_trim_rounds):
+        if round_ == 0 and median_start:
+            deep = depth > settings.cone_below_sigmas * noise
+            edge, slope = _best_edge(rho[deep], depth[deep], radius - width, radius + width,
+                                     settings.cone_edge_steps,
+                                     hinge=partial(_least_median_hinge, max_slope=settings.cone_max_slope))
+        else:
+            edge, slope = _best_edge(rho[keep], depth[keep], radius - width, radius + width,
+                                     settings.cone_edge_steps)
+        residual = depth - slope * np.maximum(edge - rho, 0.0)
+        scale = max(robust_sigma(residual[keep]), noise, 1e-12 * radius)
+        new_keep = np.abs(residual) < settings.cone_trim_sigmas * scale
+        if np.array_equal(new_keep, keep):
+            break
+        keep = new_keep
+    return edge, slope, keep
+
+
 def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOPE_RATIO, *,
                   settings=DEFAULT_SETTINGS):
     """Countersink edge from points around a hole, or the reason there is no cone.
@@ -170,27 +204,25 @@ def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOP
     below = np.count_nonzero((depth > clearly_below) & (rho < radius))
     if below < settings.cone_min_points_below:
         return NotACone("points_below", float(below), float(settings.cone_min_points_below))
-    keep = np.ones(len(rho), dtype=bool)
-    for round_ in range(settings.cone_trim_rounds):
-        # Bore-wall and bottom points (far below the cone) are trimmed as outliers: the first hinge is
-        # fitted by least median (:func:`_least_median_hinge`) so that a wall seen on one side cannot bend it.
-        if round_ == 0:
-            deep = depth > clearly_below
-            edge, slope = _best_edge(rho[deep], depth[deep], radius - width, radius + width,
-                                     settings.cone_edge_steps,
-                                     hinge=partial(_least_median_hinge, max_slope=settings.cone_max_slope))
-        else:
-            edge, slope = _best_edge(rho[keep], depth[keep], radius - width, radius + width,
-                                     settings.cone_edge_steps)
-        residual = depth - slope * np.maximum(edge - rho, 0.0)
-        # The scale of the cone's own residuals, inside the edge: beyond it a noise-free surface's
-        # residuals are exact zeros, and where they are most of the points their MAD is zero.
-        on_cone = keep & (rho < edge)
-        scale = max(robust_sigma(residual[on_cone]) if on_cone.any() else 0.0, noise, 1e-12 * radius)
-        new_keep = np.abs(residual) < settings.cone_trim_sigmas * scale
-        if np.array_equal(new_keep, keep):
-            break
-        keep = new_keep
+    edge, slope, keep = _trimmed_hinge(rho, depth, radius, width, noise, settings, median_start=False)
+    if slope > settings.cone_max_slope:
+        # Steeper than any countersink: a bore wall, or a cone whose hinge a bore wall seen on one side
+        # of a tilted scan bent (its points, millimetres deep at one radius, as many as the cone's on a
+        # coarse scan). Started by least median over the points below the
+        # surface, the hinge follows the cone where there is one; where there is none it stays a
+        # wall's, or fails the checks below.
+        edge, slope, keep = _trimmed_hinge(rho, depth, radius, width, noise, settings, median_start=True)
+        # A bore's wall alone (no cone) is a column of points at one radius, which a hinge through
+        # its median depth fits too: the cone's points below the surface must spread over the radii
+        # between the edge and the bore (uniform over that ring, their interquartile range is about
+        # half of it), not stand at one.
+        on_cone = keep & (depth > settings.cone_below_sigmas * noise) & (rho < edge)
+        if np.count_nonzero(on_cone) < 2:
+            return NotACone("wall_column", 0.0, WALL_COLUMN_SPREAD)
+        low, q1, q3 = np.percentile(rho[on_cone], [0.0, 25.0, 75.0])
+        spread = float(q3 - q1) / max(float(edge - low), 1e-12 * radius)
+        if spread < WALL_COLUMN_SPREAD:
+            return NotACone("wall_column", spread, WALL_COLUMN_SPREAD)
     low_slope, high_slope = settings.cone_min_slope, settings.cone_max_slope
     if not low_slope <= slope <= high_slope:
         return NotACone("slope", slope, low_slope if slope < low_slope else high_slope)
