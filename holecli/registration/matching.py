@@ -30,6 +30,7 @@ from scipy.spatial.distance import cdist
 from scipy.stats import chi2 as chi2_distribution
 from scipy.stats import f as f_distribution
 
+from holecli.registration.rigid import kabsch_points
 from holecli.registration.transform import RegistrationError, RigidTransform
 
 # Default pairing tolerance as a fraction of the smallest nominal hole-to-hole distance: a measured
@@ -81,15 +82,6 @@ def _as_points(values, name):
     if values.ndim != 2 or values.shape[1] != 3 or not np.all(np.isfinite(values)):
         raise RegistrationError(f"{name} must be a finite (n, 3) array, got shape {values.shape}")
     return values
-
-
-def _kabsch_points(source, target):
-    """The rigid transform taking ``source`` onto ``target`` (unweighted Kabsch, centres then SVD)."""
-    source_mean, target_mean = source.mean(axis=0), target.mean(axis=0)
-    u, _, vt = np.linalg.svd((source - source_mean).T @ (target - target_mean))
-    d = np.sign(np.linalg.det(vt.T @ u.T)) or 1.0
-    rotation = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
-    return rotation, target_mean - rotation @ source_mean
 
 
 def _assign(mapped, nominal, tolerance):
@@ -146,7 +138,7 @@ def _match_by_distances(nominal, measured, tolerance):
             for k in ks:
                 if k in (i, j):
                     continue
-                rotation, translation = _kabsch_points(measured[[a, b, c]], nominal[[i, j, k]])
+                rotation, translation = kabsch_points(measured[[a, b, c]], nominal[[i, j, k]])
                 pairs, distances = _assign(measured @ rotation.T + translation, nominal, tolerance)
                 if len(pairs) < 3:
                     continue
@@ -156,7 +148,7 @@ def _match_by_distances(nominal, measured, tolerance):
                 # Score on a fit to all the pairs, not only the base triplet.
                 m_idx = [m for m, _ in key]
                 n_idx = [n for _, n in key]
-                rotation, translation = _kabsch_points(measured[m_idx], nominal[n_idx])
+                rotation, translation = kabsch_points(measured[m_idx], nominal[n_idx])
                 residual = measured[m_idx] @ rotation.T + translation - nominal[n_idx]
                 candidates[key] = float(np.sqrt(np.mean(np.sum(residual**2, axis=1))))
     if not candidates:

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from holecli.registration.matching import OutlierCheck, find_outliers, match_holes
-from holecli.registration.rigid import COLLINEAR_TOLERANCE, fit_rigid
+from holecli.registration.rigid import COLLINEAR_TOLERANCE, fit_rigid, hole_residuals, kabsch_points
 from holecli.registration.transform import RegistrationError, RigidTransform
 
 __all__ = ["DEFAULT_OUTLIER_FACTOR", "Registration", "RegisteredHole", "register"]
@@ -305,17 +305,9 @@ def _orient(nominal_centers, nominal_normals, measured_centers, measured_normals
     flipped = np.zeros(len(measured_normals), dtype=bool)
     if not _spread_enough(nominal_centers) or not _spread_enough(measured_centers):
         return measured_normals, flipped
-    a = nominal_centers - nominal_centers.mean(axis=0)
-    b = measured_centers - measured_centers.mean(axis=0)
-    u, _, vt = np.linalg.svd(a.T @ b)
-    d = np.sign(np.linalg.det(vt.T @ u.T)) or 1.0
-    rotation = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+    rotation, _ = kabsch_points(nominal_centers, measured_centers)
     flipped = np.sum((nominal_normals @ rotation.T) * measured_normals, axis=1) < 0
     return np.where(flipped[:, None], -measured_normals, measured_normals), flipped
-
-
-def _fit(nominal_c, nominal_n, measured_c, measured_n, sigmas):
-    return fit_rigid(nominal_c, nominal_n, measured_c, measured_n, **(sigmas or {}))
 
 
 def _match(nominal_names, nominal_centers, nominal_normals, measured_centers, measured_normals, measured_names):
@@ -449,20 +441,17 @@ def register(measured_holes, nominal_spec_holes, measured_names=None, max_residu
     outliers = tuple(check.outliers)
     used = np.array([name not in outliers for name in names])
     used_sigmas = None if sigmas is None else {key: value[used] for key, value in sigmas.items()}
-    fit = _fit(nom_c[used], nom_n[used], mea_c[used], mea_n[used], used_sigmas)
+    fit = fit_rigid(nom_c[used], nom_n[used], mea_c[used], mea_n[used], **(used_sigmas or {}))
     transform = fit.transform
 
-    residual = mea_c - transform.apply_points(nom_c)
-    along = np.sum(residual * mea_n, axis=1)
-    in_plane = np.linalg.norm(residual - along[:, None] * mea_n, axis=1)
-    predicted = transform.apply_directions(nom_n)
-    angle = np.degrees(np.arctan2(np.linalg.norm(np.cross(predicted, mea_n), axis=1),
-                                  np.sum(predicted * mea_n, axis=1)))
+    # every matched hole's, the outliers' too (where the other holes place them)
+    residuals = hole_residuals(transform, nom_c, nom_n, mea_c, mea_n)
     holes = tuple(
         RegisteredHole(name=names[k], measured_index=int(m_idx[k]), nominal_center=nom_c[k], nominal_normal=nom_n[k],
                        measured_center=mea_c[k], measured_normal=mea_n[k], normal_flipped=bool(flipped[k]),
-                       used=bool(used[k]), outlier=not used[k], in_plane=float(in_plane[k]),
-                       along_normal=float(along[k]), normal_angle_deg=float(angle[k]))
+                       used=bool(used[k]), outlier=not used[k], in_plane=float(residuals.in_plane[k]),
+                       along_normal=float(residuals.along_normal[k]),
+                       normal_angle_deg=float(residuals.normal_angle_deg[k]))
         for k in range(len(names)))
 
     failed = []

@@ -77,6 +77,50 @@ class HoleResiduals:
         return np.linalg.norm(self.vector, axis=1)
 
 
+def hole_residuals(transform, nominal_centers, nominal_normals, measured_centers, measured_normals):
+    """The residuals of measured holes from nominal ones mapped by ``transform``.
+
+    Parameters
+    ----------
+    transform : RigidTransform
+        Part frame -> measuring frame.
+    nominal_centers, nominal_normals : (n, 3) float
+        Part frame (unit normals).
+    measured_centers, measured_normals : (n, 3) float
+        Measuring frame (unit normals).
+
+    Returns
+    -------
+    HoleResiduals
+    """
+    vector = measured_centers - transform.apply_points(nominal_centers)
+    along = np.sum(vector * measured_normals, axis=1)
+    in_plane = np.linalg.norm(vector - along[:, None] * measured_normals, axis=1)
+    predicted = transform.apply_directions(nominal_normals)
+    sine = np.linalg.norm(np.cross(predicted, measured_normals), axis=1)
+    angle = np.degrees(np.arctan2(sine, np.sum(predicted * measured_normals, axis=1)))
+    return HoleResiduals(vector, in_plane, along, angle)
+
+
+def kabsch_points(source, target):
+    """The rigid transform taking ``source`` onto ``target`` (unweighted Kabsch, centres then SVD).
+
+    Parameters
+    ----------
+    source, target : (n, 3) float
+
+    Returns
+    -------
+    rotation : (3, 3) float
+    translation : (3,) float
+    """
+    source_mean, target_mean = source.mean(axis=0), target.mean(axis=0)
+    u, _, vt = np.linalg.svd((source - source_mean).T @ (target - target_mean))
+    d = np.sign(np.linalg.det(vt.T @ u.T)) or 1.0
+    rotation = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+    return rotation, target_mean - rotation @ source_mean
+
+
 @dataclass(frozen=True, eq=False)
 class RigidFit:
     """A rigid transform fitted to matched holes, with its quality and uncertainty.
@@ -417,14 +461,8 @@ def fit_rigid(
         free_dofs = tuple(f"undetermined parameter direction {np.round(v, 6).tolist()}" for v in free_global)
 
     transform = RigidTransform(rotation, translation)
-    center_res = measured_centers - transform.apply_points(nominal_centers)
-    along = np.sum(center_res * measured_normals, axis=1)
-    in_plane = np.linalg.norm(center_res - along[:, None] * measured_normals, axis=1)
-    predicted_normals = transform.apply_directions(nominal_normals)
-    sine = np.linalg.norm(np.cross(predicted_normals, measured_normals), axis=1)
-    angle = np.degrees(np.arctan2(sine, np.sum(predicted_normals * measured_normals, axis=1)))
-    residuals = HoleResiduals(center_res, in_plane, along, angle)
-    rms = float(np.sqrt(np.mean(np.sum(center_res**2, axis=1))))
+    residuals = hole_residuals(transform, nominal_centers, nominal_normals, measured_centers, measured_normals)
+    rms = float(np.sqrt(np.mean(np.sum(residuals.vector**2, axis=1))))
     return RigidFit(
         transform=transform,
         covariance=covariance,
