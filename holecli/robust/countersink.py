@@ -142,27 +142,51 @@ def _depth_slope(rho, depth, bins_count, min_bin_points):
     return float(np.median((medians[i] - medians[j]) / (centers[j] - centers[i])))
 
 
-def _trimmed_hinge(rho, depth, radius, width, noise, settings, median_start):
+def points_on_hinge(rho, depth, edge, slope, noise, floor, trim_sigmas, among=None):
+    """The points within ``trim_sigmas`` robust standard deviations of the hinge
+    ``depth = slope * max(edge - rho, 0)``.
+
+    Parameters
+    ----------
+    rho, depth : (n,) float
+        As for :func:`fit_cone_edge`.
+    edge, slope : float
+        The hinge.
+    noise, floor : float
+        Least scale: the surface's height noise, and a floor for a noise-free scan.
+    trim_sigmas : float
+        ``cone_trim_sigmas``.
+    among : (n,) bool, optional
+        The points whose residuals give the scale (default: all).
+
+    Returns
+    -------
+    (n,) bool
+    """
+    residual = depth - slope * np.maximum(edge - rho, 0.0)
+    scale = max(robust_sigma(residual if among is None else residual[among]), noise, floor)
+    return np.abs(residual) < trim_sigmas * scale
+
+
+def _trimmed_hinge(rho, depth, radius, width, noise, settings, median_start=None):
     """The hinge's edge and slope after trimming the points far off it (bore-wall and bottom points,
     far below the cone), and the points kept.
 
-    The first hinge is a least-squares one, or with ``median_start`` a least median one over the
-    points below the surface (:func:`_least_median_hinge`); the next are least squares over the points
-    kept.
+    The first hinge is a least-squares one, or, given ``median_start`` (a mask of the points below the
+    surface), a least median one over those points (:func:`_least_median_hinge`); the next are least
+    squares over the points kept.
     """
     keep = np.ones(len(rho), dtype=bool)
     for round_ in range(settings.cone_trim_rounds):
-        if round_ == 0 and median_start:
-            deep = depth > settings.cone_below_sigmas * noise
-            edge, slope = _best_edge(rho[deep], depth[deep], radius - width, radius + width,
+        if round_ == 0 and median_start is not None:
+            edge, slope = _best_edge(rho[median_start], depth[median_start], radius - width, radius + width,
                                      settings.cone_edge_steps,
                                      hinge=partial(_least_median_hinge, max_slope=settings.cone_max_slope))
         else:
             edge, slope = _best_edge(rho[keep], depth[keep], radius - width, radius + width,
                                      settings.cone_edge_steps)
-        residual = depth - slope * np.maximum(edge - rho, 0.0)
-        scale = max(robust_sigma(residual[keep]), noise, 1e-12 * radius)
-        new_keep = np.abs(residual) < settings.cone_trim_sigmas * scale
+        new_keep = points_on_hinge(rho, depth, edge, slope, noise, 1e-12 * radius, settings.cone_trim_sigmas,
+                                   among=keep)
         if np.array_equal(new_keep, keep):
             break
         keep = new_keep
@@ -204,19 +228,20 @@ def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOP
     below = np.count_nonzero((depth > clearly_below) & (rho < radius))
     if below < settings.cone_min_points_below:
         return NotACone("points_below", float(below), float(settings.cone_min_points_below))
-    edge, slope, keep = _trimmed_hinge(rho, depth, radius, width, noise, settings, median_start=False)
+    edge, slope, keep = _trimmed_hinge(rho, depth, radius, width, noise, settings)
     if slope > settings.cone_max_slope:
         # Steeper than any countersink: a bore wall, or a cone whose hinge a bore wall seen on one side
         # of a tilted scan bent (its points, millimetres deep at one radius, as many as the cone's on a
         # coarse scan). Started by least median over the points below the
         # surface, the hinge follows the cone where there is one; where there is none it stays a
         # wall's, or fails the checks below.
-        edge, slope, keep = _trimmed_hinge(rho, depth, radius, width, noise, settings, median_start=True)
+        edge, slope, keep = _trimmed_hinge(rho, depth, radius, width, noise, settings,
+                                           median_start=depth > clearly_below)
         # A bore's wall alone (no cone) is a column of points at one radius, which a hinge through
         # its median depth fits too: the cone's points below the surface must spread over the radii
         # between the edge and the bore (uniform over that ring, their interquartile range is about
         # half of it), not stand at one.
-        on_cone = keep & (depth > settings.cone_below_sigmas * noise) & (rho < edge)
+        on_cone = keep & (depth > clearly_below) & (rho < edge)
         if np.count_nonzero(on_cone) < 2:
             return NotACone("wall_column", 0.0, WALL_COLUMN_SPREAD)
         low, q1, q3 = np.percentile(rho[on_cone], [0.0, 25.0, 75.0])

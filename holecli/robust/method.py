@@ -34,7 +34,7 @@ from holecli.robust.bias import RimScales, sampling_errors
 from holecli.robust.boundary import hole_rim, near_box_edge
 from holecli.robust.candidates import distance_to_outside, find_voids, occupancy_grid
 from holecli.robust.countersink import MIN_SLOPE as MIN_CONE_SLOPE
-from holecli.robust.countersink import Cone, fit_cone_edge
+from holecli.robust.countersink import Cone, fit_cone_edge, points_on_hinge
 from holecli.robust.doubts import Doubts, doubt_warnings
 from holecli.robust.edge import fit_edge
 from holecli.robust.empty_circle import empty_circle_errors, largest_empty_circle
@@ -326,9 +326,8 @@ def _cone_in_the_plane(scene, center, cone, settings):
     xy, depth = _points_around_edge(scene, center, cone.radius, width, settings)
     # Only the points on the accepted cone: a bore wall seen on one side of a tilted scan would pull
     # the free center and edge toward itself (soft_l1 tempers an outlier, not hundreds).
-    on_cone = depth - cone.slope * np.maximum(cone.radius - np.hypot(xy[:, 0] - center[0], xy[:, 1] - center[1]), 0.0)
-    spread = max(robust_sigma(on_cone), scene.height_noise, 1e-12 * cone.radius)
-    kept = np.abs(on_cone) < settings.cone_trim_sigmas * spread
+    kept = points_on_hinge(np.hypot(xy[:, 0] - center[0], xy[:, 1] - center[1]), depth, cone.radius, cone.slope,
+                           scene.height_noise, 1e-12 * cone.radius, settings.cone_trim_sigmas)
     xy, depth = xy[kept], depth[kept]
     if len(xy) < settings.cone_min_points_below:
         return center, cone.radius, None
