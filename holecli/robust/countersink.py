@@ -92,12 +92,15 @@ def _least_median_hinge(rho, depth, edge, max_slope):
     if len(rho) == 0:
         return 0.0, np.inf
     ramp = np.maximum(edge - rho, 0.0)
+
+    def median_errors(slopes):
+        return np.median(np.abs(depth[None, :] - slopes[:, None] * ramp[None, :]), axis=1)
+
     coarse = np.linspace(0.0, 2.0 * max_slope, 201)
-    errors = np.median(np.abs(depth[None, :] - coarse[:, None] * ramp[None, :]), axis=1)
-    best = float(coarse[int(np.argmin(errors))])
+    best = float(coarse[int(np.argmin(median_errors(coarse)))])
     step = coarse[1] - coarse[0]
     fine = np.linspace(best - step, best + step, 41)
-    errors = np.median(np.abs(depth[None, :] - fine[:, None] * ramp[None, :]), axis=1)
+    errors = median_errors(fine)
     index = int(np.argmin(errors))
     return float(fine[index]), float(errors[index])
 
