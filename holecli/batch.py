@@ -36,7 +36,7 @@ from holecli.report import BATCH_CSV_COLUMNS, CSV_COLUMNS, csv_text, to_json_lin
 
 __all__ = ["FORMATS", "BatchOutput", "FileSummary", "OutputBusyError", "RecordWriter", "ResumeError", "Tally",
            "default_jobs", "error_record", "failure_message", "files_to_do", "find_scans", "measure_all", "measure_record",
-           "plot_files", "resolved_path"]
+           "plot_files", "resolved_path", "scan_stem"]
 
 FORMATS = ("jsonl", "csv")
 
@@ -60,7 +60,7 @@ class ResumeError(HoleCliError, ValueError):
 # Finding the files
 
 
-def find_scans(paths, recursive=False, pattern=None, exclude=(), input_format=None) -> list:
+def find_scans(paths, recursive=False, pattern=None, exclude=(), input_format=None, exclude_folders=()) -> list:
     """The point-cloud files to measure, sorted, each once.
 
     Parameters
@@ -81,6 +81,9 @@ def find_scans(paths, recursive=False, pattern=None, exclude=(), input_format=No
     input_format : str, optional
         The format every file will be read in (``--input-format``): the extension then no longer
         selects the files of a folder, only ``pattern`` does.
+    exclude_folders : iterable of str
+        Folders none of whose files (at any depth, symbolic links resolved) are taken, even when
+        given by name (the batch's plot folder: with ``input_format`` its PNGs would be).
 
     Returns
     -------
@@ -103,9 +106,12 @@ def find_scans(paths, recursive=False, pattern=None, exclude=(), input_format=No
             found.append(path)
         else:
             raise LoadError(path, "no such file or folder")
+    folders = [os.path.realpath(folder) for folder in exclude_folders]
     unique, seen = [], set(excluded)
     for path in sorted(found):
         real = os.path.realpath(path)
+        if any(os.path.commonpath([real, folder]) == folder for folder in folders):
+            continue
         if real not in seen:
             seen.add(real)
             unique.append(path)
@@ -274,6 +280,21 @@ def _result_text(record):
     return text
 
 
+def scan_stem(path) -> str:
+    """A scan's file name without its extension (``scans/A1.ply`` -> ``A1``): what names its PNG
+    in a plot folder and, in ``holecli register``, the hole it shows.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    str
+    """
+    return os.path.splitext(os.path.basename(os.path.normpath(os.fspath(path))))[0]
+
+
 def plot_files(paths, folder) -> dict:
     """The PNG of each scan in the plot folder: its stem, made unique by ``-2``, ``-3``, ...
 
@@ -299,7 +320,7 @@ def plot_files(paths, folder) -> dict:
     """
     taken, files = set(), {}
     for path in paths:
-        stem = os.path.splitext(os.path.basename(os.path.normpath(os.fspath(path))))[0] or "scan"
+        stem = scan_stem(path) or "scan"
         name, number = stem, 1
         while name.casefold() in taken:
             number += 1

@@ -105,6 +105,21 @@ def test_find_scans_leaves_out_the_excluded_file(tree):
     assert "c.csv" not in _names(found, tree)
 
 
+def test_find_scans_leaves_out_the_excluded_folders_files_even_given_by_name(tree):
+    plots = tree / "plots"
+    plots.mkdir()
+    (plots / "a.ply").write_text("ply\n")
+    found = batch.find_scans([str(tree), str(plots / "a.ply")], recursive=True, exclude_folders=[str(plots)])
+    assert not any(name.startswith("plots") for name in _names(found, tree))
+    assert "b.ply" in _names(found, tree)
+
+
+def test_scan_stem():
+    assert batch.scan_stem("scans/A1.ply") == "A1"
+    assert batch.scan_stem("A1.tar.ply") == "A1.tar"
+    assert batch.scan_stem("scans/.ply") == ".ply"  # a hidden name has no extension
+
+
 def test_find_scans_missing_path(tree):
     with pytest.raises(LoadError, match="no such file or folder"):
         batch.find_scans([str(tree), str(tree / "missing")])

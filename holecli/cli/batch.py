@@ -188,12 +188,11 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, pl
             require_matplotlib()  # before anything: a missing extra is said at once (the workers inherit it)
         try:
             files = batching.find_scans(paths, recursive=recursive, pattern=pattern,
-                                        exclude=[output] if output else (),
-                                        input_format=input_format)
+                                        exclude=[output] if output else (), input_format=input_format,
+                                        # its PNGs are never measured (with --input-format they would be)
+                                        exclude_folders=[plot_dir] if plot_dir is not None else ())
         except LoadError as error:
             raise Failure(str(error), EXIT_INPUT) from None
-        if plot_dir is not None:  # its PNGs are never measured (with --input-format they would be)
-            files = [path for path in files if not _inside(path, plot_dir)]
         if not files:
             what = "files" if input_format else f"point-cloud files ({', '.join(SUPPORTED_EXTENSIONS)})"
             raise Failure(f"{', '.join(paths)}: no {what}" + (f" matching {pattern!r}" if pattern else "") + " found",
@@ -238,14 +237,6 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, pl
 
     with StopRequests() as stop:
         sys.exit(run_guarded(body, stop))
-
-
-def _inside(path, folder):
-    """Whether ``path`` is in ``folder`` or below it (symbolic links resolved)."""
-    import os
-
-    folder = os.path.realpath(folder)
-    return os.path.commonpath([os.path.realpath(path), folder]) == folder
 
 
 def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False, scan=None,

@@ -118,10 +118,10 @@ def plot_name(scan):
     -------
     str
     """
+    from holecli.batch import scan_stem
     from holecli.cli.detect import STDIN
 
-    stem = "stdin" if scan == STDIN else os.path.splitext(os.path.basename(os.path.normpath(scan)))[0]
-    return (stem or "scan") + ".png"
+    return ("stdin" if scan == STDIN else scan_stem(scan) or "scan") + ".png"
 
 
 def make_plot_folder(folder):

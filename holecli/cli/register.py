@@ -60,15 +60,13 @@ class NamePair(click.ParamType):
         return scan, hole
 
 
-def _stem(path):
-    return os.path.splitext(os.path.basename(path))[0]
-
-
 def _scan_names(scans, pairs, hole_names, spec_file):
     """{scan: hole name or None}: ``--name`` first, else the file stem when it is a spec hole's name."""
+    from holecli.batch import scan_stem
+
     names = {}
     for scan, hole in pairs:
-        matches = [s for s in scans if scan in (s, os.path.basename(s), _stem(s))]
+        matches = [s for s in scans if scan in (s, os.path.basename(s), scan_stem(s))]
         if not matches:
             raise Failure(f"--name {scan}={hole}: {scan} is not one of the SCAN arguments", EXIT_USAGE)
         if hole not in hole_names:
@@ -78,7 +76,7 @@ def _scan_names(scans, pairs, hole_names, spec_file):
             names[match] = hole
     for scan in scans:
         if scan not in names:
-            names[scan] = _stem(scan) if _stem(scan) in hole_names else None
+            names[scan] = scan_stem(scan) if scan_stem(scan) in hole_names else None
     return names
 
 
