@@ -88,7 +88,9 @@ def to_json_line(record):
     return json.dumps(record, separators=(",", ":"), allow_nan=False) + "\n"
 
 
-def _cell(value):
+def csv_cell(value):
+    """A value as a CSV cell of holecli: empty for None, ``true``/``false``, a float at full precision
+    (``repr``), a list joined by ``;``, a dict as compact JSON."""
     if value is None:
         return ""
     if isinstance(value, bool):
@@ -165,7 +167,7 @@ def csv_rows(record, columns=CSV_COLUMNS):
         rows.append({**provenance, "file": file, "path": path, "name": name, "in_tolerance": False})
     if not rows:
         rows.append({**provenance, "file": file, "path": path, "error": record.get("error")})
-    return [[_cell(values.get(column)) for column in columns] for values in rows]
+    return [[csv_cell(values.get(column)) for column in columns] for values in rows]
 
 
 def csv_text(records, columns=CSV_COLUMNS, header=True):

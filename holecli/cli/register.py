@@ -80,27 +80,24 @@ def _scan_names(scans, pairs, hole_names, spec_file):
     return names
 
 
-def _number(value):
-    return "" if value is None else repr(float(value))
-
-
 def render_csv(record):
     """One row per matched hole (:data:`CSV_HOLE_COLUMNS`), the transform repeated on every row
     (:data:`CSV_TRANSFORM_COLUMNS`); empty cells for values not known."""
     buffer = _stringio.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow(CSV_COLUMNS)
+    from holecli.report import csv_cell
+
     transform, uncertainty = record["transform"], record["uncertainty"]
-    common = [*map(_number, transform["translation"]), *map(_number, transform["quaternion_wxyz"]),
-              *map(_number, transform["roll_pitch_yaw_deg"]), *map(_number, uncertainty["translation"]),
-              *map(_number, uncertainty["rotation_deg"]), _number(record["rms"]), ";".join(record["free_dofs"]),
-              record["verdict"] or ""]
+    common = [*transform["translation"], *transform["quaternion_wxyz"], *transform["roll_pitch_yaw_deg"],
+              *uncertainty["translation"], *uncertainty["rotation_deg"], record["rms"], record["free_dofs"],
+              record["verdict"]]
     for hole in record["holes"]:
         residual = hole["residual"]
-        writer.writerow([hole["name"], hole["scan"], hole["scan_hole"], str(hole["used"]).lower(),
-                         str(hole["outlier"]).lower(), *map(_number, hole["measured_center"]),
-                         *map(_number, hole["nominal_center"]), _number(residual["in_plane"]),
-                         _number(residual["along_normal"]), _number(residual["normal_angle_deg"]), *common])
+        row = [hole["name"], hole["scan"], hole["scan_hole"], hole["used"], hole["outlier"], *hole["measured_center"],
+               *hole["nominal_center"], residual["in_plane"], residual["along_normal"], residual["normal_angle_deg"],
+               *common]
+        writer.writerow([csv_cell(value) for value in row])
     return buffer.getvalue()
 
 

@@ -165,12 +165,7 @@ def read_targets(path):
 
 
 def _number(value):
-    value = float(value)
-    if math.isnan(value):
-        return "nan"
-    if math.isinf(value):
-        return "inf" if value > 0 else "-inf"
-    return repr(value)
+    return repr(float(value))  # full precision; nan, inf and -inf as such
 
 
 def format_targets(rows):
