@@ -28,6 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from holecli.geometry.kernels import robust_sigma
+
 __all__ = ["VIEW_RADII", "RimPoints", "edge_residuals", "figure", "hole_text", "plane_frame", "png_bytes", "rim_points",
            "scale_length", "verdict_lines"]
 
@@ -68,22 +70,27 @@ def _local(points, hole):
     return d @ u, d @ v, d @ np.asarray(hole.normal, dtype=float)
 
 
-def _edge_points(points, hole, plane_rms=0.0, sectors=EDGE_SECTORS, min_radius=None):
-    """The local coordinates of the points around ``hole``, which of them are surface points, and
-    the index (into those arrays) of each angular sector's surface point nearest to the center (of
-    those at least ``min_radius`` from it, when given)."""
+def _surface_points(points, hole, plane_rms=0.0):
+    """The local coordinates ``a, b`` and radii ``r`` of the points around ``hole``, and which of them
+    are surface points (within the band of the surface and :data:`VIEW_RADII` radii)."""
     radius = hole.diameter / 2.0
     a, b, h = _local(points, hole)
     r = np.hypot(a, b)
     band = max(SURFACE_BAND_RMS * plane_rms, 0.01 * radius)
     surface = (np.abs(h) <= band) & (r <= VIEW_RADII * radius)
+    return a, b, r, surface
+
+
+def _nearest_per_sector(a, b, r, surface, sectors=EDGE_SECTORS, min_radius=None):
+    """The index of each angular sector's surface point nearest to the center (of those at least
+    ``min_radius`` from it, when given)."""
     candidates = np.flatnonzero(surface if min_radius is None else surface & (r >= min_radius))
     angle = np.arctan2(b[candidates], a[candidates])
     sector = np.minimum(((angle + np.pi) / (2 * np.pi) * sectors).astype(int), sectors - 1)
     order = np.lexsort((r[candidates], sector))  # by sector, then nearest first
     first = np.ones(order.size, dtype=bool)
     first[1:] = sector[order][1:] != sector[order][:-1]
-    return a, b, r, surface, candidates[order[first]]
+    return candidates[order[first]]
 
 
 def edge_residuals(points, hole, plane_rms=0.0, sectors=EDGE_SECTORS):
@@ -108,7 +115,8 @@ def edge_residuals(points, hole, plane_rms=0.0, sectors=EDGE_SECTORS):
     residual : (m,) float ndarray
         Its distance from the center minus the fitted radius (file units): positive outside the circle.
     """
-    a, b, r, _, chosen = _edge_points(points, hole, plane_rms, sectors)
+    a, b, r, surface = _surface_points(points, hole, plane_rms)
+    chosen = _nearest_per_sector(a, b, r, surface, sectors)
     return np.arctan2(b[chosen], a[chosen]), r[chosen] - hole.diameter / 2.0
 
 
@@ -177,15 +185,16 @@ def rim_points(points, hole, plane_rms=0.0, sectors=EDGE_SECTORS):
     RimPoints
     """
     radius = hole.diameter / 2.0
-    a, b, r, surface, nearest = _edge_points(points, hole, plane_rms, sectors)
+    a, b, r, surface = _surface_points(points, hole, plane_rms)
+    nearest = _nearest_per_sector(a, b, r, surface, sectors)
     # the spread from the sectors' nearest points not far inside (by the fit's own rms): outliers
     # inside the hole may be the nearest point of most sectors
     window = RIM_ROBUST_SIGMAS * max(hole.fit_rms, 1e-3 * radius)
-    _, _, _, _, near_edge = _edge_points(points, hole, plane_rms, sectors, min_radius=radius - window)
-    spread = 1.4826 * float(np.median(np.abs(r[near_edge] - radius))) if near_edge.size else 0.0
+    near_edge = _nearest_per_sector(a, b, r, surface, sectors, min_radius=radius - window)
+    spread = robust_sigma(r[near_edge] - radius) if near_edge.size else 0.0
     limit = max(RIM_ROBUST_SIGMAS * spread, 1e-9 * radius)
     first = r[nearest] - radius
-    _, _, _, _, rim = _edge_points(points, hole, plane_rms, sectors, min_radius=radius - limit)
+    rim = _nearest_per_sector(a, b, r, surface, sectors, min_radius=radius - limit)
     outliers = nearest[first < -limit]
     chosen = np.concatenate([rim, outliers])
     residual = r[chosen] - radius
