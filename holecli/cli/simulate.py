@@ -341,12 +341,14 @@ def _targets_csv(cell):
     """``name,x,y,z,nx,ny,nz`` rows of the targets, part frame, full precision."""
     import numpy as np
 
-    rows = ["name,x,y,z,nx,ny,nz"]
+    from holecli.io.targets import INPUT_COLUMNS, format_targets
+
+    rows = []
     for target in cell.targets:
         normal = np.asarray(target.normal, dtype=np.float64)
         normal = normal / np.linalg.norm(normal)
-        rows.append(",".join([target.name] + [repr(float(v)) for v in (*target.point, *normal)]))
-    return "\n".join(rows) + "\n"
+        rows.append(dict(zip(INPUT_COLUMNS, (target.name, *target.point, *normal))))
+    return format_targets(rows, columns=INPUT_COLUMNS)
 
 
 def _simulate_part(ctx, output, panel_file, mesh_file, truth_path, seed, quiet=False, verbose=False):

@@ -168,14 +168,17 @@ def _number(value):
     return repr(float(value))  # full precision; nan, inf and -inf as such
 
 
-def format_targets(rows):
-    """The corrected targets as CSV text.
+def format_targets(rows, columns=TARGET_COLUMNS):
+    """The corrected targets as CSV text (or, with ``columns`` :data:`INPUT_COLUMNS`, nominal ones,
+    as :func:`parse_targets` reads them).
 
     Parameters
     ----------
     rows : iterable of dict
-        With the keys of :data:`TARGET_COLUMNS` (``x``... as floats), as
+        With the keys of ``columns`` (``x``... as floats), as
         :meth:`holecli.registration.register.Registration.corrected_targets` returns them.
+    columns : sequence of str
+        ``name`` first, then the numbers.
 
     Returns
     -------
@@ -184,7 +187,7 @@ def format_targets(rows):
     """
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(TARGET_COLUMNS)
+    writer.writerow(columns)
     for row in rows:
-        writer.writerow([row["name"], *(_number(row[column]) for column in TARGET_COLUMNS[1:])])
+        writer.writerow([row["name"], *(_number(row[column]) for column in columns[1:])])
     return buffer.getvalue()
