@@ -390,7 +390,7 @@ def record_warned(record, selected):
     return any(warned((w["code"] for w in hole.get("warnings", ())), selected) for hole in record.get("holes", ()))
 
 
-def emit(text, output):
+def emit(text, output, what="output"):
     """Write ``text`` to stdout, or to the ``--output`` file.
 
     Parameters
@@ -401,6 +401,8 @@ def emit(text, output):
         None or ``-`` for stdout; else a file, written as :func:`holecli.io.outfile.write_text` does:
         atomically onto a regular file or a new path, directly onto a device or FIFO, through a
         symbolic link onto its target.
+    what : str
+        What it is, for the error message (``cannot write output``).
 
     Returns
     -------
@@ -421,7 +423,7 @@ def emit(text, output):
     except BrokenPipeError:  # a FIFO whose reader went away (see run_guarded)
         raise BrokenPipeError(errno.EPIPE, os.strerror(errno.EPIPE), output) from None
     except OSError as error:
-        raise Failure(f"{output}: cannot write output: {error.strerror or error}", EXIT_INPUT) from None
+        raise Failure(f"{output}: cannot write {what}: {error.strerror or error}", EXIT_INPUT) from None
 
 
 @click.command(epilog=EXIT_CODES_HELP)

@@ -152,15 +152,6 @@ def render(record, fmt):
     return render_table(record)
 
 
-def _write(path, text, what):
-    from holecli.io.outfile import write_text
-
-    try:
-        write_text(path, text)
-    except OSError as error:
-        raise Failure(f"{path}: cannot write {what}: {error.strerror or error}", EXIT_INPUT) from None
-
-
 @click.command(epilog=REGISTER_EXIT_CODES_HELP)
 @click.argument("scans", metavar="SCAN...", nargs=-1, required=True, type=click.Path(path_type=str))
 @click.option("--spec", "spec_file", required=True, type=click.Path(dir_okay=False, path_type=str), metavar="FILE.toml",
@@ -220,7 +211,7 @@ def register(scans, spec_file, name_pairs, targets_file, targets_output, max_res
 
     def body():
         from holecli import __version__
-        from holecli.cli.detect import measure_file
+        from holecli.cli.detect import emit, measure_file
         from holecli.cli.options import read_spec
         from holecli.errors import HoleCliError
         from holecli.registration import RegistrationError
@@ -278,13 +269,8 @@ def register(scans, spec_file, name_pairs, targets_file, targets_output, max_res
         text = render(record, fmt)
         # Both outputs are prepared before either is written; each is written atomically.
         if targets_text is not None:
-            _write(targets_output, targets_text, "the corrected targets")
-        if output is None or output == "-":
-            from holecli.cli.exits import write_stdout
-
-            write_stdout(text)
-        else:
-            _write(output, text, "output")
+            emit(targets_text, targets_output, "the corrected targets")
+        emit(text, output)
         return record
 
     record = run_guarded(body)
