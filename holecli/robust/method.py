@@ -323,26 +323,31 @@ def _cone_in_the_plane(scene, center, cone, settings):
     from scipy.optimize import least_squares
 
     width = 2.0 * scene.alpha
-    xy, depth = _points_around_edge(scene, center, cone.radius, width, settings)
-    # Only the points on the accepted cone: a bore wall seen on one side of a tilted scan would pull
-    # the free center and edge toward itself (soft_l1 tempers an outlier, not hundreds).
-    kept = points_on_hinge(np.hypot(xy[:, 0] - center[0], xy[:, 1] - center[1]), depth, cone.radius, cone.slope,
-                           scene.height_noise, 1e-12 * cone.radius, settings.cone_trim_sigmas)
-    xy, depth = xy[kept], depth[kept]
-    if len(xy) < settings.cone_min_points_below:
-        return center, cone.radius, None
+    around_xy, around_depth = _points_around_edge(scene, center, cone.radius, width, settings)
     scale = max(scene.height_noise, 1e-12 * cone.radius)
-
-    def residuals(parameters):
-        cx, cy, edge, slope = parameters
-        rho = np.hypot(xy[:, 0] - cx, xy[:, 1] - cy)
-        return (depth - slope * np.maximum(edge - rho, 0.0)) / scale
-
     start = np.array([center[0], center[1], cone.radius, cone.slope])
-    try:
-        result = least_squares(residuals, start, loss="soft_l1", f_scale=3.0, x_scale=[width, width, width, 1.0])
-    except (ValueError, np.linalg.LinAlgError):
-        return center, cone.radius, None
+    for _ in range(2):
+        # Only the points on the cone: a bore wall seen on one side of a tilted scan would pull the
+        # free center and edge toward itself (soft_l1 tempers an outlier, not hundreds). They are
+        # chosen about the accepted cone, then again about the fitted one: about the rim's center,
+        # which is off on a tilted scan, good points of one side of the cone miss the first choice.
+        cx, cy, edge, slope = start
+        kept = points_on_hinge(np.hypot(around_xy[:, 0] - cx, around_xy[:, 1] - cy), around_depth, edge, slope,
+                               scene.height_noise, 1e-12 * cone.radius, settings.cone_trim_sigmas)
+        xy, depth = around_xy[kept], around_depth[kept]
+        if len(xy) < settings.cone_min_points_below:
+            return center, cone.radius, None
+
+        def residuals(parameters, xy=xy, depth=depth):
+            cx, cy, edge, slope = parameters
+            rho = np.hypot(xy[:, 0] - cx, xy[:, 1] - cy)
+            return (depth - slope * np.maximum(edge - rho, 0.0)) / scale
+
+        try:
+            result = least_squares(residuals, start, loss="soft_l1", f_scale=3.0, x_scale=[width, width, width, 1.0])
+        except (ValueError, np.linalg.LinAlgError):
+            return center, cone.radius, None
+        start = result.x
     cx, cy, edge, slope = result.x
     shift = float(np.hypot(cx - center[0], cy - center[1]))
     if not result.success or shift > width or abs(edge - cone.radius) > width or not MIN_CONE_SLOPE <= slope:
