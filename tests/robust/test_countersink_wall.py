@@ -5,7 +5,7 @@ of wall points millimetres deep: as many as the cone's on a coarse scan. A least
 to the wall's slope (steeper than any countersink: the hole was taken for a counterbore and its
 diameter read 0.1-0.2 mm small); such a hinge is fitted again from a least-median start
 (:func:`holecli.robust.countersink._least_median_hinge`), taken only when its points below the surface
-spread over the radii (``wall_column``), and the free-center cone fit keeps the accepted cone's points only."""
+spread over the radii (``wall_column``), and the free-center cone fit takes only the points on the cone."""
 
 import math
 
