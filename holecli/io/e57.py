@@ -346,8 +346,8 @@ def _scan(index: int, node: _Element, pages: _Pages) -> _Scan:
     pose = node.child("pose")
     if pose is not None:
         layout.rotation, layout.translation = _pose(pose, where)
-    if record_count:
-        offset = _count_attribute(points, "fileOffset", where)
+    offset = _count_attribute(points, "fileOffset", where)
+    if record_count or offset:  # (libE57 writes no section, offset 0, for a scan without points)
         _check_binary_section(pages, offset, layout, where)
     return layout
 
@@ -494,7 +494,7 @@ def _check_binary_section(pages: _Pages, physical: int, layout: _Scan, where: st
         if offset == first and kind != _DATA_PACKET:
             raise _BadFile(f"damaged E57 file ({where}: its first packet is not a data packet)")
         offset += size
-    if not any(item.bits for item in layout.fields):
+    if layout.record_count and not any(item.bits for item in layout.fields):
         raise _BadFile(f"{where}: its points carry no data (every field is constant), "
                        f"so their count {layout.record_count} cannot be checked")
     for item, held in zip(layout.fields, stream_bytes):

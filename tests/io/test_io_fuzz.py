@@ -580,3 +580,135 @@ def test_damaged_files_are_refused_or_read_unchanged(tmp_path, name):
         if problem:
             failures.append(f"{mutant.description} [{mutant.expect.value}]: {problem}")
     assert not failures, f"{len(failures)} mutants of {name}:\n" + "\n".join(failures)
+
+
+# --- E57 ----------------------------------------------------------------------------------------
+#
+# Every byte of an E57 file is under a page's CRC-32C, so a flipped, cut or appended byte is refused
+# by the checksum. The mutants that matter lie with valid checksums (e57_edit recomputes every
+# page's CRC): a count or an offset the data does not hold, a prototype that changes the size of a
+# record, XML nested too deep, a pose not finite or not numbers. Each must be refused; a pose written
+# in another order and blank space in the XML must read the same points.
+
+E57_DATA = Path(__file__).resolve().parents[1] / "data" / "e57"
+
+
+def _e57_sources():
+    pye57 = pytest.importorskip("pye57")
+    from test_e57 import write_scaled_e57
+
+    sources = {}
+    rng = np.random.default_rng(SEED)
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "a.e57"
+        first, second = rng.uniform(-1, 1, (300, 3)), rng.uniform(-1, 1, (200, 3))
+        invalid = (np.arange(300) % 37 == 0).astype(np.int8) * 2
+        with pye57.E57(str(path), mode="w") as e57:
+            for points, flags, rotation, translation in ((first, invalid, [1, 0, 0, 0], [0, 0, 0]),
+                                                         (second, None, [0.8, 0, 0.6, 0], [1, -2, 0.5])):
+                data = {name: np.ascontiguousarray(points[:, axis])
+                        for axis, name in enumerate(("cartesianX", "cartesianY", "cartesianZ"))}
+                if flags is not None:
+                    data["cartesianInvalidState"] = flags
+                e57.write_scan_raw(data, rotation=np.asarray(rotation, float), translation=np.asarray(translation, float))
+        sources["pye57_two_scans_pose_flags.e57"] = path.read_bytes()
+        write_scaled_e57(path, rng.uniform(-2, 2, (700, 3)))
+        sources["libe57_scaled_integers.e57"] = path.read_bytes()
+    for path in sorted(E57_DATA.glob("*.e57")):
+        sources[f"real:{path.name}"] = path.read_bytes()
+    return sources
+
+
+def _e57_mutants(name, content):
+    from e57_edit import first_packet, logical, points_section, to_physical, with_logical, with_xml, xml_of
+
+    rng = np.random.default_rng([SEED, zlib.crc32(name.encode())])
+    mutants = []
+    for position in rng.integers(0, len(content), size=8):
+        mutants.append(_flip(content, int(position), rng, (Expect.REFUSE, None)))
+    for cut in (int(rng.integers(1, len(content))), len(content) - 1024, len(content) - 1):
+        mutants.append(Mutant(f"cut at {cut}", content[:cut], Expect.REFUSE))
+    mutants.append(Mutant("append a zero byte", content + b"\0", Expect.REFUSE))
+    mutants.append(Mutant("append a page with a valid CRC", content + physical_page(), Expect.REFUSE))
+
+    def xml_edit(description, edit, expect):
+        xml = xml_of(content)
+        new = edit(xml)
+        if new != xml:
+            mutants.append(Mutant(description, with_xml(content, lambda _: new), expect))
+
+    counts = [int(value) for value in re.findall(rb'recordCount="(\d+)"', xml_of(content))]
+    for scan, count in enumerate(counts):
+        for label, new in [*_changed_counts(count), ("10^8", 10 ** 8), ("0", 0)]:
+            def recount(xml, scan=scan, new=new):
+                matches = list(re.finditer(rb'recordCount="\d+"', xml))
+                where = matches[scan]
+                return xml[: where.start()] + b'recordCount="%d"' % new + xml[where.end():]
+            xml_edit(f"scan {scan} recordCount {label}", recount, Expect.REFUSE)
+    for change in (4, -4, 1024, 10 ** 7):
+        xml_edit(f"fileOffset {change:+d}", lambda xml, c=change: re.sub(
+            rb'fileOffset="(\d+)"', lambda m: b'fileOffset="%d"' % (int(m.group(1)) + c), xml, count=1), Expect.REFUSE)
+    section, packet = points_section(content), first_packet(content)
+    for change in (4, -4, 1020):
+        moved = (to_physical(packet) + change).to_bytes(8, "little")
+        mutants.append(Mutant(f"dataPhysicalOffset {change:+d}", with_logical(content, section + 16, moved), Expect.REFUSE))
+    body = logical(content)
+    streams = int.from_bytes(body[packet + 4: packet + 6], "little")
+    lengths = [int.from_bytes(body[packet + 6 + 2 * i: packet + 8 + 2 * i], "little") for i in range(streams)]
+    for i in range(streams - 1):
+        if lengths[i] >= 4:
+            swapped = (lengths[i] - 4).to_bytes(2, "little") + (lengths[i + 1] + 4).to_bytes(2, "little")
+            mutants.append(Mutant(f"bytestreams {i}, {i + 1}: 4 bytes moved", with_logical(content, packet + 6 + 2 * i, swapped), Expect.REFUSE))
+    mutants.append(Mutant("first packet's length + 4", with_logical(
+        content, packet + 2, (int.from_bytes(body[packet + 2: packet + 4], "little") + 4).to_bytes(2, "little")), Expect.REFUSE))
+    xml_edit("precision single -> double", lambda xml: xml.replace(b'precision="single"', b'precision="double"', 1), Expect.REFUSE)
+    xml_edit("cartesianX single -> Integer", lambda xml: re.sub(
+        rb'<cartesianX type="Float"[^>]*>[^<]*</cartesianX>', b'<cartesianX type="Integer" minimum="0" maximum="65535"/>', xml), Expect.REFUSE)
+    xml_edit("a ScaledInteger's scale NaN", lambda xml: re.sub(rb'scale="[^"]*"', b'scale="NaN"', xml, count=1), Expect.REFUSE)
+    xml_edit("pose rotation w NaN", lambda xml: re.sub(rb'<w type="Float">[^<]*</w>', b'<w type="Float">NaN</w>', xml, count=1), Expect.REFUSE)
+    xml_edit("pose translation x INF", lambda xml: re.sub(
+        rb'(<translation type="Structure">\s*)<x type="Float"[^>]*?(/>|>[^<]*</x>)', rb'\1<x type="Float">INF</x>', xml, count=1), Expect.REFUSE)
+    xml_edit("pose translation x a String", lambda xml: re.sub(
+        rb'(<translation type="Structure">\s*)<x type="Float"[^>]*?(/>|>[^<]*</x>)', rb'\1<x type="String"><![CDATA[1]]></x>', xml, count=1), Expect.REFUSE)
+    xml_edit("points a Vector", lambda xml: xml.replace(b'<points type="CompressedVector"', b'<points type="Vector"', 1), Expect.REFUSE)
+    xml_edit("XML nested 100 deep", lambda xml: xml.replace(
+        b"</e57Root>", b'<a type="Structure">' * 100 + b"</a>" * 100 + b"</e57Root>"), Expect.REFUSE)
+    xml_edit("a DOCTYPE", lambda xml: xml.replace(b"<e57Root", b"<!DOCTYPE e57Root>\n<e57Root", 1), Expect.REFUSE)
+    xml_edit("blank space after the XML", lambda xml: xml + b"\n\n   ", Expect.IDENTICAL)
+    xml_edit("rotation written z, y, x, w", lambda xml: re.sub(
+        rb'<rotation type="Structure">\s*(<w [^>]*?(?:/>|>[^<]*</w>))\s*(<x [^>]*?(?:/>|>[^<]*</x>))\s*'
+        rb'(<y [^>]*?(?:/>|>[^<]*</y>))\s*(<z [^>]*?(?:/>|>[^<]*</z>))',
+        rb'<rotation type="Structure">\4\3\2\1', xml), Expect.IDENTICAL)
+    xml_edit("translation written z, y, x", lambda xml: re.sub(
+        rb'<translation type="Structure">\s*(<x [^>]*?(?:/>|>[^<]*</x>))\s*(<y [^>]*?(?:/>|>[^<]*</y>))\s*'
+        rb'(<z [^>]*?(?:/>|>[^<]*</z>))', rb'<translation type="Structure">\3\2\1', xml), Expect.IDENTICAL)
+    return mutants
+
+
+def physical_page():
+    from e57_edit import physical
+
+    return physical(b"\0" * 1020)
+
+
+E57_SOURCE_NAMES = ["pye57_two_scans_pose_flags.e57", "libe57_scaled_integers.e57"] + [
+    f"real:{path.name}" for path in sorted(E57_DATA.glob("*.e57"))]
+
+
+@pytest.mark.parametrize("name", E57_SOURCE_NAMES)
+def test_damaged_and_lying_e57_files_are_refused_or_read_unchanged(tmp_path, name, capfd):
+    sources = _e57_sources()
+    content = sources[name]
+    path = tmp_path / "mutant.e57"
+    path.write_bytes(content)
+    original = _read(path)
+    failures = []
+    mutants = _e57_mutants(name, content)
+    assert len(mutants) >= 30
+    for mutant in mutants:
+        path.write_bytes(mutant.content)
+        problem = _verdict(mutant, path, original)
+        if problem:
+            failures.append(f"{mutant.description} [{mutant.expect.value}]: {problem}")
+    assert not failures, f"{len(failures)} mutants of {name}:\n" + "\n".join(failures)
+    assert capfd.readouterr().err == ""  # nothing of libE57 on the console
