@@ -15,7 +15,7 @@ import click
 from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_BROKEN_PIPE, EXIT_FILE_FAILED, EXIT_INPUT,
                                EXIT_INTERRUPTED, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_UNDECIDED, EXIT_USAGE,
                                EXIT_WARNING, Failure, broken_pipe, run_guarded, write_stdout)
-from holecli.cli.options import (check_verbosity, decision_from_options, detection_option_decorators, detection_options,
+from holecli.cli.options import (Decimal, check_verbosity, decision_from_options, detection_option_decorators, detection_options,
                                  fail_on_warning_option, input_format_option, nominal_from_options, read_spec,
                                  reading_option_decorators, tolerance_option_decorators, unit_choice,
                                  verbosity_option_decorators, warned, with_decision)
@@ -132,12 +132,16 @@ def batch_exit_code(tally, fail_on_warning=None):
 @click.option("--explain", is_flag=True,
               help="Records also list every candidate that is not a hole, with the check that refused it "
                    "(\"rejected\"; JSON Lines only).")
+@click.option("--file-timeout", type=Decimal(min=0), default=600, show_default=True, metavar="SECONDS",
+              help="A file not measured within SECONDS gets an error record and the batch goes on (a reader or "
+                   "library looping on a damaged file); 0: no limit.")
 @reading_option_decorators
 @detection_option_decorators
 @tolerance_option_decorators
 @fail_on_warning_option
 @verbosity_option_decorators
-def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, plot_dir, explain, scan_index, units, output_units,
+def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, plot_dir, explain, file_timeout, scan_index,
+          units, output_units,
           method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor,
           fail_on_warning, quiet, verbose, **nominal_options):
     """Measure every point cloud in the folders and files PATH.
@@ -230,7 +234,8 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, pl
                              earlier, output, stop, explain, scan=scan_index,
                              units=units_now if units_now.file or units_now.output else None, quiet=quiet,
                              verbose=verbose, fail_on_warning=fail_on_warning,
-                             plots=None if plots is None else {path: plots[path] for path in todo})
+                             plots=None if plots is None else {path: plots[path] for path in todo},
+                             file_timeout=file_timeout)
         finally:
             if output_file is not None:
                 output_file.close()
@@ -240,7 +245,7 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, pl
 
 
 def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False, scan=None,
-              units=None, *, quiet=False, verbose=False, fail_on_warning=None, plots=None):
+              units=None, *, quiet=False, verbose=False, fail_on_warning=None, plots=None, file_timeout=None):
     """The measuring loop of ``holecli batch``: records out, progress and summary on stderr.
 
     Parameters
@@ -284,6 +289,8 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
     plots : dict, optional
         ``--plot``: ``{file: PNG}`` of the files to draw (:func:`holecli.batch.plot_files`), drawn
         where each is measured.
+    file_timeout : float, optional
+        ``--file-timeout``: seconds per file (None or 0: no limit), see :func:`holecli.batch.measure_all`.
 
     Returns
     -------
@@ -324,7 +331,7 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
 
     stop.defer()
     records = batching.measure_all(todo, options, spec, jobs=min(jobs, max(1, len(todo))), should_stop=should_stop,
-                                   explain=explain, scan=scan, units=units, plots=plots)
+                                   explain=explain, scan=scan, units=units, plots=plots, file_timeout=file_timeout)
     reader_gone = False
     with display, closing(records):
         for record in records:
