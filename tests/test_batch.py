@@ -403,8 +403,8 @@ def test_open3d_is_imported_by_the_pool_initializer_when_a_compressed_pcd_is_in_
     log = tmp_path / "initializer.log"
     start = batch._start_worker
 
-    def logged(options, spec, preload, parent, explain=False):
-        start(options, spec, preload, parent, explain)
+    def logged(options, spec, preload, parent, *rest):
+        start(options, spec, preload, parent, *rest)
         with open(log, "a") as stream:
             stream.write(f"{','.join(preload)}\n")
 
