@@ -35,9 +35,10 @@ from holecli.errors import HoleCliError, LoadError
 from holecli.io import SUPPORTED_EXTENSIONS
 from holecli.report import BATCH_CSV_COLUMNS, CSV_COLUMNS, csv_text, to_json_line
 
-__all__ = ["DEFAULT_FILE_TIMEOUT", "FORMATS", "BatchOutput", "FileSummary", "FileTimeout", "OutputBusyError", "RecordWriter", "ResumeError", "Tally",
-           "default_jobs", "error_record", "failure_message", "files_to_do", "find_scans", "internal_error_message", "measure_all", "measure_record",
-           "plot_files", "resolved_path", "scan_stem"]
+__all__ = ["DEFAULT_FILE_TIMEOUT", "FORMATS", "BatchOutput", "FileSummary", "FileTimeout", "OutputBusyError",
+           "RecordWriter", "ResumeError", "Tally", "default_jobs", "error_record", "failure_message", "files_to_do",
+           "find_scans", "internal_error_message", "measure_all", "measure_record", "plot_files", "resolved_path",
+           "scan_stem", "timeout_message", "unlistable_message"]
 
 FORMATS = ("jsonl", "csv")
 
@@ -80,7 +81,8 @@ class ResumeError(HoleCliError, ValueError):
 # Finding the files
 
 
-def find_scans(paths, recursive=False, pattern=None, exclude=(), input_format=None, exclude_folders=()) -> list:
+def find_scans(paths, recursive=False, pattern=None, exclude=(), input_format=None, exclude_folders=(),
+               unlistable=None) -> list:
     """The point-cloud files to measure, sorted, each once.
 
     Parameters
@@ -104,6 +106,11 @@ def find_scans(paths, recursive=False, pattern=None, exclude=(), input_format=No
     exclude_folders : iterable of str
         Folders none of whose files (at any depth, symbolic links resolved) are taken, even when
         given by name (the batch's plot folder: with ``input_format`` its PNGs would be).
+    unlistable : list, optional
+        Where to put each subfolder that cannot be listed (no permission, a name too long for the
+        system), as ``(folder, message)``, its message one line (see :func:`unlistable_message`);
+        the batch gives each an error record. Without it such a subfolder raises LoadError: a
+        folder's files are never silently left out.
 
     Returns
     -------
@@ -114,14 +121,16 @@ def find_scans(paths, recursive=False, pattern=None, exclude=(), input_format=No
     Raises
     ------
     LoadError
-        When a path does not exist.
+        When a path does not exist, or a folder given cannot be listed (or a subfolder, without
+        ``unlistable``).
     """
     excluded = {os.path.realpath(path) for path in exclude}
-    found = []
+    found, not_listed = [], []
     for path in paths:
         path = os.fspath(path)
         if os.path.isdir(path):
-            found.extend(_scan_folder(path, recursive, pattern, any_extension=input_format is not None))
+            found.extend(_scan_folder(path, recursive, pattern, any_extension=input_format is not None,
+                                      unlistable=not_listed))
         elif os.path.exists(path):
             found.append(path)
         else:
@@ -135,12 +144,38 @@ def find_scans(paths, recursive=False, pattern=None, exclude=(), input_format=No
         if real not in seen:
             seen.add(real)
             unique.append(path)
+    if not_listed and unlistable is None:
+        raise LoadError(not_listed[0][0], not_listed[0][1].split(": ", 1)[1])
+    if unlistable is not None:
+        unlistable.extend(sorted(not_listed))
     return unique
 
 
-def _scan_folder(folder, recursive, pattern, any_extension=False):
+def unlistable_message(folder, error) -> str:
+    """The one-line message of a subfolder that cannot be listed (its error record's).
+
+    Parameters
+    ----------
+    folder : str
+    error : OSError
+
+    Returns
+    -------
+    str
+    """
+    return f"{folder}: cannot list this folder ({error.strerror or error}): its files are not measured"
+
+
+def _scan_folder(folder, recursive, pattern, any_extension=False, unlistable=None):
     pattern = pattern.lower() if pattern else None
-    for root, folders, names in os.walk(folder):
+
+    def cannot_list(error):
+        where = error.filename if error.filename is not None else folder
+        if os.path.normpath(where) == os.path.normpath(folder):  # a folder given: an input error, as a missing one
+            raise LoadError(folder, f"cannot list this folder: {error.strerror or error}")
+        unlistable.append((where, unlistable_message(where, error)))
+
+    for root, folders, names in os.walk(folder, onerror=cannot_list):
         folders[:] = sorted(name for name in folders if not name.startswith("."))
         for name in names:
             if name.startswith("."):

@@ -109,7 +109,8 @@ def batch_exit_code(tally, fail_on_warning=None):
 
 
 @click.command(epilog=BATCH_EXIT_CODES_HELP)
-@click.argument("paths", metavar="PATH...", nargs=-1, required=True, type=click.Path(path_type=str))
+# (readable=False: a file that cannot be read gets its error record, as any bad file; not a usage error)
+@click.argument("paths", metavar="PATH...", nargs=-1, required=True, type=click.Path(readable=False, path_type=str))
 @click.option("--recursive", "-r", is_flag=True, help="Also take the clouds in the subfolders of each folder.")
 @click.option("--pattern", metavar="GLOB", default=None,
               help="Take only the clouds in folders whose name matches GLOB (case-insensitive; a GLOB with "
@@ -190,14 +191,16 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, pl
             from holecli.cli.plot import require_matplotlib
 
             require_matplotlib()  # before anything: a missing extra is said at once (the workers inherit it)
+        unlistable = []
         try:
             files = batching.find_scans(paths, recursive=recursive, pattern=pattern,
                                         exclude=[output] if output else (), input_format=input_format,
                                         # its PNGs are never measured (with --input-format they would be)
-                                        exclude_folders=[plot_dir] if plot_dir is not None else ())
+                                        exclude_folders=[plot_dir] if plot_dir is not None else (),
+                                        unlistable=unlistable)
         except LoadError as error:
             raise Failure(str(error), EXIT_INPUT) from None
-        if not files:
+        if not files and not unlistable:
             what = "files" if input_format else f"point-cloud files ({', '.join(SUPPORTED_EXTENSIONS)})"
             raise Failure(f"{', '.join(paths)}: no {what}" + (f" matching {pattern!r}" if pattern else "") + " found",
                           EXIT_INPUT)
@@ -230,12 +233,16 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, pl
             else:
                 write, earlier, header = write_stdout, [], True
             todo = batching.files_to_do(files, earlier)
+            # a subfolder that cannot be listed: an error record (once, with --resume), before the files
+            done = {summary.path for summary in earlier}
+            unlisted = [batching.error_record(folder, message) for folder, message in unlistable
+                        if batching.resolved_path(folder) not in done]
             return run_batch(batching, todo, options_now, spec, jobs or batching.default_jobs(), write, fmt, header,
                              earlier, output, stop, explain, scan=scan_index,
                              units=units_now if units_now.file or units_now.output else None, quiet=quiet,
                              verbose=verbose, fail_on_warning=fail_on_warning,
                              plots=None if plots is None else {path: plots[path] for path in todo},
-                             file_timeout=file_timeout)
+                             file_timeout=file_timeout, unlisted=unlisted)
         finally:
             if output_file is not None:
                 output_file.close()
@@ -245,7 +252,8 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, pl
 
 
 def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False, scan=None,
-              units=None, *, quiet=False, verbose=False, fail_on_warning=None, plots=None, file_timeout=None):
+              units=None, *, quiet=False, verbose=False, fail_on_warning=None, plots=None, file_timeout=None,
+              unlisted=()):
     """The measuring loop of ``holecli batch``: records out, progress and summary on stderr.
 
     Parameters
@@ -291,6 +299,8 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         where each is measured.
     file_timeout : float, optional
         ``--file-timeout``: seconds per file (None or 0: no limit), see :func:`holecli.batch.measure_all`.
+    unlisted : sequence of dict
+        The error records of the subfolders that could not be listed, written first.
 
     Returns
     -------
@@ -321,7 +331,8 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         raise
     except OSError as error:
         raise failed_write(error) from None
-    display = BatchDisplay(len(todo), spec is not None, quiet=quiet)
+    total = len(todo) + len(unlisted)
+    display = BatchDisplay(total, spec is not None, quiet=quiet)
     started = time.monotonic()
     measured_now = 0
 
@@ -330,8 +341,17 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         return stop.signal is not None
 
     stop.defer()
-    records = batching.measure_all(todo, options, spec, jobs=min(jobs, max(1, len(todo))), should_stop=should_stop,
-                                   explain=explain, scan=scan, units=units, plots=plots, file_timeout=file_timeout)
+    measured = batching.measure_all(todo, options, spec, jobs=min(jobs, max(1, len(todo))), should_stop=should_stop,
+                                    explain=explain, scan=scan, units=units, plots=plots, file_timeout=file_timeout)
+
+    def every_record():
+        yield from unlisted
+        try:
+            yield from measured
+        finally:
+            measured.close()
+
+    records = every_record()
     reader_gone = False
     with display, closing(records):
         for record in records:
@@ -359,11 +379,11 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
     if reader_gone:
         name = output or "stdout"
         broken_pipe(name, f"Error: {name}: broken pipe (its reader stopped reading): holecli batch stopped after "
-                          f"{measured_now} of {len(todo)} files ({summary})")
+                          f"{measured_now} of {total} files ({summary})")
         # (a signal that came meanwhile still decides the code: 130 comes before 141)
         return EXIT_INTERRUPTED if stop.signal is not None else EXIT_BROKEN_PIPE
-    if stop.signal is not None and measured_now < len(todo):
-        display.message(f"holecli batch: interrupted after {measured_now} of {len(todo)} files ({summary})."
+    if stop.signal is not None and measured_now < total:
+        display.message(f"holecli batch: interrupted after {measured_now} of {total} files ({summary})."
                         + (f" The finished records are in {output}: run again with --resume to measure the rest."
                            if output else ""), error=True)
         return EXIT_INTERRUPTED
