@@ -947,3 +947,47 @@ def test_batch_gives_a_named_file_it_cannot_read_an_error_record(holecli_process
     assert records[str(locked / "c.pcd")]["error"] == f"{locked / 'c.pcd'}: unreadable file (permission denied)"
     assert "holes" in records[str(locked / "a.ply")]
     assert done.returncode == 6
+
+
+# --- issue 23, item 6: one line, not a traceback ------------------------------------------------------
+
+_HUGE_SPEC = ('[[hole]]\nname = "A"\ndiameter = 2' + "0" * 400 + '\ntolerance = 0.1\ncenter = [0, 0, 0]\n'
+              'position_tolerance = 1\n')
+
+
+@pytest.mark.parametrize("command", ["detect", "batch", "register"])
+def test_a_spec_integer_no_float_holds_is_one_line_in_every_command(holecli_process, good_scans, tmp_path, command):
+    spec = tmp_path / "huge.toml"
+    spec.write_text(_HUGE_SPEC)
+    done = holecli_process(command, next(iter(good_scans)), "--spec", spec)
+    assert done.returncode == 3
+    assert done.stderr == f"Error: {spec}: hole[1].diameter: an integer of 401 digits is too large for a number\n"
+
+
+def test_a_panel_integer_no_float_holds_is_one_line(holecli_process, tmp_path):
+    panel = tmp_path / "panel.toml"
+    panel.write_text("[panel]\nwidth = 1" + "0" * 400 + "\nheight = 10\nthickness = 1\n")
+    done = holecli_process("simulate", tmp_path / "out.ply", "--panel", panel)
+    assert done.returncode == 3
+    assert done.stderr == f"Error: {panel}: panel.width: an integer of 401 digits is too large for a number\n"
+
+
+def test_a_spec_integer_of_more_than_4300_digits_is_one_line(holecli_process, good_scans, tmp_path):
+    spec = tmp_path / "huge.toml"
+    spec.write_text(_HUGE_SPEC.replace("0" * 400, "0" * 5000))
+    done = holecli_process("detect", next(iter(good_scans)), "--spec", spec)
+    assert done.returncode == 3
+    assert done.stderr == f"Error: {spec}: invalid TOML: a number of more than 4300 digits\n"
+
+
+def test_a_coverage_factor_no_float_holds_is_a_usage_error(run, good_scans):
+    result = run("detect", next(iter(good_scans)), "--nominal-diameter", "2.5", "--tolerance", "0.1",
+                 "--decision-rule", "guarded", "--coverage-factor", "1e400")
+    assert result.exit_code == 2
+    assert "Invalid value for '--coverage-factor': '1e400' is too large" in result.stderr
+
+
+def test_register_of_stdin_is_one_line(holecli_process, repo_root):
+    done = holecli_process("register", "-", "--spec", repo_root / "sample_clouds" / "panel_tolerances.toml")
+    assert done.returncode == 2
+    assert done.stderr == "Error: -: holecli register cannot read a scan from standard input: give each scan as a file\n"
