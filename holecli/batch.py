@@ -28,15 +28,17 @@ import re
 import signal
 import stat
 from collections import deque
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 from holecli.errors import HoleCliError, LoadError
 from holecli.io import SUPPORTED_EXTENSIONS
 from holecli.report import BATCH_CSV_COLUMNS, CSV_COLUMNS, csv_text, to_json_line
 
-__all__ = ["FORMATS", "BatchOutput", "FileSummary", "OutputBusyError", "RecordWriter", "ResumeError", "Tally",
-           "default_jobs", "error_record", "failure_message", "files_to_do", "find_scans", "measure_all", "measure_record",
-           "plot_files", "resolved_path", "scan_stem"]
+__all__ = ["DEFAULT_FILE_TIMEOUT", "FORMATS", "BatchOutput", "FileSummary", "FileTimeout", "OutputBusyError",
+           "RecordWriter", "ResumeError", "Tally", "default_jobs", "error_record", "failure_message", "files_to_do",
+           "find_scans", "internal_error_message", "measure_all", "measure_record", "plot_files", "resolved_path",
+           "scan_stem", "timeout_message", "unlistable_message"]
 
 FORMATS = ("jsonl", "csv")
 
@@ -52,6 +54,25 @@ _PCD_HEADER_BYTES = 4096
 _COMPRESSED_PCD = re.compile(rb"^DATA[ \t]+binary_compressed\b", re.IGNORECASE | re.MULTILINE)
 
 
+#: Seconds a worker may spend on one file (``--file-timeout``; 0 or None: no limit): far more than a
+#: scan of 10^7 points takes, so that only a file that makes a reader or a library loop or wait
+#: forever reaches it.
+DEFAULT_FILE_TIMEOUT = 600.0
+
+
+class FileTimeout(BaseException):
+    """Raised in a batch worker when its file's time limit has passed (from a SIGALRM handler).
+
+    A BaseException, so that no ``except Exception`` of the pipeline or a library takes it for one of
+    its own errors and goes on.
+    """
+
+
+# What measure_record lets through rather than turning it into an error record: requests to stop
+# (which a caller outside a batch worker expects to get) and a file's time limit (its own message).
+_PASSED_ON = (KeyboardInterrupt, SystemExit, GeneratorExit, FileTimeout)
+
+
 class ResumeError(HoleCliError, ValueError):
     """The output file of an earlier run cannot be resumed: it is not a batch output of this format."""
 
@@ -60,7 +81,8 @@ class ResumeError(HoleCliError, ValueError):
 # Finding the files
 
 
-def find_scans(paths, recursive=False, pattern=None, exclude=(), input_format=None, exclude_folders=()) -> list:
+def find_scans(paths, recursive=False, pattern=None, exclude=(), input_format=None, exclude_folders=(),
+               unlistable=None) -> list:
     """The point-cloud files to measure, sorted, each once.
 
     Parameters
@@ -84,6 +106,11 @@ def find_scans(paths, recursive=False, pattern=None, exclude=(), input_format=No
     exclude_folders : iterable of str
         Folders none of whose files (at any depth, symbolic links resolved) are taken, even when
         given by name (the batch's plot folder: with ``input_format`` its PNGs would be).
+    unlistable : list, optional
+        Where to put each subfolder that cannot be listed (no permission, a name too long for the
+        system), as ``(folder, message)``, its message one line (see :func:`unlistable_message`);
+        the batch gives each an error record. Without it such a subfolder raises LoadError: a
+        folder's files are never silently left out.
 
     Returns
     -------
@@ -94,14 +121,16 @@ def find_scans(paths, recursive=False, pattern=None, exclude=(), input_format=No
     Raises
     ------
     LoadError
-        When a path does not exist.
+        When a path does not exist, or a folder given cannot be listed (or a subfolder, without
+        ``unlistable``).
     """
     excluded = {os.path.realpath(path) for path in exclude}
-    found = []
+    found, not_listed = [], []
     for path in paths:
         path = os.fspath(path)
         if os.path.isdir(path):
-            found.extend(_scan_folder(path, recursive, pattern, any_extension=input_format is not None))
+            found.extend(_scan_folder(path, recursive, pattern, any_extension=input_format is not None,
+                                      unlistable=not_listed))
         elif os.path.exists(path):
             found.append(path)
         else:
@@ -115,12 +144,38 @@ def find_scans(paths, recursive=False, pattern=None, exclude=(), input_format=No
         if real not in seen:
             seen.add(real)
             unique.append(path)
+    if not_listed and unlistable is None:
+        raise LoadError(not_listed[0][0], not_listed[0][1].split(": ", 1)[1])
+    if unlistable is not None:
+        unlistable.extend(sorted(not_listed))
     return unique
 
 
-def _scan_folder(folder, recursive, pattern, any_extension=False):
+def unlistable_message(folder, error) -> str:
+    """The one-line message of a subfolder that cannot be listed (its error record's).
+
+    Parameters
+    ----------
+    folder : str
+    error : OSError
+
+    Returns
+    -------
+    str
+    """
+    return f"{folder}: cannot list this folder ({error.strerror or error}): its files are not measured"
+
+
+def _scan_folder(folder, recursive, pattern, any_extension=False, unlistable=None):
     pattern = pattern.lower() if pattern else None
-    for root, folders, names in os.walk(folder):
+
+    def cannot_list(error):
+        where = error.filename if error.filename is not None else folder
+        if os.path.normpath(where) == os.path.normpath(folder):  # a folder given: an input error, as a missing one
+            raise LoadError(folder, f"cannot list this folder: {error.strerror or error}")
+        unlistable.append((where, unlistable_message(where, error)))
+
+    for root, folders, names in os.walk(folder, onerror=cannot_list):
         folders[:] = sorted(name for name in folders if not name.startswith("."))
         for name in names:
             if name.startswith("."):
@@ -228,10 +283,11 @@ def measure_record(path, options, spec=None, explain=False, scan=None, units=Non
                                                scan=scan, input_format=input_format, **reading)
     except HoleCliError as error:
         return error_record(path, failure_message(path, error), resolved)
-    except Exception as error:  # noqa: BLE001 - a bug in one file must not stop the batch
-        problem = " ".join(f"{type(error).__name__}: {error}".splitlines())
-        return error_record(path, f"{path}: internal error (a bug: please report it; holecli detect shows the "
-                                  f"traceback): {problem}", resolved)
+    except _PASSED_ON:
+        raise
+    except BaseException as error:  # noqa: BLE001 - a bug in one file must not stop the batch
+        # BaseException: a Rust library's panic (lazrs, through pyo3: PanicException) is not an Exception
+        return error_record(path, internal_error_message(path, error), resolved)
     try:
         record = (units or UnitChoice()).express(detection.to_dict(explain=explain), detection.units)
     except ValueError as error:  # an output unit without the file's
@@ -244,6 +300,27 @@ def measure_record(path, options, spec=None, explain=False, scan=None, units=Non
         if problem is not None:
             return error_record(path, f"{problem} ({path} was measured: {_result_text(record)})", resolved)
     return record
+
+
+def internal_error_message(path, error) -> str:
+    """The one-line message of an unexpected exception (a bug, in holecli or in a library) raised
+    while measuring ``path``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    error : BaseException
+
+    Returns
+    -------
+    str
+    """
+    try:
+        text = str(error)
+    except BaseException:  # noqa: BLE001 - even its message may fail
+        text = "(its message cannot be shown)"
+    problem = " ".join(f"{type(error).__name__}: {text}".splitlines())
+    return f"{path}: internal error (a bug: please report it; holecli detect shows the traceback): {problem}"
 
 
 def _draw(plot_file, detection, points, record, checked, units):
@@ -378,15 +455,23 @@ PARENT_ONLY_DESCRIPTORS = set()
 _PR_SET_PDEATHSIG = 1
 
 
-def _start_worker(options, spec, preload, parent, explain=False, reading=None):
+def _start_worker(options, spec, preload, parent, explain=False, timeout=None, reading=None):
     """Pool initializer: runs once in every worker process (``parent``: the batch's process id;
-    ``explain``: records with their ``rejected`` list; ``reading``: the ``scan`` and ``units`` keyword
-    arguments of :func:`measure_record` that are given)."""
+    ``explain``: records with their ``rejected`` list; ``timeout``: seconds per file, or None;
+    ``reading``: the ``scan`` and ``units`` keyword arguments of :func:`measure_record` that are given)."""
     # The parent handles Ctrl-C and SIGTERM and then ends the workers; a worker must not die of the
     # terminal's SIGINT on its own (it would break the pool and lose its record).
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     _die_with_parent(parent)
+    if timeout:
+        import resource
+
+        # A worker killed by its CPU limit (SIGXCPU) dumps no core: the file gets its error record.
+        try:
+            resource.setrlimit(resource.RLIMIT_CORE, (0, resource.getrlimit(resource.RLIMIT_CORE)[1]))
+        except (ValueError, OSError):
+            pass
     for descriptor in PARENT_ONLY_DESCRIPTORS:
         try:
             os.close(descriptor)
@@ -399,7 +484,7 @@ def _start_worker(options, spec, preload, parent, explain=False, reading=None):
             importlib.import_module(name)
         except (ImportError, OSError):
             pass  # the file that needs it reports the problem itself
-    _WORKER.update(options=options, spec=spec, explain=explain, reading=reading or {})
+    _WORKER.update(options=options, spec=spec, explain=explain, timeout=timeout, reading=reading or {})
 
 
 def _die_with_parent(parent):
@@ -416,15 +501,106 @@ def _die_with_parent(parent):
 
 
 def _measure_in_worker(path):
+    """The record of ``path``, in a worker: always a record that can be sent to the parent.
+
+    Whatever the file makes a reader or a library raise (a Rust panic, a KeyboardInterrupt or
+    SystemExit of a library: the worker ignores SIGINT and is ended by the parent with SIGKILL, so
+    none of them is a request to stop) becomes an error record here: an exception sent to the parent
+    would end the batch there, or break the pool when it cannot be pickled. A file that takes longer
+    than the time limit gets an error record too (:func:`_time_limit`).
+    """
     reading = dict(_WORKER["reading"])
     plots = reading.pop("plots", None)
     if plots is not None and path in plots:
         reading["plot_file"] = plots[path]
-    return measure_record(path, _WORKER["options"], _WORKER["spec"], _WORKER["explain"], **reading)
+    timeout = _WORKER.get("timeout")
+    try:
+        with _time_limit(timeout):
+            record = measure_record(path, _WORKER["options"], _WORKER["spec"], _WORKER["explain"], **reading)
+    except FileTimeout:
+        record = error_record(path, timeout_message(path, timeout))
+    except BaseException as error:  # noqa: BLE001 - see the docstring
+        record = error_record(path, internal_error_message(path, error))
+    return _sendable(path, record)
+
+
+def timeout_message(path, timeout) -> str:
+    """The message of a file that reached the batch's time limit (``--file-timeout``).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    timeout : float
+        The limit, in seconds.
+
+    Returns
+    -------
+    str
+    """
+    return (f"{path}: not measured within the time limit of {timeout:g} s per file (--file-timeout): a reader or "
+            f"a library looped or waited on this file, or the file is too large for the limit")
+
+
+def _sendable(path, record):
+    """``record``, or an error record when it cannot be pickled (sent to the parent)."""
+    import pickle
+
+    try:
+        pickle.dumps(record)
+    except BaseException as error:  # noqa: BLE001 - a record the pool cannot send would break it
+        return error_record(path, f"{path}: internal error (a bug: please report it): its record cannot be sent to "
+                                  f"the batch: {type(error).__name__}")
+    return record
+
+
+def _cpu_seconds():
+    import resource
+
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+@contextmanager
+def _time_limit(seconds):
+    """Limit the block to ``seconds`` (None or 0: no limit), in a worker's main thread.
+
+    Two limits, for the two ways a file can hang a worker. SIGALRM after ``seconds`` of wall-clock
+    time raises :class:`FileTimeout` as soon as Python code runs (a reader looping in Python, a
+    blocked read, which the signal interrupts). A loop in native code never returns to Python, so a
+    CPU limit backs it: the soft RLIMIT_CPU is set to the CPU time used so far plus ``seconds`` times
+    the cores the worker may use (all its threads count, so that a file measured in several threads
+    is not cut before its wall-clock limit), and put back after the block. Past it the kernel sends
+    SIGXCPU, which kills the worker; :func:`measure_all` then gives the file an error record.
+    """
+    if not seconds:
+        yield
+        return
+    import math
+    import resource
+
+    def expired(number, frame):
+        raise FileTimeout
+
+    previous_handler = signal.signal(signal.SIGALRM, expired)
+    soft, hard = resource.getrlimit(resource.RLIMIT_CPU)
+    budget = math.ceil(_cpu_seconds() + seconds * default_jobs()) + 1
+    if hard != resource.RLIM_INFINITY:
+        budget = min(budget, hard)
+    limited = soft == resource.RLIM_INFINITY or budget < soft
+    if limited:
+        resource.setrlimit(resource.RLIMIT_CPU, (budget, hard))
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous_handler)
+        if limited:
+            resource.setrlimit(resource.RLIMIT_CPU, (soft, hard))
 
 
 def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_seconds=0.2, explain=False, scan=None,
-                units=None, plots=None):
+                units=None, plots=None, file_timeout=None):
     """Measure ``paths`` in ``jobs`` worker processes and yield each record as its file finishes.
 
     Parameters
@@ -454,13 +630,19 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
     plots : dict, optional
         ``{path: PNG}`` (:func:`plot_files`): each file's holes are also drawn, in the worker that
         measures it (see ``plot_file`` of :func:`measure_record`).
+    file_timeout : float, optional
+        Seconds a worker may spend on one file (None or 0: no limit): past them the file gets an
+        error record (:func:`timeout_message`) and the batch goes on. Wall-clock time while Python
+        code runs; a loop in native code is ended by a CPU limit of as many seconds per core, which
+        kills the worker (see :func:`_time_limit`).
 
     Yields
     ------
     dict
-        The record of each file, see :func:`measure_record`. A file whose worker process dies (a
-        crash in a library, the out-of-memory killer, a kill from outside) is measured again alone in
-        a fresh pool, and gets an error record when that worker dies too.
+        The record of each file, see :func:`measure_record`. Whatever a file makes a library raise
+        becomes its error record. A file whose worker process dies (a crash in a library, the
+        out-of-memory killer, a kill from outside, the CPU limit of ``file_timeout``) is measured
+        again alone in a fresh pool, and gets an error record when that worker dies too.
     """
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
@@ -477,7 +659,7 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
     while waiting or suspects:
         executor = ProcessPoolExecutor(max_workers=max(1, min(jobs, len(waiting) + len(suspects))),
                                        mp_context=context, initializer=_start_worker,
-                                       initargs=(options, spec, preload, os.getpid(), explain)
+                                       initargs=(options, spec, preload, os.getpid(), explain, file_timeout or None)
                                        + ((reading,) if reading else ()))
         in_flight = {}
         finished = False
@@ -496,6 +678,8 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
                         records.append(future.result())
                     except BrokenProcessPool:
                         broken.append(path)
+                    except BaseException as error:  # noqa: BLE001 - a worker sends records only; never lose a file
+                        records.append(error_record(path, internal_error_message(path, error)))
                 yield from records
                 if broken:
                     # Every file in flight fails with the pool. A file that was measured alone in
@@ -509,8 +693,11 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
                         else:
                             broken.append(path)
                     in_flight.clear()
+                    out_of_time = _a_worker_ran_out_of_cpu_time(executor)
                     for path in sorted(broken):
-                        if path in alone:
+                        if path in alone and out_of_time and file_timeout:
+                            yield error_record(path, timeout_message(path, file_timeout))
+                        elif path in alone:
                             yield error_record(path, f"{path}: the worker process measuring this file died twice, "
                                                      f"the second time measuring it alone (a crash in a library, "
                                                      f"or out of memory)")
@@ -523,6 +710,17 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
             finished = True
         finally:
             _end_pool(executor, graceful=finished)
+
+
+def _a_worker_ran_out_of_cpu_time(executor):
+    """Whether a worker of the broken pool ``executor`` was killed by its CPU limit (SIGXCPU)."""
+    processes = list((getattr(executor, "_processes", None) or {}).values())
+    for process in processes:
+        try:
+            process.join(timeout=5)
+        except (OSError, ValueError, AssertionError):
+            continue
+    return any(getattr(process, "exitcode", None) == -signal.SIGXCPU for process in processes)
 
 
 def _pool_context():

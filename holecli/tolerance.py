@@ -78,7 +78,7 @@ from holecli.errors import SpecError
 from holecli.io.decimal_text import parse_decimal
 
 __all__ = ["DECISION_RULES", "DEFAULT_COVERAGE_FACTOR", "Band", "NominalHole", "Spec", "check", "describe",
-           "nominal_spec", "parse_band", "parse_spec"]
+           "load_toml", "nominal_spec", "parse_band", "parse_spec", "spec_number"]
 
 Vector = tuple[float, float, float]
 
@@ -245,9 +245,9 @@ class Spec:
         if self.decision_rule not in DECISION_RULES:
             raise SpecError(f"decision_rule must be one of {', '.join(DECISION_RULES)}, got {self.decision_rule!r}")
         k = self.coverage_factor
-        if isinstance(k, bool) or not isinstance(k, (int, float)) or not math.isfinite(k) or k <= 0:
-            raise SpecError(f"coverage_factor must be a finite number > 0, got {k!r}")
-        object.__setattr__(self, "coverage_factor", float(k))
+        if spec_number(k) is None or k <= 0:
+            raise SpecError(f"coverage_factor must be a finite number > 0, got {_shown(k)}")
+        object.__setattr__(self, "coverage_factor", spec_number(k))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -279,9 +279,10 @@ def parse_band(value) -> Band:
         of the forms, a value that is not finite.
     """
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-        raise SpecError(f"expected a number >= 0 or a string like \"+0.036/-0\", got {value!r}")
+        raise SpecError(f"expected a number >= 0 or a string like \"+0.036/-0\", got {_shown(value)}")
     if not isinstance(value, str):
-        return _symmetric(float(value), value)
+        checked = spec_number(value)
+        return _symmetric(float("inf") if checked is None else checked, value)
     text = value.strip()
     for prefix in ("±", "+/-", "+-"):
         if text.startswith(prefix):
@@ -361,6 +362,85 @@ bore_diameter_tolerance : float, str or Band, optional
     return Spec(holes=(hole,), named=False)
 
 
+def spec_number(value):
+    """``value`` as a finite float, or None when it is not a number or no float holds it.
+
+    The one conversion every number of a spec goes through: ``float()`` of a TOML integer beyond
+    about 1.8e308 raises OverflowError (a traceback, where one line is owed), and ``bool`` is an
+    ``int`` that no spec means as a number.
+
+    Parameters
+    ----------
+    value : object
+
+    Returns
+    -------
+    float or None
+
+    Examples
+    --------
+    >>> spec_number(3), spec_number(2.5), spec_number(True), spec_number(10 ** 400), spec_number(float("nan"))
+    (3.0, 2.5, None, None, None)
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None
+
+
+def load_toml(text, what="spec", first_index=1) -> dict:
+    """The data of a spec-like TOML file (a spec, a panel spec), with its numbers checked.
+
+    A UTF-8 byte order mark at the start (Windows editors write one) is skipped. An integer that no
+    float holds (``diameter = 1000...0`` of 400 digits) is refused here, naming its key, so that no
+    later ``float()`` meets it; so is one of more than 4,300 digits, which Python's ``int`` refuses
+    to read (a ValueError, not a TOML error).
+
+    Parameters
+    ----------
+    text : str
+    what : str
+        What the file is, for messages (``"spec"``, ``"panel"``).
+    first_index : int
+        How messages count the tables of an array (``hole 1`` for a spec, ``feature[0]`` for a panel).
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    SpecError
+    """
+    if text.startswith("\ufeff"):
+        text = text[1:]
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise SpecError(f"invalid TOML: {error}") from None
+    except RecursionError:
+        # tomllib parses nested arrays and inline tables recursively; a spec nests two levels.
+        raise SpecError(f"invalid TOML: arrays or tables nested too deeply for a {what} file") from None
+    except ValueError:  # int() of more than 4,300 digits (sys.get_int_max_str_digits)
+        raise SpecError("invalid TOML: a number of more than 4300 digits") from None
+    _refuse_huge_integers(data, "", first_index)
+    return data
+
+
+def _refuse_huge_integers(value, where, first_index):
+    if isinstance(value, dict):
+        for key, item in value.items():
+            _refuse_huge_integers(item, f"{where}.{key}" if where else str(key), first_index)
+    elif isinstance(value, list):
+        for index, item in enumerate(value, start=first_index):
+            _refuse_huge_integers(item, f"{where}[{index}]", first_index)
+    elif isinstance(value, int) and not isinstance(value, bool) and spec_number(value) is None:
+        raise SpecError(f"{where}: an integer of {_digits(value)} digits is too large for a number")
+
+
 def parse_spec(text, source="spec") -> Spec:
     """The nominal holes of a part from the text of a TOML spec file.
 
@@ -392,13 +472,7 @@ def parse_spec(text, source="spec") -> Spec:
         wrong type, a repeated name. The message names the hole (its position and name) and the key;
         it does not repeat ``source``.
     """
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
-        raise SpecError(f"invalid TOML: {error}") from None
-    except RecursionError:
-        # tomllib parses nested arrays and inline tables recursively; a spec nests two levels.
-        raise SpecError("invalid TOML: arrays or tables nested too deeply for a spec file") from None
+    data = load_toml(text, "spec")
     unknown = sorted(set(data) - {"hole"})
     if unknown:
         raise SpecError(f"unknown top-level key {unknown[0]!r} (expected [[hole]] tables only)")
@@ -441,18 +515,17 @@ def _nominal_hole(entry, name, names, where) -> NominalHole:
 
     def number(key, accept, expected):
         value = entry[key]
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-                or not accept(value):
-            raise SpecError(f"{where}{names[key]} must be {expected}, got {value!r}")
-        return float(value)
+        checked = spec_number(value)
+        if checked is None or not accept(checked):
+            raise SpecError(f"{where}{names[key]} must be {expected}, got {_shown(value)}")
+        return checked
 
     def vector(key, expected):
         value = entry[key]
-        if (not isinstance(value, (list, tuple)) or len(value) != 3
-                or not all(not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
-                           for v in value)):
-            raise SpecError(f"{where}{names[key]} must be {expected}, got {value!r}")
-        return tuple(float(v) for v in value)
+        checked = [spec_number(v) for v in value] if isinstance(value, (list, tuple)) and len(value) == 3 else None
+        if checked is None or None in checked:
+            raise SpecError(f"{where}{names[key]} must be {expected}, got {_shown(value)}")
+        return tuple(checked)
 
     values = {}
     if "diameter" in entry:
@@ -503,7 +576,7 @@ def _float(text, given) -> float:
 
 def _symmetric(tolerance, given) -> Band:
     if not math.isfinite(tolerance) or tolerance < 0:
-        raise SpecError(f"a symmetric tolerance must be a number >= 0, got {given!r}")
+        raise SpecError(f"a symmetric tolerance must be a number >= 0, got {_shown(given)}")
     return Band(lower=-tolerance + 0.0, upper=tolerance + 0.0)
 
 
@@ -712,14 +785,31 @@ def _expanded_uncertainty(uncertainty, check_name, coverage_factor, index):
         value = value.get(key) if isinstance(value, dict) else None
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
-        raise ValueError(f"hole {index}: uncertainty.{'.'.join(path)} must be a finite number >= 0, got {value!r}")
-    return coverage_factor * float(value)
+    if spec_number(value) is None or value < 0:
+        raise ValueError(f"hole {index}: uncertainty.{'.'.join(path)} must be a finite number >= 0, "
+                         f"got {_shown(value)}")
+    return coverage_factor * spec_number(value)
 
 
 def _unit(vector):
-    length = math.hypot(*vector)
-    return tuple(v / length for v in vector)
+    # Scaled first: the length of (1e308, 1e308, 0) overflows, and v / inf made it (0, 0, 0).
+    largest = max(abs(v) for v in vector)
+    scaled = [v / largest for v in vector]
+    length = math.hypot(*scaled)
+    return tuple(v / length for v in scaled)
+
+
+def _digits(integer) -> int:
+    """The number of decimal digits of ``integer`` (without str(): it refuses more than 4,300)."""
+    return len(str(abs(integer))) if integer.bit_length() < 10_000 else int(integer.bit_length() * math.log10(2)) + 1
+
+
+def _shown(value) -> str:
+    """``repr(value)``, short: an integer of hundreds of digits is named by its size."""
+    if isinstance(value, int) and not isinstance(value, bool) and spec_number(value) is None:
+        return f"an integer of {_digits(value)} digits"
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
 
 
 def _line_angle_deg(a, b) -> float:

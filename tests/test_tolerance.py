@@ -843,3 +843,50 @@ def test_conformance_is_json_ready():
 
     out = check(_record(_uncertain_hole(3.0031, 0.002)), _h9())
     assert json.loads(json.dumps(out, allow_nan=False)) == out
+
+
+# --- issue 23: numbers and bytes of spec files that gave tracebacks or wrong messages ------------------
+
+_SPEC = 'name = "A"\ndiameter = {diameter}\ntolerance = 0.1\ncenter = [0, 0, 0]\nposition_tolerance = 1\n'
+
+
+def test_a_spec_with_a_utf8_byte_order_mark_is_read():
+    text = "[[hole]]\n" + _SPEC.format(diameter=2)
+    assert parse_spec("\ufeff" + text) == parse_spec(text)
+
+
+@pytest.mark.parametrize("diameter, match", [
+    ("2" + "0" * 400, r"^hole\[1\]\.diameter: an integer of 401 digits is too large for a number$"),
+    ("-1" + "0" * 400, r"^hole\[1\]\.diameter: an integer of 401 digits is too large for a number$"),
+    ("2" + "0" * 5000, r"^invalid TOML: a number of more than 4300 digits$"),
+])
+def test_a_spec_integer_no_float_holds_is_refused_in_one_line(diameter, match):
+    with pytest.raises(SpecError, match=match):
+        parse_spec("[[hole]]\n" + _SPEC.format(diameter=diameter))
+
+
+def test_a_huge_integer_in_a_vector_or_a_tolerance_is_refused():
+    for key in ("center = [0, 1" + "0" * 400 + ", 0]", "tolerance = 1" + "0" * 400):
+        text = "[[hole]]\n" + "\n".join(line for line in _SPEC.format(diameter=2).splitlines()
+                                         if line.split(" =")[0] != key.split(" =")[0]) + "\n" + key + "\n"
+        with pytest.raises(SpecError, match="an integer of 401 digits is too large for a number"):
+            parse_spec(text)
+
+
+def test_nominal_values_given_in_python_as_huge_integers_are_refused():
+    with pytest.raises(SpecError, match="an integer of 401 digits"):
+        nominal_spec(diameter=10 ** 400, tolerance=0.1)
+    with pytest.raises(SpecError, match="an integer of 5001 digits"):
+        nominal_spec(diameter=10 ** 5000, tolerance=0.1)
+
+
+def test_a_normal_whose_length_overflows_is_the_direction_it_gives():
+    # its length overflows: it was normalised to (0, 0, 0), and every tilt was 0
+    record = _record(_hole(0, (0.0, 0.0, 0.0), 2.5, normal=(0.0, 0.0, 1.0)))
+    huge = nominal_spec(diameter=2.5, tolerance=0.1, center=(0, 0, 0), position_tolerance=1,
+                        normal=(1.7e308, 1.7e308, 0), max_tilt=5)
+    plain = nominal_spec(diameter=2.5, tolerance=0.1, center=(0, 0, 0), position_tolerance=1,
+                         normal=(1, 1, 0), max_tilt=5)
+    tilt = check(record, plain)["holes"][0]["tilt_deg"]
+    assert tilt == pytest.approx(90.0)
+    assert check(record, huge)["holes"][0]["tilt_deg"] == pytest.approx(tilt)

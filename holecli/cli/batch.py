@@ -15,7 +15,7 @@ import click
 from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_BROKEN_PIPE, EXIT_FILE_FAILED, EXIT_INPUT,
                                EXIT_INTERRUPTED, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_UNDECIDED, EXIT_USAGE,
                                EXIT_WARNING, Failure, broken_pipe, run_guarded, write_stdout)
-from holecli.cli.options import (check_verbosity, decision_from_options, detection_option_decorators, detection_options,
+from holecli.cli.options import (Decimal, check_verbosity, decision_from_options, detection_option_decorators, detection_options,
                                  fail_on_warning_option, input_format_option, nominal_from_options, read_spec,
                                  reading_option_decorators, tolerance_option_decorators, unit_choice,
                                  verbosity_option_decorators, warned, with_decision)
@@ -109,7 +109,8 @@ def batch_exit_code(tally, fail_on_warning=None):
 
 
 @click.command(epilog=BATCH_EXIT_CODES_HELP)
-@click.argument("paths", metavar="PATH...", nargs=-1, required=True, type=click.Path(path_type=str))
+# (readable=False: a file that cannot be read gets its error record, as any bad file; not a usage error)
+@click.argument("paths", metavar="PATH...", nargs=-1, required=True, type=click.Path(readable=False, path_type=str))
 @click.option("--recursive", "-r", is_flag=True, help="Also take the clouds in the subfolders of each folder.")
 @click.option("--pattern", metavar="GLOB", default=None,
               help="Take only the clouds in folders whose name matches GLOB (case-insensitive; a GLOB with "
@@ -132,12 +133,16 @@ def batch_exit_code(tally, fail_on_warning=None):
 @click.option("--explain", is_flag=True,
               help="Records also list every candidate that is not a hole, with the check that refused it "
                    "(\"rejected\"; JSON Lines only).")
+@click.option("--file-timeout", type=Decimal(min=0), default=600, show_default=True, metavar="SECONDS",
+              help="A file not measured within SECONDS gets an error record and the batch goes on (a reader or "
+                   "library looping on a damaged file); 0: no limit.")
 @reading_option_decorators
 @detection_option_decorators
 @tolerance_option_decorators
 @fail_on_warning_option
 @verbosity_option_decorators
-def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, plot_dir, explain, scan_index, units, output_units,
+def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, plot_dir, explain, file_timeout, scan_index,
+          units, output_units,
           method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor,
           fail_on_warning, quiet, verbose, **nominal_options):
     """Measure every point cloud in the folders and files PATH.
@@ -186,14 +191,16 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, pl
             from holecli.cli.plot import require_matplotlib
 
             require_matplotlib()  # before anything: a missing extra is said at once (the workers inherit it)
+        unlistable = []
         try:
             files = batching.find_scans(paths, recursive=recursive, pattern=pattern,
                                         exclude=[output] if output else (), input_format=input_format,
                                         # its PNGs are never measured (with --input-format they would be)
-                                        exclude_folders=[plot_dir] if plot_dir is not None else ())
+                                        exclude_folders=[plot_dir] if plot_dir is not None else (),
+                                        unlistable=unlistable)
         except LoadError as error:
             raise Failure(str(error), EXIT_INPUT) from None
-        if not files:
+        if not files and not unlistable:
             what = "files" if input_format else f"point-cloud files ({', '.join(SUPPORTED_EXTENSIONS)})"
             raise Failure(f"{', '.join(paths)}: no {what}" + (f" matching {pattern!r}" if pattern else "") + " found",
                           EXIT_INPUT)
@@ -226,11 +233,16 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, pl
             else:
                 write, earlier, header = write_stdout, [], True
             todo = batching.files_to_do(files, earlier)
+            # a subfolder that cannot be listed: an error record (once, with --resume), before the files
+            done = {summary.path for summary in earlier}
+            unlisted = [batching.error_record(folder, message) for folder, message in unlistable
+                        if batching.resolved_path(folder) not in done]
             return run_batch(batching, todo, options_now, spec, jobs or batching.default_jobs(), write, fmt, header,
                              earlier, output, stop, explain, scan=scan_index,
                              units=units_now if units_now.file or units_now.output else None, quiet=quiet,
                              verbose=verbose, fail_on_warning=fail_on_warning,
-                             plots=None if plots is None else {path: plots[path] for path in todo})
+                             plots=None if plots is None else {path: plots[path] for path in todo},
+                             file_timeout=file_timeout, unlisted=unlisted)
         finally:
             if output_file is not None:
                 output_file.close()
@@ -240,7 +252,8 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, pl
 
 
 def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False, scan=None,
-              units=None, *, quiet=False, verbose=False, fail_on_warning=None, plots=None):
+              units=None, *, quiet=False, verbose=False, fail_on_warning=None, plots=None, file_timeout=None,
+              unlisted=()):
     """The measuring loop of ``holecli batch``: records out, progress and summary on stderr.
 
     Parameters
@@ -284,6 +297,10 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
     plots : dict, optional
         ``--plot``: ``{file: PNG}`` of the files to draw (:func:`holecli.batch.plot_files`), drawn
         where each is measured.
+    file_timeout : float, optional
+        ``--file-timeout``: seconds per file (None or 0: no limit), see :func:`holecli.batch.measure_all`.
+    unlisted : sequence of dict
+        The error records of the subfolders that could not be listed, written first.
 
     Returns
     -------
@@ -314,7 +331,8 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         raise
     except OSError as error:
         raise failed_write(error) from None
-    display = BatchDisplay(len(todo), spec is not None, quiet=quiet)
+    total = len(todo) + len(unlisted)
+    display = BatchDisplay(total, spec is not None, quiet=quiet)
     started = time.monotonic()
     measured_now = 0
 
@@ -323,8 +341,17 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         return stop.signal is not None
 
     stop.defer()
-    records = batching.measure_all(todo, options, spec, jobs=min(jobs, max(1, len(todo))), should_stop=should_stop,
-                                   explain=explain, scan=scan, units=units, plots=plots)
+    measured = batching.measure_all(todo, options, spec, jobs=min(jobs, max(1, len(todo))), should_stop=should_stop,
+                                    explain=explain, scan=scan, units=units, plots=plots, file_timeout=file_timeout)
+
+    def every_record():
+        yield from unlisted
+        try:
+            yield from measured
+        finally:
+            measured.close()
+
+    records = every_record()
     reader_gone = False
     with display, closing(records):
         for record in records:
@@ -352,11 +379,11 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
     if reader_gone:
         name = output or "stdout"
         broken_pipe(name, f"Error: {name}: broken pipe (its reader stopped reading): holecli batch stopped after "
-                          f"{measured_now} of {len(todo)} files ({summary})")
+                          f"{measured_now} of {total} files ({summary})")
         # (a signal that came meanwhile still decides the code: 130 comes before 141)
         return EXIT_INTERRUPTED if stop.signal is not None else EXIT_BROKEN_PIPE
-    if stop.signal is not None and measured_now < len(todo):
-        display.message(f"holecli batch: interrupted after {measured_now} of {len(todo)} files ({summary})."
+    if stop.signal is not None and measured_now < total:
+        display.message(f"holecli batch: interrupted after {measured_now} of {total} files ({summary})."
                         + (f" The finished records are in {output}: run again with --resume to measure the rest."
                            if output else ""), error=True)
         return EXIT_INTERRUPTED

@@ -17,6 +17,7 @@ Nothing heavy is imported at module level: ``holecli --help`` builds these optio
 
 from __future__ import annotations
 
+import math
 import os
 
 import click
@@ -67,7 +68,10 @@ class Decimal(click.FloatRange):
         if isinstance(value, str) and not is_decimal(value.strip()):
             self.fail(f"{value!r} is not a plain decimal number" + (f" ({self.hint})" if self.hint else ""),
                       param, ctx)
-        return super().convert(value.strip() if isinstance(value, str) else value, param, ctx)
+        number = super().convert(value.strip() if isinstance(value, str) else value, param, ctx)
+        if isinstance(number, float) and not math.isfinite(number):  # "1e400": a decimal, but no float holds it
+            self.fail(f"{value!r} is too large", param, ctx)
+        return number
 
 
 class ToleranceBand(click.ParamType):

@@ -217,6 +217,9 @@ def register(scans, spec_file, name_pairs, targets_file, targets_output, max_res
         from holecli.registration import RegistrationError
         from holecli.registration import register as register_holes
 
+        if "-" in scans:  # (measure_file reads a path; stdin needs --input-format, which register has not)
+            raise Failure("-: holecli register cannot read a scan from standard input: give each scan as a file",
+                          EXIT_USAGE)
         spec = read_spec(spec_file)
         hole_names = [hole.name for hole in spec.holes]
         names = _scan_names(scans, name_pairs, hole_names, spec_file)

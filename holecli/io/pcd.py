@@ -4,7 +4,9 @@
 :func:`read_pcd` parses and checks the header; ascii and binary bodies are read with numpy, and a
 ``binary_compressed`` body (LZF) is decompressed by open3d, imported only then, once the header
 and the sizes before the stream have been checked. The NUL padding of old PCL releases is
-accepted (see :func:`_is_pcl_padding`). Called through :func:`holecli.io.read_cloud`.
+accepted (see :func:`_is_pcl_padding`). The coordinates may be named ``X Y Z`` (PDAL writes them so); a
+header naming one in both cases (``x`` and ``X``) is refused as ambiguous. Called through
+:func:`holecli.io.read_cloud`.
 """
 
 from __future__ import annotations
@@ -45,7 +47,8 @@ _PCD_END = re.compile(rb"^DATA[ \t]+(\S+)[ \t\r]*(?:\n|\Z)", re.MULTILINE)
 
 @dataclass(frozen=True)
 class _PcdHeader:
-    fields: tuple  # field names, in record order
+    fields: tuple  # field names, in record order (X, Y, Z as x, y, z)
+    original_fields: tuple  # as the header spells them
     dtypes: tuple  # numpy type code of each field
     counts: tuple  # number of values of each field
     points: int
@@ -126,6 +129,7 @@ def _read_pcd_header(data: bytes) -> _PcdHeader:
                 f"garbled PCD header (field {field!r} has unsupported TYPE {kind_letter} SIZE {size})"
             )
         dtypes.append(_PCD_TYPES[(kind_letter, size)])
+    fields = _lower_case_xyz(fields)
     if not all(axis in fields for axis in "xyz"):
         raise _BadFile(_missing_xyz(list(fields), "field", "fields", "PCD header"))
     for axis in "xyz":
@@ -136,6 +140,7 @@ def _read_pcd_header(data: bytes) -> _PcdHeader:
         raise _BadFile("no points (PCD header announces 0 points)")
     return _PcdHeader(
         fields=fields,
+        original_fields=tuple(entries["FIELDS"]),
         dtypes=tuple(dtypes),
         counts=tuple(counts),
         points=points,
@@ -144,6 +149,21 @@ def _read_pcd_header(data: bytes) -> _PcdHeader:
         lines=data[: end.end()].count(b"\n"),
         keys=tuple(entries),
     )
+
+
+def _lower_case_xyz(fields: tuple) -> tuple:
+    """``fields`` with ``X``, ``Y``, ``Z`` named ``x``, ``y``, ``z`` (PDAL writes upper-case names).
+
+    Refused: a coordinate named in both cases (``x`` and ``X``): which one holds it is not known.
+    """
+    for axis in "xyz":
+        spellings = [field for field in fields if field.lower() == axis]
+        if len(set(spellings)) > 1:
+            raise _BadFile(
+                f"garbled PCD header (fields {' and '.join(map(repr, sorted(set(spellings))))} both name "
+                f"coordinate {axis}: which one holds it is ambiguous)"
+            )
+    return tuple(field.lower() if field.lower() in ("x", "y", "z") else field for field in fields)
 
 
 def _pcd_integers(entries: dict, key: str, default):
@@ -241,6 +261,11 @@ def _read_pcd_compressed(name: str, data: bytes, header: _PcdHeader) -> np.ndarr
         raise _BadFile(
             "unsupported binary_compressed PCD header (needs a POINTS line and the lines in the "
             "standard order VERSION, FIELDS, SIZE, TYPE, COUNT, WIDTH, HEIGHT, VIEWPOINT, POINTS)"
+        )
+    if not {"x", "y", "z"} <= set(header.original_fields):
+        raise _BadFile(
+            "unsupported binary_compressed PCD with upper-case field names X, Y, Z (open3d reads only "
+            "x, y, z); save it as binary or ascii"
         )
     wide = [axis for axis in "xyz" if np.dtype(header.dtypes[header.fields.index(axis)]).itemsize > 4]
     if wide:

@@ -78,7 +78,6 @@ knows where its centre should be. Because holes are polygons, ``polygon_circumra
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -1198,12 +1197,9 @@ def parse_panel_toml(text) -> PanelSpec:
         Invalid TOML, an unknown or missing key, a value of the wrong type or out of range. The
         message names the table (``panel`` or ``feature[k]``, counting from 0) and the key.
     """
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
-        raise SpecError(f"invalid TOML: {error}") from None
-    except RecursionError:
-        raise SpecError("invalid TOML: arrays or tables nested too deeply for a panel file") from None
+    from holecli.tolerance import load_toml  # a BOM skipped, integers no float holds refused
+
+    data = load_toml(text, "panel", first_index=0)
     unknown = sorted(set(data) - {"panel", "feature"})
     if unknown:
         raise SpecError(f"unknown top-level key {unknown[0]!r} (expected [panel] and [[feature]] tables)")

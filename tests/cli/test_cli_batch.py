@@ -873,3 +873,121 @@ def test_the_sample_panel_spec_gives_the_verdict_the_readme_shows(run, panel, re
     assert result.exit_code == cli.EXIT_OUT_OF_TOLERANCE, result.stderr
     assert {hole["name"]: hole["failed_checks"] for hole in record["holes"]} == {
         "T1": ["bore_diameter_not_measured"], "C1": [], "B1": [], "L1": []}
+
+
+# --- issue 23, item 7: folders that cannot be listed, files that cannot be read ------------------------
+
+
+def _as_without_permission_override():
+    """preexec_fn: a process that file permissions apply to. Root (as the suite runs here) loses
+    CAP_DAC_OVERRIDE and CAP_DAC_READ_SEARCH from its bounding set, which the program then starts
+    without: it cannot read a mode-000 file or list a mode-000 folder, as any other user."""
+    if os.geteuid() != 0:
+        return
+    import ctypes
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    for capability in (1, 2):  # CAP_DAC_OVERRIDE, CAP_DAC_READ_SEARCH
+        if libc.prctl(24, capability, 0, 0, 0) != 0:  # PR_CAPBSET_DROP
+            os._exit(99)
+
+
+@pytest.fixture
+def locked(tmp_path, good_scans):
+    """A folder with a good scan, a subfolder holding another that cannot be listed, and a scan
+    that cannot be read (mode 000)."""
+    good = list(good_scans)
+    shutil.copy(good[0], tmp_path / "a.ply")
+    (tmp_path / "sub").mkdir()
+    shutil.copy(good[1], tmp_path / "sub" / "b.csv")
+    shutil.copy(good[2], tmp_path / "c.pcd")
+    os.chmod(tmp_path / "c.pcd", 0)
+    os.chmod(tmp_path / "sub", 0)
+    yield tmp_path
+    os.chmod(tmp_path / "sub", 0o755)
+
+
+def _run_without_override(holecli_process, *args):
+    done = holecli_process(*args, preexec_fn=_as_without_permission_override)
+    if done.returncode == 99:
+        pytest.skip("cannot drop the capabilities that let root read anything")
+    return done
+
+
+def test_batch_r_gives_a_subfolder_it_cannot_list_an_error_record(holecli_process, locked):
+    done = _run_without_override(holecli_process, "batch", "-r", "--jobs", "1", locked)
+    records = {record["file"]: record for record in map(json.loads, done.stdout.splitlines())}
+    sub = str(locked / "sub")
+    assert records[sub]["error"] == f"{sub}: cannot list this folder (Permission denied): its files are not measured"
+    assert "holes" in records[str(locked / "a.ply")]
+    assert done.returncode == 6  # some file could not be measured: not 0
+    assert f"failed: {sub}: cannot list this folder" in done.stderr
+
+
+def test_batch_resume_does_not_repeat_the_record_of_a_folder_it_cannot_list(holecli_process, locked, tmp_path):
+    output = tmp_path / "out.jsonl"
+    os.chmod(locked / "c.pcd", 0o644)
+    _run_without_override(holecli_process, "batch", "-r", "--jobs", "1", locked, "-o", output)
+    done = _run_without_override(holecli_process, "batch", "-r", "--jobs", "1", locked, "-o", output, "--resume")
+    files = [json.loads(line)["file"] for line in output.read_text().splitlines()]
+    assert sorted(files) == sorted([str(locked / "a.ply"), str(locked / "c.pcd"), str(locked / "sub")])
+    assert done.returncode == 6
+
+
+def test_batch_of_a_folder_it_cannot_list_is_an_input_error(holecli_process, locked):
+    done = _run_without_override(holecli_process, "batch", "--jobs", "1", locked / "sub")
+    assert done.returncode == 3
+    assert done.stderr == f"Error: {locked / 'sub'}: cannot list this folder: Permission denied\n"
+
+
+def test_batch_gives_a_named_file_it_cannot_read_an_error_record(holecli_process, locked):
+    # was: a usage error (exit 2) from click before anything was measured
+    done = _run_without_override(holecli_process, "batch", "--jobs", "1", locked / "c.pcd", locked / "a.ply")
+    records = {record["file"]: record for record in map(json.loads, done.stdout.splitlines())}
+    assert records[str(locked / "c.pcd")]["error"] == f"{locked / 'c.pcd'}: unreadable file (permission denied)"
+    assert "holes" in records[str(locked / "a.ply")]
+    assert done.returncode == 6
+
+
+# --- issue 23, item 6: one line, not a traceback ------------------------------------------------------
+
+_HUGE_SPEC = ('[[hole]]\nname = "A"\ndiameter = 2' + "0" * 400 + '\ntolerance = 0.1\ncenter = [0, 0, 0]\n'
+              'position_tolerance = 1\n')
+
+
+@pytest.mark.parametrize("command", ["detect", "batch", "register"])
+def test_a_spec_integer_no_float_holds_is_one_line_in_every_command(holecli_process, good_scans, tmp_path, command):
+    spec = tmp_path / "huge.toml"
+    spec.write_text(_HUGE_SPEC)
+    done = holecli_process(command, next(iter(good_scans)), "--spec", spec)
+    assert done.returncode == 3
+    assert done.stderr == f"Error: {spec}: hole[1].diameter: an integer of 401 digits is too large for a number\n"
+
+
+def test_a_panel_integer_no_float_holds_is_one_line(holecli_process, tmp_path):
+    panel = tmp_path / "panel.toml"
+    panel.write_text("[panel]\nwidth = 1" + "0" * 400 + "\nheight = 10\nthickness = 1\n")
+    done = holecli_process("simulate", tmp_path / "out.ply", "--panel", panel)
+    assert done.returncode == 3
+    assert done.stderr == f"Error: {panel}: panel.width: an integer of 401 digits is too large for a number\n"
+
+
+def test_a_spec_integer_of_more_than_4300_digits_is_one_line(holecli_process, good_scans, tmp_path):
+    spec = tmp_path / "huge.toml"
+    spec.write_text(_HUGE_SPEC.replace("0" * 400, "0" * 5000))
+    done = holecli_process("detect", next(iter(good_scans)), "--spec", spec)
+    assert done.returncode == 3
+    assert done.stderr == f"Error: {spec}: invalid TOML: a number of more than 4300 digits\n"
+
+
+def test_a_coverage_factor_no_float_holds_is_a_usage_error(run, good_scans):
+    result = run("detect", next(iter(good_scans)), "--nominal-diameter", "2.5", "--tolerance", "0.1",
+                 "--decision-rule", "guarded", "--coverage-factor", "1e400")
+    assert result.exit_code == 2
+    assert "Invalid value for '--coverage-factor': '1e400' is too large" in result.stderr
+
+
+def test_register_of_stdin_is_one_line(holecli_process, repo_root):
+    done = holecli_process("register", "-", "--spec", repo_root / "sample_clouds" / "panel_tolerances.toml")
+    assert done.returncode == 2
+    assert done.stderr == "Error: -: holecli register cannot read a scan from standard input: give each scan as a file\n"

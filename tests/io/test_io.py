@@ -1084,3 +1084,33 @@ def test_save_points_float32_writes_single_precision_that_reads_back_exactly(tmp
     if extension == ".ply":
         assert b"property float x" in path.read_bytes()[:200]
         assert path.stat().st_size < 50 * 24
+
+
+# --- issue 23, item 7: PCD with upper-case X Y Z (PDAL writes them) -----------------------------------
+
+PDAL_CLI_DATA = Path(__file__).parent.parent / "data" / "pdal_cli"
+
+
+def test_pcd_written_by_pdal_with_upper_case_xyz_fields_is_read():
+    path = PDAL_CLI_DATA / "utm17_space.pcd"
+    text = path.read_text().splitlines()
+    assert "FIELDS X Y Z" in text
+    expected = np.array([[float(value) for value in line.split()] for line in text[text.index("DATA ascii") + 1:]])
+    np.testing.assert_array_equal(load_points(path), expected)
+
+
+def test_binary_pcd_with_upper_case_and_mixed_case_fields_is_read(tmp_path):
+    points = _points(20)
+    records = np.zeros(20, dtype=[("X", "<f8"), ("intensity", "<f4"), ("y", "<f8"), ("Z", "<f8")])
+    records["X"], records["y"], records["Z"] = points.T
+    header = ("VERSION 0.7\nFIELDS X intensity y Z\nSIZE 8 4 8 8\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH 20\n"
+              "HEIGHT 1\nPOINTS 20\nDATA binary\n")
+    path = _write(tmp_path / "a.pcd", header.encode() + records.tobytes())
+    np.testing.assert_array_equal(load_points(path), points)
+
+
+def test_pcd_naming_a_coordinate_in_both_cases_is_refused(tmp_path):
+    path = _write(tmp_path / "a.pcd", b"VERSION 0.7\nFIELDS x y z X\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\n"
+                                      b"WIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3 4\n")
+    with pytest.raises(LoadError, match=r"fields 'X' and 'x' both name coordinate x: which one holds it is ambiguous"):
+        load_points(path)
