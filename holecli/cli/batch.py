@@ -17,8 +17,8 @@ from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_BROKEN_PIPE, EXIT_FIL
                                EXIT_WARNING, Failure, broken_pipe, run_guarded, write_stdout)
 from holecli.cli.options import (Decimal, check_verbosity, decision_from_options, detection_option_decorators, detection_options,
                                  fail_on_warning_option, input_format_option, nominal_from_options, read_spec,
-                                 reading_option_decorators, tolerance_option_decorators, unit_choice,
-                                 verbosity_option_decorators, warned, with_decision)
+                                 reading_option_decorators, refuse_same_files, tolerance_option_decorators,
+                                 unit_choice, verbosity_option_decorators, warned, with_decision)
 from holecli.cli.progress import BatchDisplay, batch_summary, verbose_text
 from holecli.errors import LoadError
 
@@ -186,6 +186,8 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, pl
         from holecli import batch as batching
         from holecli.io import SUPPORTED_EXTENSIONS
 
+        # the output never replaces the spec or a file named to be measured (issue 23, item 4)
+        refuse_same_files([("--spec", spec_file), *(("PATH", path) for path in paths)], [("-o/--output", output)])
         spec = with_decision(read_spec(spec_file) if spec_file is not None else nominal, decision)
         if plot_dir is not None:
             from holecli.cli.plot import require_matplotlib

@@ -13,7 +13,8 @@ from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_O
                                EXIT_WARNING, Failure, run_guarded, write_stdout)
 from holecli.cli.options import (INPUT_FORMATS, check_verbosity, decision_from_options, detection_option_decorators,
                                  detection_options, fail_on_warning_option, input_format_option, nominal_from_options,
-                                 read_spec, reading_option_decorators, tolerance_option_decorators, unit_choice,
+                                 read_spec, reading_option_decorators, refuse_same_files, tolerance_option_decorators,
+                                 unit_choice,
                                  verbosity_option_decorators, warned, with_decision)
 from holecli.errors import HoleCliError
 
@@ -391,16 +392,14 @@ def record_warned(record, selected):
 
 
 def emit(text, output, what="output"):
-    """Write ``text`` to stdout, or to the ``--output`` file.
+    """Write ``text`` to stdout, or to the ``--output`` file: :func:`write_outputs` with one output.
 
     Parameters
     ----------
     text : str
         The whole output.
     output : str or None
-        None or ``-`` for stdout; else a file, written as :func:`holecli.io.outfile.write_text` does:
-        atomically onto a regular file or a new path, directly onto a device or FIFO, through a
-        symbolic link onto its target.
+        None or ``-`` for stdout; else a file (see :func:`write_outputs`).
     what : str
         What it is, for the error message (``cannot write output``).
 
@@ -413,17 +412,58 @@ def emit(text, output, what="output"):
     Failure
         With the input/output code, when the output cannot be written.
     """
-    if output is None or output == "-":
-        write_stdout(text)
-        return
-    from holecli.io.outfile import write_text
+    write_outputs([(output, text, what)])
 
-    try:
-        write_text(output, text)
-    except BrokenPipeError:  # a FIFO whose reader went away (see run_guarded)
-        raise BrokenPipeError(errno.EPIPE, os.strerror(errno.EPIPE), output) from None
-    except OSError as error:
-        raise Failure(f"{output}: cannot write {what}: {error.strerror or error}", EXIT_INPUT) from None
+
+def write_outputs(outputs):
+    """Write every output of a run, all or none (:class:`holecli.io.outfile.Outputs`).
+
+    Every file is first written whole into a temporary next to it; only when all of them are, and
+    every device or FIFO is open (one without a reader is refused), do the streams get their data
+    (stdout first, as given) and the temporaries replace their files. A failure anywhere replaces no
+    file and prints nothing: an earlier result stays as it was.
+
+    Parameters
+    ----------
+    outputs : list of (str or None, str or bytes, str)
+        ``(path, content, what)``: the path (None or ``-``: stdout; a regular file, new path,
+        symbolic link, device or FIFO as :func:`holecli.io.outfile.write_bytes` takes it); the
+        content (text is written as UTF-8); what it is, for the error message (``"output"``,
+        ``"the plot"``, ``"the corrected targets"``).
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    Failure
+        With the input/output code, ``PATH: cannot write WHAT: <why>``, when an output cannot be
+        written (stdout: see :func:`holecli.cli.exits.write_stdout`).
+    BrokenPipeError
+        When the reader of stdout or of a FIFO went away (handled by :func:`run_guarded`: 141).
+    """
+    from holecli.io.outfile import STDOUT, Outputs
+
+    def to_stdout(payload):
+        write_stdout(payload.decode("utf-8", "surrogateescape"))
+
+    what_of = {}
+    with Outputs(write_stdout=to_stdout) as transaction:
+        try:
+            for path, content, what in outputs:
+                path = STDOUT if path is None else path
+                what_of.setdefault(path, what)
+                payload = content.encode("utf-8", "surrogateescape") if isinstance(content, str) else content
+                transaction.add(path, payload)
+            transaction.commit()
+        except BrokenPipeError as error:  # a FIFO whose reader went away (see run_guarded)
+            raise BrokenPipeError(errno.EPIPE, os.strerror(errno.EPIPE), error.filename) from None
+        except OSError as error:
+            path = error.filename if error.filename in what_of else None
+            shown = path if path is not None else (error.filename or "output")
+            raise Failure(f"{shown}: cannot write {what_of.get(path, 'output')}: {error.strerror or error}",
+                          EXIT_INPUT) from None
 
 
 @click.command(epilog=EXIT_CODES_HELP)
@@ -432,7 +472,8 @@ def emit(text, output, what="output"):
 @click.option("--format", "fmt", type=click.Choice(["json", "csv", "table"]), default="json", show_default=True,
               help="Output format: JSON record, CSV (one row per hole) or a table for people.")
 @click.option("--output", "-o", type=click.Path(dir_okay=False, allow_dash=True, path_type=str),
-              help="Write the result to this file (a regular file atomically; - is stdout) instead of stdout.")
+              help="Write the result to this file (a regular file atomically; - is stdout) instead of stdout; "
+                   "with --plot, both are written or neither. Never SCAN, --spec or the --plot file.")
 @click.option("--plot", "plot_file", type=click.Path(path_type=str), default=None, metavar="FILE.png|DIR/",
               help="Also draw the holes into this PNG, as holecli plot does, with the verdict when tolerances are "
                    "given; a folder (existing, or ending with /: created) gets SCAN's stem .png "
@@ -499,8 +540,14 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
         from holecli.cli.progress import DetectStatus
         from holecli.tolerance import check
 
-        spec = with_decision(read_spec(spec_file) if spec_file is not None else nominal, decision)
         plot_path = None
+        if plot_file is not None:
+            from holecli.cli.plot import plot_path_of
+
+            plot_path = plot_path_of(plot_file, scan)
+        # before anything is read or made: no output may replace an input or another output
+        refuse_same_files([("SCAN", scan), ("--spec", spec_file)], [("-o/--output", output), ("--plot", plot_path)])
+        spec = with_decision(read_spec(spec_file) if spec_file is not None else nominal, decision)
         if plot_file is not None:
             from holecli.cli.plot import measure_with_points, plot_destination, require_matplotlib
 
@@ -516,12 +563,15 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
         record = choice.express(detection.to_dict(explain=explain), detection.units)
         if spec is not None:
             record = check(record, spec)
-        emit(render([record], fmt), output)
+        outputs = [(output, render([record], fmt), "output")]
         if plot_file is not None:
-            from holecli.cli.plot import write_plot
+            from holecli.cli.plot import PLOT_WHAT, plot_png
 
-            write_plot(plot_path, detection, points, unit=choice.file,
-                       checked=record["holes"] if spec is not None else None, checked_unit=record.get("units"))
+            outputs.append((plot_path, plot_png(detection, points, unit=choice.file,
+                                                checked=record["holes"] if spec is not None else None,
+                                                checked_unit=record.get("units")), PLOT_WHAT))
+        # the record and the picture together: when either cannot be written, neither is
+        write_outputs(outputs)
         return record
 
     record = run_guarded(body)

@@ -11,6 +11,8 @@
 * ``--fail-on-warning`` of ``detect`` and ``batch``: :func:`fail_on_warning_option`, :func:`warned`.
 * ``--decision-rule`` and ``--coverage-factor`` (with the tolerance options): :func:`decision_from_options`,
   :func:`with_decision`.
+* the output options of every command (``--output``, ``--plot``, ``--targets-output``):
+  :func:`refuse_same_files`, which keeps an output from replacing an input or another output.
 
 Nothing heavy is imported at module level: ``holecli --help`` builds these options.
 """
@@ -22,7 +24,7 @@ import os
 
 import click
 
-from holecli.cli.exits import EXIT_INPUT, Failure
+from holecli.cli.exits import EXIT_INPUT, EXIT_USAGE, Failure
 from holecli.errors import SpecError
 
 
@@ -644,3 +646,66 @@ def read_small_bytes(path, what):
     if len(data) > MAX_SPEC_BYTES:
         raise Failure(f"{path}: too large for {what} file (more than {MAX_SPEC_BYTES} bytes)", EXIT_INPUT)
     return data
+
+
+def refuse_same_files(inputs, outputs):
+    """Refuse a run whose output is the same file as one of its inputs or as another output.
+
+    Writing it would replace the input the run is reading (``--targets-output`` over ``--targets``,
+    ``-o`` over ``--spec``, ``--plot`` over the scan), or write two outputs into one file, the second
+    over the first. Same file means the same resolved path (symbolic links followed, also one that
+    does not exist yet), or, when both exist, the same device and inode (hard links). A character
+    device (``/dev/null``) is no file that can be replaced: it may take any number of outputs.
+
+    Parameters
+    ----------
+    inputs : iterable of (str, str or None)
+        ``(what, path)`` of the files the run reads, ``what`` as the user named it (``"SCAN"``,
+        ``"--spec"``); None and ``-`` (stdin) are skipped.
+    outputs : iterable of (str, str or None)
+        ``(what, path)`` of the files it writes (``"-o/--output"``, ``"--plot"``); None and ``-``
+        (stdout) are skipped.
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    Failure
+        With the usage code (2), naming both: ``--plot scan.ply is the same file as SCAN scan.ply
+        (an output never replaces an input)``.
+    """
+    inputs = [(what, path) for what, path in inputs if path not in (None, "-")]
+    outputs = [(what, path) for what, path in outputs if path not in (None, "-") and not _is_device(path)]
+    for index, (what, path) in enumerate(outputs):
+        for input_what, input_path in inputs:
+            if _same_file(path, input_path):
+                raise Failure(f"{what} {path} is the same file as {input_what} {input_path} "
+                              "(an output never replaces an input)", EXIT_USAGE)
+        for other_what, other_path in outputs[:index]:
+            if _same_file(path, other_path):
+                raise Failure(f"{other_what} {other_path} and {what} {path} are the same file "
+                              "(each output needs a file of its own)", EXIT_USAGE)
+
+
+def _same_file(first, second):
+    """Whether two paths name one file: the same device and inode when both exist, else the same
+    resolved path."""
+    try:
+        return os.path.samestat(os.stat(first), os.stat(second))
+    except (OSError, ValueError):
+        pass
+    try:
+        return os.path.realpath(first) == os.path.realpath(second)
+    except (OSError, ValueError):
+        return False
+
+
+def _is_device(path):
+    import stat
+
+    try:
+        return stat.S_ISCHR(os.stat(path).st_mode)
+    except (OSError, ValueError):
+        return False

@@ -13,8 +13,8 @@ import os
 import click
 
 from holecli.cli.exits import EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, Failure, run_guarded
-from holecli.cli.options import (detection_option_decorators, detection_options, input_format_option,
-                                 verbosity_option_decorators, check_verbosity)
+from holecli.cli.options import (check_verbosity, detection_option_decorators, detection_options, input_format_option,
+                                 refuse_same_files, verbosity_option_decorators)
 from holecli.errors import HoleCliError
 
 MISSING_EXTRA = "holecli plot needs the optional extra: pip install 'holecli[plot]'"
@@ -62,34 +62,56 @@ def measure_with_points(path, options, scan=None):
     return detection, cloud.points
 
 
-def write_plot(path, detection, points, max_panels=None, dpi=None, unit=None, checked=None, checked_unit=None):
-    """Draw ``detection`` (:func:`holecli.plot.figure`) and write the PNG to ``path`` atomically.
+# What messages call the picture: "fit.png: cannot write the plot: ...".
+PLOT_WHAT = "the plot"
+
+
+def plot_png(detection, points, max_panels=None, dpi=None, unit=None, checked=None, checked_unit=None):
+    """The PNG of ``detection`` (:func:`holecli.plot.figure`, :func:`holecli.plot.png_bytes`), not yet written.
 
     Parameters
     ----------
-    path : str
-        The PNG.
     detection, points, max_panels, unit, checked, checked_unit
         As for :func:`holecli.plot.figure` (``checked``: the holes of the checked record, for the
         verdict).
     dpi : int, optional
         As for :func:`holecli.plot.png_bytes`.
 
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    Failure
+        matplotlib missing (input/output code).
+    """
+    require_matplotlib()
+    from holecli import plot
+
+    fig = plot.figure(detection, points, max_panels=max_panels, unit=unit, checked=checked, checked_unit=checked_unit)
+    return plot.png_bytes(fig, dpi=dpi)
+
+
+def write_plot(path, detection, points, max_panels=None, dpi=None, unit=None, checked=None, checked_unit=None):
+    """Draw ``detection`` (:func:`plot_png`) and write the PNG to ``path`` atomically.
+
+    Parameters
+    ----------
+    path : str
+        The PNG.
+    detection, points, max_panels, dpi, unit, checked, checked_unit
+        As for :func:`plot_png`.
+
     Raises
     ------
     Failure
         matplotlib missing, or the file cannot be written (input/output code).
     """
-    require_matplotlib()
-    from holecli import plot
-    from holecli.io.outfile import write_bytes
+    from holecli.cli.detect import write_outputs
 
-    fig = plot.figure(detection, points, max_panels=max_panels, unit=unit, checked=checked, checked_unit=checked_unit)
-    payload = plot.png_bytes(fig, dpi=dpi)
-    try:
-        write_bytes(path, payload)
-    except OSError as error:
-        raise Failure(f"{path}: cannot write the plot: {error.strerror or error}", EXIT_INPUT) from None
+    write_outputs([(path, plot_png(detection, points, max_panels=max_panels, dpi=dpi, unit=unit, checked=checked,
+                                   checked_unit=checked_unit), PLOT_WHAT)])
 
 
 def is_plot_folder(value):
@@ -162,10 +184,25 @@ def plot_destination(value, scan):
     Failure
         See :func:`make_plot_folder`.
     """
-    if not is_plot_folder(value):
-        return value
-    make_plot_folder(value)
-    return os.path.join(value, plot_name(scan))
+    if is_plot_folder(value):
+        make_plot_folder(value)
+    return plot_path_of(value, scan)
+
+
+def plot_path_of(value, scan):
+    """The PNG that ``--plot VALUE`` of ``holecli detect SCAN`` names (nothing is made).
+
+    Parameters
+    ----------
+    value, scan : str
+        As for :func:`plot_destination`.
+
+    Returns
+    -------
+    str
+        ``value``, or ``value/<scan stem>.png`` when it names a folder (:func:`is_plot_folder`).
+    """
+    return os.path.join(value, plot_name(scan)) if is_plot_folder(value) else value
 
 
 def plot_path_type():
@@ -175,7 +212,7 @@ def plot_path_type():
 @click.command(epilog=EXIT_CODES_HELP)
 @click.argument("scan", type=click.Path(allow_dash=True, path_type=str))
 @click.option("--output", "-o", type=plot_path_type(), required=True,
-              help="The PNG to write (atomically).")
+              help="The PNG to write (atomically; a FIFO must have its reader). Never SCAN itself.")
 @input_format_option("Read SCAN in this format, whatever its extension; needed for - (stdin).")
 @click.option("--scan", "scan_index", type=click.IntRange(min=0), default=None, metavar="N",
               help="Draw scan N (from 0) of a multi-scan E57 file [default: every scan, merged].")
@@ -213,6 +250,7 @@ def plot(scan, output, input_format, scan_index, units, max_panels, dpi, method,
         options["input_format"] = input_format
 
     def body():
+        refuse_same_files([("SCAN", scan)], [("-o/--output", output)])  # before anything is read
         require_matplotlib()  # before the detection: a missing extra is said at once
         detection, points = measure_with_points(scan, options, scan_index)
         write_plot(output, detection, points, max_panels=max_panels, dpi=dpi, unit=units)

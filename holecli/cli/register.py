@@ -3,7 +3,9 @@
 Every SCAN is measured as ``holecli detect`` measures it; its holes are matched with the ``--spec``
 file's nominal holes and :func:`holecli.registration.register` fits the transform. The result (JSON,
 CSV or a table) goes to stdout or ``--output``, the corrected targets (``--targets``) to
-``--targets-output``; both are written, each atomically, only once the whole registration succeeded.
+``--targets-output``; both are written together (:func:`holecli.cli.detect.write_outputs`) once the
+whole registration succeeded: when either cannot be written, neither file is replaced. No output may
+be a SCAN, the ``--spec`` or the ``--targets`` file, or the other output.
 """
 
 from __future__ import annotations
@@ -24,9 +26,10 @@ REGISTER_EXIT_CODES_HELP = (
     "  0  registered (and, with --max-residual, the verdict is pass)\n"
     "  1  internal error (a bug: please report it)\n"
     "  2  usage error (bad option or argument; a --name whose SCAN is not given or whose HOLE is not\n"
-    "     in the spec)\n"
+    "     in the spec; an output that is the same file as an input or as the other output)\n"
     "  3  input error: a SCAN or the --spec or --targets file is missing, unreadable or invalid, the\n"
     "     holes cannot be registered (too few to match, none matched), or an output cannot be written\n"
+    "     (then neither output is written)\n"
     "  4  a SCAN has no hole (nothing is written)\n"
     "  5  --max-residual: the verdict is fail (a used hole's residual exceeds it, or an outlier was\n"
     "     named); the output is still written\n"
@@ -177,7 +180,8 @@ def render(record, fmt):
 @click.option("--format", "fmt", type=click.Choice(["json", "csv", "table"]), default="json", show_default=True,
               help="Output format: JSON, CSV (one row per hole, the transform in columns) or a table for people.")
 @click.option("--output", "-o", type=click.Path(dir_okay=False, allow_dash=True, path_type=str), default=None,
-              help="Write the result to this file (atomically; - is stdout) instead of stdout.")
+              help="Write the result to this file (atomically; - is stdout) instead of stdout; with "
+                   "--targets-output, both are written or neither.")
 @detection_option_decorators
 @click.option("--quiet", "-q", is_flag=True, help="Say nothing on stderr but errors (no warnings, no verdict line).")
 def register(scans, spec_file, name_pairs, targets_file, targets_output, max_residual, outlier_factor, outlier_floor,
@@ -211,8 +215,8 @@ def register(scans, spec_file, name_pairs, targets_file, targets_output, max_res
 
     def body():
         from holecli import __version__
-        from holecli.cli.detect import emit, measure_file
-        from holecli.cli.options import read_spec
+        from holecli.cli.detect import measure_file, write_outputs
+        from holecli.cli.options import read_spec, refuse_same_files
         from holecli.errors import HoleCliError
         from holecli.registration import RegistrationError
         from holecli.registration import register as register_holes
@@ -220,6 +224,9 @@ def register(scans, spec_file, name_pairs, targets_file, targets_output, max_res
         if "-" in scans:  # (measure_file reads a path; stdin needs --input-format, which register has not)
             raise Failure("-: holecli register cannot read a scan from standard input: give each scan as a file",
                           EXIT_USAGE)
+        # before anything is read: the robot's targets, the spec or a scan are never written over
+        refuse_same_files([*(("SCAN", scan) for scan in scans), ("--spec", spec_file), ("--targets", targets_file)],
+                          [("--targets-output", targets_output), ("-o/--output", output)])
         spec = read_spec(spec_file)
         hole_names = [hole.name for hole in spec.holes]
         names = _scan_names(scans, name_pairs, hole_names, spec_file)
@@ -269,11 +276,10 @@ def register(scans, spec_file, name_pairs, targets_file, targets_output, max_res
             rows = result.corrected_targets(targets)
             targets_text = format_targets(rows)
             record["targets"] = {"file": targets_file, "output": targets_output, "count": len(rows)}
-        text = render(record, fmt)
-        # Both outputs are prepared before either is written; each is written atomically.
-        if targets_text is not None:
-            emit(targets_text, targets_output, "the corrected targets")
-        emit(text, output)
+        outputs = [] if targets_text is None else [(targets_output, targets_text, "the corrected targets")]
+        outputs.append((output, render(record, fmt), "output"))
+        # all or none: corrected targets are never replaced by a run that then fails to write its result
+        write_outputs(outputs)
         return record
 
     record = run_guarded(body)

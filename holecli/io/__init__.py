@@ -60,9 +60,12 @@ from __future__ import annotations
 
 import csv
 import os
+import re
+import secrets
 import stat
 import struct
 import tempfile
+import time
 from dataclasses import dataclass
 from typing import Optional
 
@@ -160,9 +163,15 @@ def read_cloud(path, scan=None, input_format=None) -> Cloud:
 def read_stream(stream, input_format, name=STDIN_NAME, max_bytes=None, scan=None) -> Cloud:
     """Read the points of a cloud from a binary stream (standard input: ``sys.stdin.buffer``).
 
-    The stream is copied, up to ``max_bytes``, into a temporary file (in :func:`tempfile.gettempdir`,
-    removed before this returns, whatever happens), which is then read and checked exactly as
-    :func:`read_cloud` reads and checks a file of that format: damaged data is refused alike.
+    The stream is copied, up to ``max_bytes``, into a temporary file in :func:`tempfile.gettempdir`,
+    which is then read and checked exactly as :func:`read_cloud` reads and checks a file of that
+    format: damaged data is refused alike. The readers that open a file by its name (E57, LAS) get
+    it as ``/proc/self/fd/N``. On Linux that file has no name at all (``O_TMPFILE``, else it is
+    unlinked as soon as it is made): whatever happens, a SIGKILL in the middle of the copy too,
+    nothing is left behind. Where there is no ``/proc/self/fd``, the file is named
+    ``holecli-stdin-PID-XXXXXXXX.FORMAT`` and removed before this returns, and one left by a
+    process that was killed is removed by the next :func:`read_stream` (as are the
+    ``holecli-stdin-XXXXXXXX.FORMAT`` of holecli before 0.2 once an hour old).
 
     Parameters
     ----------
@@ -206,19 +215,93 @@ def read_stream(stream, input_format, name=STDIN_NAME, max_bytes=None, scan=None
     extension = _extension("", input_format)
     max_bytes = MAX_STREAM_BYTES if max_bytes is None else max_bytes
     try:
-        descriptor, temporary = tempfile.mkstemp(prefix="holecli-stdin-", suffix=extension)
+        descriptor, path, temporary = _stream_copy_file(extension)
     except OSError as exc:
         raise LoadError(name, f"cannot make a temporary file to read it into ({_describe(exc)})") from None
     try:
-        with os.fdopen(descriptor, "wb") as copy:
+        with os.fdopen(descriptor, "wb", closefd=False) as copy:
             _copy_stream(stream, copy, max_bytes, name)
-        raw, flagged, units = _read_checked(temporary, extension, name, scan)
+        raw, flagged, units = _read_checked(path, extension, name, scan)
         return _finite_cloud(raw, name, flagged, units)
     finally:
-        try:
+        os.close(descriptor)
+        if temporary is not None:
+            try:
+                os.unlink(temporary)
+            except OSError:
+                pass
+
+
+# The names of read_stream's copies: holecli-stdin-PID-XXXXXXXX.FORMAT, and those of holecli before
+# 0.2 (mkstemp's, no PID), taken for stale once _LEGACY_COPY_AGE_S old (a copy in use is written to
+# or read within seconds; a stream of 2 GiB is copied in minutes).
+_COPY_PREFIX = "holecli-stdin-"
+_COPY_NAME = re.compile(r"holecli-stdin-([0-9]+)-[a-z0-9_]{8}\.[a-z0-9]+")
+_LEGACY_COPY_NAME = re.compile(r"holecli-stdin-[a-z0-9_]{8}\.[a-z0-9]+")
+_LEGACY_COPY_AGE_S = 3600.0
+# Where a process's open files have a path (Linux): the copy of a stream needs no name of its own.
+_FD_FOLDER = "/proc/{pid}/fd"
+
+
+def _stream_copy_file(extension):
+    """A new file for :func:`read_stream`'s copy: ``(descriptor, path to read it by, name to remove)``.
+
+    With ``/proc/self/fd`` (Linux) the file has no name, so that nothing can be left of it: the path
+    is ``/proc/self/fd/N`` and the name to remove None. Otherwise a file named by this process's id,
+    which this run removes, or a later one when this process was killed.
+    """
+    folder = tempfile.gettempdir()
+    _remove_stale_copies(folder)
+    fd_folder = _FD_FOLDER.format(pid=os.getpid())
+    if os.path.isdir(fd_folder):
+        descriptor = None
+        if hasattr(os, "O_TMPFILE"):
+            try:
+                descriptor = os.open(folder, os.O_TMPFILE | os.O_RDWR, 0o600)
+            except OSError:  # a file system without O_TMPFILE: a named file, unlinked at once
+                descriptor = None
+        if descriptor is None:
+            descriptor, temporary = tempfile.mkstemp(prefix=f"{_COPY_PREFIX}{os.getpid()}-", suffix=extension)
             os.unlink(temporary)
-        except OSError:
-            pass
+        return descriptor, os.path.join(fd_folder, str(descriptor)), None
+    descriptor, temporary = _named_copy(folder, extension)
+    return descriptor, temporary, temporary
+
+
+def _named_copy(folder, extension):
+    while True:
+        temporary = os.path.join(folder, f"{_COPY_PREFIX}{os.getpid()}-{secrets.token_hex(4)}{extension}")
+        try:
+            return os.open(temporary, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o600), temporary
+        except FileExistsError:
+            continue
+
+
+def _remove_stale_copies(folder):
+    """Remove the copies of standard input that killed processes left in ``folder``."""
+    from holecli.io.outfile import _process_exists
+
+    try:
+        entries = [entry for entry in os.listdir(folder) if entry.startswith(_COPY_PREFIX)]
+    except OSError:
+        return
+    for entry in entries:
+        path = os.path.join(folder, entry)
+        match = _COPY_NAME.fullmatch(entry)
+        if match:
+            stale = not _process_exists(int(match.group(1)))
+        elif _LEGACY_COPY_NAME.fullmatch(entry):
+            try:
+                stale = time.time() - os.lstat(path).st_mtime > _LEGACY_COPY_AGE_S
+            except OSError:
+                stale = False
+        else:
+            continue
+        if stale:
+            try:
+                os.unlink(path)
+            except OSError:
+                pass
 
 
 def _copy_stream(stream, copy, max_bytes, name):

@@ -8,9 +8,20 @@ A result goes where its path says, by the kind of thing that is there:
 * a symbolic link: its target is what gets written (atomically, when it is a regular file or does
   not exist yet); the link itself stays;
 * a character device (``/dev/null``, a terminal) or a FIFO: opened and written directly, never
-  replaced;
+  replaced. A FIFO is opened without waiting (``O_NONBLOCK``): one that no process reads is refused
+  with an :class:`OSError` (``ENXIO``) instead of blocking the run forever;
 * ``-``: standard output;
 * anything else (a folder, a block device, a socket): refused with an :class:`OSError`, untouched.
+
+The outputs of one run are written all or none by :class:`Outputs`, a small transaction: every
+output is first *staged* (a file's complete content written and synced into its temporary, a
+device or FIFO opened), then *committed*: the streams (standard output, devices, FIFOs) are
+written, and only then the temporaries renamed over their files, one after the other; should one
+rename fail, the files already renamed get their earlier content back (kept as a hard link until
+the commit is over). A failure anywhere before the renames (a file that cannot be written, a FIFO
+without a reader, a full stdout) removes every temporary and replaces no file. What went to a
+stream cannot be taken back: streams are written after every file was staged, so a run whose file
+cannot be written prints nothing. :func:`write_bytes` is that transaction with one output.
 
 A process killed in the middle of an atomic write (SIGKILL, power loss) leaves its temporary file
 ``.NAME.PID.XXXXXXXX.tmp`` behind; the next write to the same target removes the temporaries whose
@@ -27,7 +38,7 @@ import stat
 import sys
 import time
 
-__all__ = ["STDOUT", "destination", "write_bytes", "write_bytes_atomic", "write_text", "write_text_atomic"]
+__all__ = ["STDOUT", "Outputs", "destination", "write_bytes", "write_bytes_atomic", "write_text", "write_text_atomic"]
 
 # The path that means standard output.
 STDOUT = "-"
@@ -78,18 +89,128 @@ def write_bytes(path, payload):
     ------
     OSError
         When it cannot be written: the folder is missing or read-only, the device is full, the path
-        is a folder or a block device or a socket. Whatever was at ``path`` is then untouched, and no
-        temporary file is left behind.
+        is a folder or a block device or a socket, a FIFO has no reader. Whatever was at ``path`` is
+        then untouched, and no temporary file is left behind. Its ``filename`` is ``path``.
     """
-    path = os.fspath(path)
-    if path == STDOUT:
-        _write_stdout(payload)
-        return
-    kind, target = destination(path)
-    if kind == "file":
-        write_bytes_atomic(target, payload)
-    else:
-        _write_stream(target, payload)
+    with Outputs() as outputs:
+        outputs.add(path, payload)
+        outputs.commit()
+
+
+class Outputs:
+    """The outputs of one run, written all or none (see the module's docstring).
+
+    Use it as a context manager: leaving the ``with`` block without :meth:`commit` (an exception, a
+    signal) discards what was staged.
+
+    Parameters
+    ----------
+    write_stdout : callable, optional
+        Writes the payload of ``-`` (bytes) to standard output at the commit (default: the bytes to
+        ``sys.stdout``).
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> folder = tempfile.mkdtemp()
+    >>> with Outputs() as outputs:
+    ...     outputs.add(os.path.join(folder, "result.json"), b"{}\\n")
+    ...     outputs.add(os.path.join(folder, "targets.csv"), b"name,x,y,z\\n")
+    ...     outputs.commit()
+    >>> sorted(os.listdir(folder))
+    ['result.json', 'targets.csv']
+    """
+
+    def __init__(self, write_stdout=None):
+        self._write_stdout = write_stdout or _write_stdout
+        self._files = []  # (path as given, temporary, target)
+        self._streams = []  # (path as given, descriptor or None for stdout, payload)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc_info):
+        self.discard()
+        return False
+
+    def add(self, path, payload):
+        """Stage ``payload`` for ``path``: a file's temporary written and synced, a device or FIFO opened.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The destination; ``"-"`` is standard output.
+        payload : bytes
+            The whole content.
+
+        Returns
+        -------
+        None
+
+        Raises
+        ------
+        OSError
+            With ``filename`` ``path``, when it cannot be written (see :func:`write_bytes`); nothing
+            of it is left behind (what was staged before stays staged: :meth:`discard` drops it).
+        """
+        path = os.fspath(path)
+        if path == STDOUT:
+            self._streams.append((path, None, payload))
+            return
+        try:
+            kind, target = destination(path)
+            if kind == "file":
+                self._files.append((path, _stage(target, payload), target))
+            else:
+                self._streams.append((path, _open_stream(target), payload))
+        except OSError as error:
+            raise _named(error, path) from None
+
+    def commit(self):
+        """Write the streams, then rename every staged file into place.
+
+        Returns
+        -------
+        None
+
+        Raises
+        ------
+        OSError
+            With ``filename`` the output's path (stdout's as raised), when a stream cannot be written (no file is then
+            replaced) or a rename fails (the files renamed before it get their earlier content
+            back). The temporaries are removed either way. A BrokenPipeError (a FIFO or stdout
+            whose reader went away) stays one.
+        """
+        try:
+            for path, descriptor, payload in self._streams:
+                if descriptor is None:
+                    self._write_stdout(payload)  # its errors as they are: stdout has no path
+                    continue
+                try:
+                    _write_all(descriptor, payload)
+                except OSError as error:
+                    raise _named(error, path) from None
+            _rename_all(self._files)
+        finally:
+            self.discard()
+
+    def discard(self):
+        """Drop what is staged: remove the temporaries, close the streams (nothing is written).
+
+        Returns
+        -------
+        None
+        """
+        files, streams = self._files, self._streams
+        self._files, self._streams = [], []
+        for _path, temporary, _target in files:
+            _unlink_quietly(temporary)
+        for _path, descriptor, _payload in streams:
+            if descriptor is not None:
+                try:
+                    os.close(descriptor)
+                except OSError:
+                    pass
 
 
 def destination(path):
@@ -167,6 +288,18 @@ def write_bytes_atomic(path, payload):
         file is left behind.
     """
     path = os.fspath(path)
+    temporary = _stage(path, payload)
+    try:
+        os.replace(temporary, path)
+    except BaseException:
+        _unlink_quietly(temporary)
+        raise
+    _sync_folder(os.path.dirname(os.path.abspath(path)))
+
+
+def _stage(path, payload):
+    """Write ``payload`` into a new temporary next to ``path`` (synced, with the mode ``path`` has or
+    a new file gets) and return its name; on failure nothing is left."""
     folder = os.path.dirname(os.path.abspath(path))
     name = os.path.basename(path)
     _remove_stale_temporaries(folder, name)
@@ -174,7 +307,7 @@ def write_bytes_atomic(path, payload):
         mode = stat.S_IMODE(os.stat(path).st_mode)
     except FileNotFoundError:
         mode = 0o666 & ~_umask()
-    temporary = os.path.join(folder, f".{name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+    temporary = _temporary_name(folder, name)
     handle = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
     try:
         with os.fdopen(handle, "wb") as stream:
@@ -182,14 +315,78 @@ def write_bytes_atomic(path, payload):
             stream.flush()
             os.fsync(stream.fileno())
         os.chmod(temporary, mode)
-        os.replace(temporary, path)
     except BaseException:
-        try:
-            os.unlink(temporary)
-        except FileNotFoundError:
-            pass
+        _unlink_quietly(temporary)
         raise
-    _sync_folder(folder)
+    return temporary
+
+
+def _temporary_name(folder, name):
+    # The pid in the name lets a later run tell a temporary of a killed process (_remove_stale_temporaries).
+    return os.path.join(folder, f".{name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+
+
+def _rename_all(files):
+    """Rename each staged ``(path, temporary, target)`` over its target; when one fails, put the
+    targets renamed before it back as they were, and raise."""
+    done = []  # (target, its earlier content kept as a hard link, or None when it was new)
+    try:
+        for path, temporary, target in files:
+            backup = _keep_earlier(target) if len(files) > 1 else None
+            try:
+                os.replace(temporary, target)
+            except OSError as error:
+                if backup is not None:
+                    _unlink_quietly(backup)
+                raise _named(error, path) from None
+            done.append((target, backup))
+    except BaseException:
+        for target, backup in reversed(done):
+            try:
+                if backup is None:
+                    os.unlink(target)
+                elif backup is not _NO_BACKUP:
+                    os.replace(backup, target)
+            except OSError:
+                pass
+        raise
+    finally:
+        for _target, backup in done:
+            if backup is not None and backup is not _NO_BACKUP:
+                _unlink_quietly(backup)
+    for folder in dict.fromkeys(os.path.dirname(os.path.abspath(target)) for _path, _temporary, target in files):
+        _sync_folder(folder)
+
+
+# _keep_earlier's answer for an existing file that could not be kept (a file system without hard
+# links): the commit goes on, but that file cannot be put back.
+_NO_BACKUP = object()
+
+
+def _keep_earlier(target):
+    """A hard link to the file at ``target`` (its earlier content, to put back), None when there is none."""
+    if not os.path.lexists(target):
+        return None
+    backup = _temporary_name(os.path.dirname(os.path.abspath(target)), os.path.basename(target))
+    try:
+        os.link(target, backup)
+    except OSError:
+        return _NO_BACKUP
+    return backup
+
+
+def _unlink_quietly(path):
+    try:
+        os.unlink(path)
+    except OSError:
+        pass
+
+
+def _named(error, path):
+    """``error`` as raised for ``path`` (its subclass kept: a BrokenPipeError stays one)."""
+    if error.errno is None or error.filename == path:
+        return error
+    return OSError(error.errno, error.strerror, path)
 
 
 def _write_stdout(payload):
@@ -202,15 +399,35 @@ def _write_stdout(payload):
     sys.stdout.flush()
 
 
-def _write_stream(path, payload):
-    # No O_CREAT, no O_TRUNC: a device or FIFO is written as it is, never made or emptied.
-    descriptor = os.open(path, os.O_WRONLY)
+def _open_stream(path):
+    """Open a character device or FIFO for writing, as it is (no O_CREAT, no O_TRUNC: never made or
+    emptied) and without waiting: a FIFO that no process reads is refused (ENXIO)."""
     try:
-        data = memoryview(payload)
-        while data:
-            data = data[os.write(descriptor, data):]
-    finally:
+        descriptor = os.open(path, os.O_WRONLY | os.O_NONBLOCK)
+    except OSError as error:
+        if error.errno == errno.ENXIO and _is_fifo(path):
+            raise OSError(errno.ENXIO, "a FIFO that no process reads (refused rather than waiting for a reader)",
+                          path) from None
+        raise
+    try:
+        os.set_blocking(descriptor, True)  # a slow reader is waited for, as by any writer
+    except BaseException:
         os.close(descriptor)
+        raise
+    return descriptor
+
+
+def _is_fifo(path):
+    try:
+        return stat.S_ISFIFO(os.stat(path).st_mode)
+    except OSError:
+        return False
+
+
+def _write_all(descriptor, payload):
+    data = memoryview(payload)
+    while data:
+        data = data[os.write(descriptor, data):]
 
 
 def _remove_stale_temporaries(folder, name):

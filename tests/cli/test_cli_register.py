@@ -3,6 +3,8 @@
 import csv
 import io
 import json
+import os
+import shutil
 
 import numpy as np
 import pytest
@@ -230,3 +232,72 @@ def test_unnamed_single_scan_cannot_be_matched(reg, part, tmp_path):
 def test_targets_output_needs_targets(reg, part, tmp_path):
     result = reg(*_paths(part, "A1"), "--spec", part / "part.toml", "--targets-output", tmp_path / "c.csv")
     assert result.exit_code == cli.EXIT_USAGE
+
+
+# --- outputs all or none, never over an input, never into a FIFO nobody reads (issue 23) ---------------
+
+EARLIER_TARGETS = "name,x,y,z,nx,ny,nz,u_x,u_y,u_z,u_normal_deg\nT1,1,2,3,0,0,1,0,0,0,0\n"
+
+
+def test_result_that_cannot_be_written_leaves_the_earlier_corrected_targets(reg, part, tmp_path):
+    # the robot drives from corrected.csv: a run that fails must not have replaced it
+    corrected = tmp_path / "corrected.csv"
+    corrected.write_text(EARLIER_TARGETS)
+    output = tmp_path / "missing" / "registration.json"
+    result = reg(*_paths(part, "A1", "A2", "A3"), "--spec", part / "part.toml", "--targets", part / "targets.csv",
+                 "--targets-output", corrected, "-o", output)
+    _assert_one_line_error(result, output, "cannot write output")
+    assert corrected.read_text() == EARLIER_TARGETS
+    assert os.listdir(tmp_path) == ["corrected.csv"]  # no temporary left
+
+
+def test_targets_that_cannot_be_written_print_no_result(reg, part, tmp_path):
+    corrected = tmp_path / "missing" / "corrected.csv"
+    result = reg(*_paths(part, "A1", "A2", "A3"), "--spec", part / "part.toml", "--targets", part / "targets.csv",
+                 "--targets-output", corrected)
+    _assert_one_line_error(result, corrected, "cannot write the corrected targets")  # stdout "" checked there
+
+
+def _inputs_copy(part, tmp_path):
+    """The spec, the targets and a scan copied here: these tests try to write over them."""
+    for name in ("part.toml", "targets.csv", "A1.ply"):
+        shutil.copyfile(part / name, tmp_path / name)
+    return tmp_path / "part.toml", tmp_path / "targets.csv", tmp_path / "A1.ply"
+
+
+@pytest.mark.parametrize("case", ["--targets-output --targets", "--targets-output hard link of --targets",
+                                  "-o --spec", "-o symlink to --spec", "-o SCAN", "-o --targets-output"])
+def test_an_output_that_is_an_input_or_the_other_output_is_a_usage_error(reg, part, tmp_path, case):
+    spec, targets, scan = _inputs_copy(part, tmp_path)
+    os.link(targets, tmp_path / "hard.csv")
+    (tmp_path / "latest.toml").symlink_to("part.toml")
+    both = tmp_path / "both.csv"
+    outputs, names = {
+        "--targets-output --targets": (["--targets-output", targets], ["--targets-output", "--targets"]),
+        "--targets-output hard link of --targets": (["--targets-output", tmp_path / "hard.csv"],
+                                                    ["hard.csv", "targets.csv"]),
+        "-o --spec": (["--targets-output", tmp_path / "c.csv", "-o", spec], ["-o/--output", "--spec"]),
+        "-o symlink to --spec": (["--targets-output", tmp_path / "c.csv", "-o", tmp_path / "latest.toml"],
+                                 ["latest.toml", "part.toml"]),
+        "-o SCAN": (["--targets-output", tmp_path / "c.csv", "-o", scan], ["-o/--output", "SCAN"]),
+        "-o --targets-output": (["--targets-output", both, "-o", both], ["--targets-output", "-o/--output"]),
+    }[case]
+    before = {name: (tmp_path / name).read_bytes() for name in ("part.toml", "targets.csv", "A1.ply")}
+    result = reg(scan, "--spec", spec, "--targets", targets, *outputs)
+    _assert_one_line_error(result, *names, code=cli.EXIT_USAGE)
+    assert {name: (tmp_path / name).read_bytes() for name in before} == before
+    assert not (tmp_path / "c.csv").exists() and not both.exists()
+
+
+def test_targets_output_into_a_fifo_without_a_reader_is_refused_not_waited_for(holecli_process, part, tmp_path):
+    fifo = tmp_path / "robot"
+    os.mkfifo(fifo)
+    output = tmp_path / "registration.json"
+    output.write_text('{"earlier": true}\n')
+    # without the check this never ends: the timeout fails the test
+    result = holecli_process("register", *_paths(part, "A1", "A2", "A3"), "--spec", part / "part.toml",
+                             "--targets", part / "targets.csv", "--targets-output", fifo, "-o", output, timeout=90)
+    assert result.returncode == cli.EXIT_INPUT, result.stderr
+    assert result.stderr.splitlines() == [f"Error: {fifo}: cannot write the corrected targets: a FIFO that no "
+                                          "process reads (refused rather than waiting for a reader)"]
+    assert output.read_text() == '{"earlier": true}\n'

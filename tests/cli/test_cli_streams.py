@@ -384,3 +384,78 @@ def test_batch_output_fifo_whose_reader_goes_away_exits_141(holecli_process, qui
     assert stdout == ""
     _assert_quiet_broken_pipe(batch.returncode, stderr, name=str(fifo))
     assert os.listdir(tmp_path) == ["records"]
+
+
+# --- the copy of stdin leaves nothing behind, even when killed (issue 23, item 7) ------------------
+
+
+def _copies(folder):
+    return [name for name in os.listdir(folder) if name.startswith("holecli-stdin-")]
+
+
+def test_detect_stdin_killed_mid_copy_leaves_no_temporary(holecli_process, repo_root, tmp_path):
+    import signal
+
+    env = dict(os.environ, PYTHONPATH=str(repo_root), TMPDIR=str(tmp_path))
+    env.pop("PYTHONWARNINGS", None)
+    process = holecli_process("detect", "-", "--input-format", "xyz", start=True, stdin=subprocess.PIPE, env=env,
+                               text=False)
+    try:
+        chunk = b"0 0 0\n" * (1 << 18)  # 1.5 MB: written only as fast as holecli copies it
+        for _ in range(4):
+            process.stdin.write(chunk)
+            process.stdin.flush()
+        # holecli has copied most of it now (a pipe holds 64 KiB): the copy is being written
+        assert process.poll() is None
+        assert _copies(tmp_path) == []  # it has no name to leave behind
+    finally:
+        process.send_signal(signal.SIGKILL)
+        process.wait(30)
+        process.stdin.close()
+        process.stdout.close()
+        process.stderr.close()
+    assert process.returncode == -signal.SIGKILL
+    assert os.listdir(tmp_path) == []
+
+
+def test_read_stream_removes_the_copies_that_killed_processes_left(tmp_path, monkeypatch):
+    import io
+    import time
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    left = tmp_path / f"holecli-stdin-{dead.pid}-k2j4h5g3.ply"  # a killed holecli's
+    running = tmp_path / f"holecli-stdin-{os.getppid()}-a1b2c3d4.ply"  # a holecli still copying
+    legacy_old = tmp_path / "holecli-stdin-x8y7z6w5.csv"  # holecli before 0.2: no pid, an hour old
+    legacy_new = tmp_path / "holecli-stdin-q1w2e3r4.csv"  # ... and one being written now
+    other = tmp_path / "holecli-stdin-notes.txt"
+    for path in (left, running, legacy_old, legacy_new, other):
+        path.write_bytes(b"ply\n")
+    two_hours_ago = time.time() - 7200
+    os.utime(legacy_old, (two_hours_ago, two_hours_ago))
+    cloud = read_stream(io.BytesIO(b"0 0 0\n1 0 0\n0 1 0\n"), "xyz")
+    assert cloud.points.shape == (3, 3)
+    assert sorted(_copies(tmp_path)) == sorted(path.name for path in (running, legacy_new, other))
+
+
+def test_read_stream_without_proc_names_its_copy_by_pid_and_removes_it(tmp_path, monkeypatch):
+    import io
+
+    import holecli.io as holecli_io
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    monkeypatch.setattr(holecli_io, "_FD_FOLDER", str(tmp_path / "no-proc-{pid}"))
+    seen = []
+    real_read = holecli_io._read_checked
+
+    def read_checked(path, *args, **kwargs):
+        seen.append((os.path.basename(path), _copies(tmp_path)))
+        return real_read(path, *args, **kwargs)
+
+    monkeypatch.setattr(holecli_io, "_read_checked", read_checked)
+    cloud = read_stream(io.BytesIO(b"x,y,z\n0,0,0\n1,0,0\n0,1,0\n"), "csv")
+    assert cloud.points.shape == (3, 3)
+    [(name, copies)] = seen
+    assert name.startswith(f"holecli-stdin-{os.getpid()}-") and name.endswith(".csv") and copies == [name]
+    assert os.listdir(tmp_path) == []

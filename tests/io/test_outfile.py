@@ -134,21 +134,43 @@ def test_write_bytes_atomic_writes_the_bytes(tmp_path):
 
 
 def _read_fifo_in_background(path):
+    """A reader of the FIFO from now on: its read end opened at once (without waiting for a writer:
+    a FIFO without a reader is refused), read in a thread until the writer closes it; ``finish()``
+    returns what was read."""
+    import select
     import threading
 
-    received = []
-    thread = threading.Thread(target=lambda: received.append(open(path, "rb").read()), daemon=True)
+    descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    chunks = []
+
+    def read():
+        # poll reports nothing on a FIFO no writer has opened yet; then data, then the writer's close
+        while select.select([descriptor], [], [], 60)[0]:
+            try:
+                chunk = os.read(descriptor, 1 << 16)
+            except BlockingIOError:
+                continue
+            if not chunk:
+                return
+            chunks.append(chunk)
+
+    thread = threading.Thread(target=read, daemon=True)
     thread.start()
-    return thread, received
+
+    def finish():
+        thread.join(30)
+        os.close(descriptor)
+        return b"".join(chunks)
+
+    return finish
 
 
 def test_write_bytes_to_a_fifo_writes_through_it_and_keeps_it(tmp_path):
     fifo = tmp_path / "pipe"
     os.mkfifo(fifo)
-    thread, received = _read_fifo_in_background(fifo)
+    finish = _read_fifo_in_background(fifo)
     outfile.write_bytes(fifo, b"record\n")
-    thread.join(5)
-    assert received == [b"record\n"]
+    assert finish() == b"record\n"
     assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
     assert os.listdir(tmp_path) == ["pipe"]
 
@@ -253,3 +275,103 @@ def test_stale_temporaries_of_killed_writers_are_removed_by_the_next_write(tmp_p
     outfile.write_text(path, NEW)
     assert sorted(os.listdir(tmp_path)) == sorted(p.name for p in (path, alive, legacy_new, other))
     assert path.read_text() == NEW
+
+
+# --- Outputs: a run's outputs all or none (issue 23, item 3); a FIFO without a reader (item 7) -----
+
+
+def test_outputs_commit_writes_every_output(tmp_path, capfdbinary):
+    first, second = tmp_path / "result.json", tmp_path / "targets.csv"
+    first.write_text(OLD)
+    with outfile.Outputs() as outputs:
+        outputs.add(first, b"new result\n")
+        outputs.add(second, b"name,x\n")
+        outputs.add("-", b"on stdout\n")
+        assert first.read_text() == OLD and not second.exists()  # staged, not yet written
+        assert capfdbinary.readouterr().out == b""
+        outputs.commit()
+    assert first.read_bytes() == b"new result\n" and second.read_bytes() == b"name,x\n"
+    assert capfdbinary.readouterr().out == b"on stdout\n"
+    assert sorted(os.listdir(tmp_path)) == ["result.json", "targets.csv"]
+
+
+def test_outputs_one_that_cannot_be_staged_leaves_every_file_and_prints_nothing(tmp_path, capfdbinary):
+    first = tmp_path / "result.json"
+    first.write_text(OLD)
+    with pytest.raises(FileNotFoundError) as raised:
+        with outfile.Outputs() as outputs:
+            outputs.add("-", b"on stdout\n")
+            outputs.add(first, NEW.encode())
+            outputs.add(tmp_path / "missing" / "fit.png", b"\x89PNG")
+            outputs.commit()
+    assert raised.value.filename == str(tmp_path / "missing" / "fit.png")
+    assert first.read_text() == OLD
+    assert os.listdir(tmp_path) == ["result.json"]  # its temporary removed
+    assert capfdbinary.readouterr().out == b""
+
+
+def test_outputs_left_without_commit_write_nothing(tmp_path):
+    with outfile.Outputs() as outputs:
+        outputs.add(tmp_path / "result.json", b"x")
+    assert os.listdir(tmp_path) == []
+
+
+def test_outputs_a_failing_rename_puts_the_files_renamed_before_it_back(tmp_path, monkeypatch):
+    earlier, new, third = tmp_path / "corrected.csv", tmp_path / "new.json", tmp_path / "result.json"
+    earlier.write_text(OLD)
+    third.write_text("third, earlier\n")
+    real_replace = os.replace
+
+    def replace(source, target):
+        if os.fspath(target) == str(third) and ".tmp" in os.fspath(source):
+            raise OSError(28, "No space left on device")
+        return real_replace(source, target)
+
+    monkeypatch.setattr(outfile.os, "replace", replace)
+    with outfile.Outputs() as outputs:
+        outputs.add(earlier, b"corrected, new\n")
+        outputs.add(new, b"new\n")
+        outputs.add(third, b"third, new\n")
+        with pytest.raises(OSError, match="No space left") as raised:
+            outputs.commit()
+    assert raised.value.filename == str(third)
+    assert earlier.read_text() == OLD  # renamed, then put back
+    assert not new.exists()  # made, then removed
+    assert third.read_text() == "third, earlier\n"
+    assert sorted(os.listdir(tmp_path)) == ["corrected.csv", "result.json"]  # no temporary, no kept copy
+
+
+def test_outputs_a_failing_stream_replaces_no_file(tmp_path):
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full")
+    earlier = tmp_path / "corrected.csv"
+    earlier.write_text(OLD)
+    with outfile.Outputs() as outputs:
+        outputs.add(earlier, b"corrected, new\n")
+        outputs.add("/dev/full", b"record\n")
+        with pytest.raises(OSError, match="No space left") as raised:
+            outputs.commit()
+    assert raised.value.filename == "/dev/full"
+    assert earlier.read_text() == OLD
+    assert os.listdir(tmp_path) == ["corrected.csv"]
+
+
+def test_write_bytes_to_a_fifo_without_a_reader_is_refused_at_once(tmp_path):
+    import subprocess
+    import sys
+
+    fifo = tmp_path / "nobody.reads"
+    os.mkfifo(fifo)
+    # in a process of its own: without the check, the open blocks forever (the timeout fails the test)
+    code = ("import sys\nfrom holecli.io import outfile\n"
+            "try:\n    outfile.write_bytes(sys.argv[1], b'record')\n"
+            "except OSError as error:\n    print(error.errno, error.strerror, error.filename)\n")
+    result = subprocess.run([sys.executable, "-c", code, str(fifo)], capture_output=True, text=True, timeout=60,
+                            env=dict(os.environ, PYTHONPATH=os.path.dirname(os.path.dirname(os.path.dirname(
+                                os.path.abspath(__file__))))))
+    import errno
+
+    assert result.stdout.split(" ", 1)[0] == str(errno.ENXIO), result.stderr
+    assert "no process reads" in result.stdout and str(fifo) in result.stdout
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    assert os.listdir(tmp_path) == ["nobody.reads"]
