@@ -145,15 +145,20 @@ def read_las(name: str, data_head: bytes) -> np.ndarray:
     with _quiet(), open(name, "rb") as stream:
         layout = _read_layout(stream, os.fstat(stream.fileno()).st_size)
         _check_scales(layout)
+        backend = None
         if layout.compressed:
-            if not laspy.LazBackend.detect_available():
+            backends = laspy.LazBackend.detect_available()
+            if not backends:
                 raise _need_extra(extension, "las")
+            # lazrs's parallel decompressor allocates a buffer of a chunk's points first: one flipped byte of the
+            # chunk size asked for 64 GB and aborted the process. The sequential one decompresses point by point.
+            backend = laspy.LazBackend.Lazrs if laspy.LazBackend.Lazrs in backends else backends[0]
             _check_compressed_points(stream, layout)
         else:
             _check_uncompressed_points(layout)
         stream.seek(0)
         try:
-            reader = laspy.LasReader(stream, closefd=False)
+            reader = laspy.LasReader(stream, closefd=False, laz_backend=backend)
         except laspy.errors.LaspyException as exc:
             raise _BadFile(f"malformed LAS header ({_describe(exc)})") from None
         except BaseException as exc:  # noqa: BLE001 - a panic of lazrs is a BaseException
