@@ -696,7 +696,7 @@ def _las_verdicts(folder):
     original = _read(folder / mutants[0][0])
     failures = []
     for name, description, expect, row in mutants[1:]:
-        print(description, file=sys.stderr, flush=True)  # the last line names a mutant that killed the process
+        print("mutant:", description, file=sys.stderr, flush=True)  # the last line names a mutant that killed the process
         mutant = Mutant(description, b"", Expect(expect), None if row == "-" else int(row))
         problem = _verdict(mutant, folder / name, original)
         if problem:
@@ -726,7 +726,7 @@ def test_damaged_las_files_are_refused_or_read_unchanged(tmp_path, name):
     except subprocess.TimeoutExpired as exc:
         last = (exc.stderr or b"").decode(errors="replace").strip().splitlines()[-1:]
         pytest.fail(f"{name}: reading the mutants did not end within 120 s (last: {last})")
-    last = run.stderr.strip().splitlines()[-1:] if run.stderr.strip() else []
+    last = [line for line in run.stderr.splitlines() if line.startswith("mutant:")][-1:]
     assert run.returncode == 0, f"{name}: the reading process died (exit {run.returncode}) at mutant {last}"
     failures = [line for line in run.stdout.splitlines() if line]
     assert not failures, f"{len(failures)} of {len(lines) - 1} mutants of {name}:\n" + "\n".join(failures)
