@@ -22,8 +22,11 @@ The seeds are fixed, so a failure names a mutant that can be made again.
 """
 
 import enum
+import os
 import re
 import struct
+import subprocess
+import sys
 import tempfile
 import warnings
 import zlib
@@ -712,3 +715,150 @@ def test_damaged_and_lying_e57_files_are_refused_or_read_unchanged(tmp_path, nam
             failures.append(f"{mutant.description} [{mutant.expect.value}]: {problem}")
     assert not failures, f"{len(failures)} mutants of {name}:\n" + "\n".join(failures)
     assert capfd.readouterr().err == ""  # nothing of libE57 on the console
+
+
+# --- LAS and LAZ ----------------------------------------------------------------------------------
+# LAS has no checksum: a damaged byte of a point's x, y or z is a changed row (ROW), unless it leaves the
+# header's bounds. Everything else must be refused or change nothing (SAME): cuts, inserted and removed
+# bytes, the header's and the VLRs' bytes (but the scales' and offsets' low bytes: ROW, every row), and
+# hand edits of the header that keep it consistent (every count, the points by return, the point
+# offset, the VLR and EVLR counts, the LAZ chunk table's offset): REFUSE. LAZ mutants could make
+# lazrs abort the process: each source's mutants are read in a child process.
+
+LAS_SOURCES = ("las12_format3.las", "las14_format6_evlr.las", "laz12_format3.laz", "laz14_format6_evlr.laz",
+               "real:laspy_simple.copc.laz")
+LAS_REAL = Path(__file__).resolve().parents[1] / "data" / "las"
+
+
+def _las_source(name):
+    if name.startswith("real:"):
+        return (LAS_REAL / name[5:]).read_bytes()
+    import laspy
+    from laspy.vlrs.vlrlist import VLRList
+
+    version, point_format = ("1.4", 6) if "14" in name else ("1.2", 3)
+    points = load_points(SAMPLES / "table1.ply")[:700]
+    header = laspy.LasHeader(point_format=point_format, version=version)
+    header.scales, header.offsets = [0.0001] * 3, np.floor(points.min(axis=0))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = points.T
+    las.return_number[:], las.number_of_returns[:] = 1, 1
+    las.vlrs.append(laspy.VLR(user_id="holecli", record_id=1, description="fuzz", record_data=b"v" * 30))
+    if "evlr" in name:
+        las.evlrs = VLRList([laspy.VLR(user_id="holecli", record_id=2, description="fuzz", record_data=b"e" * 80)])
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / name
+        las.write(str(path))
+        return path.read_bytes()
+
+
+def _las_mutants(content, compressed):
+    rng = np.random.default_rng([SEED, len(content)])
+    header_size, offset, vlrs = struct.unpack_from("<HII", content, 94)
+    record = struct.unpack_from("<H", content, 105)[0]
+    minor = content[25]
+    count = struct.unpack_from("<Q", content, 247)[0] if minor >= 4 else struct.unpack_from("<I", content, 107)[0]
+    data_end = offset + count * record
+    mutants = []
+
+    def edited(description, expect, *edits):
+        data = bytearray(content)
+        for where, fmt, value in edits:
+            struct.pack_into(fmt, data, where, value)
+        mutants.append(Mutant(description, bytes(data), expect))
+
+    def expectation(position):
+        if 131 <= position < 179:
+            return Expect.ROW, None  # a scale's or an offset's bytes: every row may change, never their number
+        if compressed and offset + 8 <= position:
+            return Expect.ROW, None  # compressed points, the chunk table, the EVLRs: only the number is sure
+        if not compressed and offset <= position < data_end:
+            row, within = divmod(position - offset, record)
+            return (Expect.ROW, row) if within < 12 else (Expect.SAME, None)
+        return Expect.SAME, None
+
+    cuts = [4, 100, header_size - 1, offset - 1, offset + 5, (offset + len(content)) // 2, len(content) - 1]
+    mutants += [Mutant(f"cut at {cut}", content[:cut], Expect.REFUSE) for cut in cuts]
+    positions = list(range(94, min(offset + 8, 400))) + rng.integers(offset, len(content), size=40).tolist()
+    for position in positions:
+        mutants.append(_flip(content, position, rng, expectation(position)))
+    for position in rng.integers(4, len(content), size=8).tolist():
+        mutants.append(Mutant(f"insert at {position}", content[:position] + b"\x07" + content[position:], Expect.SAME))
+        mutants.append(Mutant(f"remove byte {position}", content[:position] + content[position + 1 :], Expect.SAME))
+    evlrs = minor >= 4 and struct.unpack_from("<I", content, 243)[0]
+    for tail in (b"\0", rng.bytes(int(rng.integers(1, 200)))):
+        # After the points of an uncompressed file without EVLRs: refused; after EVLRs or a chunk table: not points.
+        expect = Expect.SAME if compressed or evlrs else Expect.REFUSE
+        mutants.append(Mutant(f"append {len(tail)} bytes", content + tail, expect))
+    # Hand edits that lie consistently.
+    by_return = [(111 + 4 * i, "<I", 0) for i in range(5)]
+    if minor >= 4:
+        by_return += [(255 + 8 * i, "<Q", 0) for i in range(15)]
+    for label, new in _changed_counts(count):
+        counts = [(247, "<Q", new)] + ([(107, "<I", new)] if content[107:111] != b"\0\0\0\0" else []) if minor >= 4 \
+            else [(107, "<I", new)]
+        edited(f"count {label} (only)", Expect.REFUSE, *counts)
+        # A LAZ of point formats 0 to 5 stores no count per chunk: a count changed within the last chunk, with
+        # its points by return, shows only when the bounds do (documented); one that changes the number of
+        # chunks is refused by the chunk table.
+        chunks_changed = -(-new // 50_000) != -(-count // 50_000)
+        if not compressed or content[104] & 0x3F >= 6 or chunks_changed:
+            edited(f"count {label} with its points by return", Expect.REFUSE, *counts, *by_return)
+    for shift in (1, -1, 8):
+        edited(f"point offset {shift:+d}", Expect.REFUSE, (96, "<I", offset + shift))
+    edited("VLR count +1", Expect.REFUSE, (100, "<I", vlrs + 1))
+    edited("VLR count 2**31", Expect.REFUSE, (100, "<I", 1 << 31))
+    if minor >= 4 and struct.unpack_from("<I", content, 243)[0]:
+        evlr_start = struct.unpack_from("<Q", content, 235)[0]
+        edited("EVLR count +1", Expect.REFUSE, (243, "<I", struct.unpack_from("<I", content, 243)[0] + 1))
+        for shift in (1, -1):
+            edited(f"EVLR start {shift:+d}", Expect.REFUSE, (235, "<Q", evlr_start + shift))
+    if compressed:
+        table = struct.unpack_from("<q", content, offset)[0]
+        for label, value in (("+1", table + 1), ("-1", table - 1), ("bit 40", table ^ (1 << 40)),
+                             ("bit 12", table ^ (1 << 12)), ("into the points", offset + 20)):
+            edited(f"chunk table offset {label}", Expect.REFUSE, (offset, "<q", value))
+    return mutants
+
+
+def _las_verdicts(folder):
+    """Run in a child process: read every mutant of the folder, return the failures."""
+    folder = Path(folder)
+    mutants = [line.split("\t") for line in (folder / "manifest").read_text().splitlines()]
+    original = _read(folder / mutants[0][0])
+    failures = []
+    for name, description, expect, row in mutants[1:]:
+        print("mutant:", description, file=sys.stderr, flush=True)  # the last line names a mutant that killed the process
+        mutant = Mutant(description, b"", Expect(expect), None if row == "-" else int(row))
+        problem = _verdict(mutant, folder / name, original)
+        if problem:
+            failures.append(f"{description} [{expect}]: {problem}")
+    return failures
+
+
+@pytest.mark.parametrize("name", LAS_SOURCES)
+def test_damaged_las_files_are_refused_or_read_unchanged(tmp_path, name):
+    pytest.importorskip("laspy")
+    content = _las_source(name)
+    extension = Path(name).suffix
+    lines = [f"original{extension}\t\tsame\t-"]
+    (tmp_path / f"original{extension}").write_bytes(content)
+    for number, mutant in enumerate(_las_mutants(content, extension == ".laz")):
+        (tmp_path / f"m{number}{extension}").write_bytes(mutant.content)
+        row = "-" if mutant.row is None else str(mutant.row)
+        lines.append(f"m{number}{extension}\t{mutant.description}\t{mutant.expect.value}\t{row}")
+    (tmp_path / "manifest").write_text("\n".join(lines) + "\n")
+    code = ("import resource, sys; resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30)); "
+            f"sys.path.insert(0, {str(Path(__file__).parent)!r}); import test_io_fuzz; "
+            "print('\\n'.join(test_io_fuzz._las_verdicts(sys.argv[1])))")
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[2]))
+    try:
+        run = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True, text=True, env=env,
+                             timeout=120)
+    except subprocess.TimeoutExpired as exc:
+        last = (exc.stderr or b"").decode(errors="replace").strip().splitlines()[-1:]
+        pytest.fail(f"{name}: reading the mutants did not end within 120 s (last: {last})")
+    last = [line for line in run.stderr.splitlines() if line.startswith("mutant:")][-1:]
+    assert run.returncode == 0, f"{name}: the reading process died (exit {run.returncode}) at mutant {last}"
+    failures = [line for line in run.stdout.splitlines() if line]
+    assert not failures, f"{len(failures)} of {len(lines) - 1} mutants of {name}:\n" + "\n".join(failures)
