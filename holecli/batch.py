@@ -849,7 +849,10 @@ class BatchOutput:
         if kind == "stream":
             if resume:
                 raise ResumeError(f"{path}: cannot resume: not a regular file")
-            self._descriptor = os.open(path, os.O_WRONLY | os.O_CLOEXEC)
+            from holecli.io.outfile import open_stream
+
+            self._descriptor = open_stream(path)  # a FIFO that no process reads is refused, not waited for
+            os.set_inheritable(self._descriptor, False)
             return
         descriptor = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666)
         try:

@@ -38,7 +38,7 @@ import stat
 import sys
 import time
 
-__all__ = ["STDOUT", "Outputs", "destination", "write_bytes", "write_bytes_atomic", "write_text", "write_text_atomic"]
+__all__ = ["STDOUT", "Outputs", "destination", "open_stream", "write_bytes", "write_bytes_atomic", "write_text", "write_text_atomic"]
 
 # The path that means standard output.
 STDOUT = "-"
@@ -162,7 +162,7 @@ class Outputs:
             if kind == "file":
                 self._files.append((path, _stage(target, payload), target))
             else:
-                self._streams.append((path, _open_stream(target), payload))
+                self._streams.append((path, open_stream(target), payload))
         except OSError as error:
             raise _named(error, path) from None
 
@@ -399,7 +399,7 @@ def _write_stdout(payload):
     sys.stdout.flush()
 
 
-def _open_stream(path):
+def open_stream(path):
     """Open a character device or FIFO for writing, as it is (no O_CREAT, no O_TRUNC: never made or
     emptied) and without waiting: a FIFO that no process reads is refused (ENXIO)."""
     try:

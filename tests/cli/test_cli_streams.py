@@ -376,14 +376,31 @@ def test_batch_stopped_by_a_broken_pipe_is_resumable(holecli_process, quick_fold
 def test_batch_output_fifo_whose_reader_goes_away_exits_141(holecli_process, quick_folder, tmp_path):
     fifo = tmp_path / "records"
     os.mkfifo(fifo)
+    # the read end is open before batch starts (a FIFO without a reader is refused, not waited for),
+    # and a writer of the test's own holds it until batch writes (a FIFO without a writer reads as ended)
+    descriptor = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)
+    holder = os.open(fifo, os.O_WRONLY)
+    os.set_blocking(descriptor, True)
     batch = holecli_process("batch", quick_folder, "-j", "1", "-o", fifo, start=True)
-    with open(fifo) as reader:
+    with os.fdopen(descriptor) as reader:
         first = reader.readline()
+        os.close(holder)
     stdout, stderr = batch.communicate(timeout=120)
     assert json.loads(first)["holes"]
     assert stdout == ""
     _assert_quiet_broken_pipe(batch.returncode, stderr, name=str(fifo))
     assert os.listdir(tmp_path) == ["records"]
+
+
+def test_batch_output_fifo_without_a_reader_is_refused_not_waited_for(holecli_process, quick_folder, tmp_path):
+    fifo = tmp_path / "records"
+    os.mkfifo(fifo)
+    # without the non-blocking open this never ends: the timeout fails the test
+    batch = holecli_process("batch", quick_folder, "-j", "1", "-o", fifo, timeout=90)
+    assert batch.returncode == 3, batch.stderr
+    assert batch.stderr.startswith("Error: ") and len(batch.stderr.strip().splitlines()) == 1, batch.stderr
+    assert str(fifo) in batch.stderr and "no process reads" in batch.stderr
+    assert batch.stdout == ""
 
 
 # --- the copy of stdin leaves nothing behind, even when killed (issue 23, item 7) ------------------
