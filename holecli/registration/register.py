@@ -12,9 +12,10 @@ Steps
    some named and some not, the named holes are fitted first and, when they fix every degree of
    freedom, the others pair by nearness after that fit. One or two unnamed holes cannot be matched.
 2. Normals. A measured normal has no sign of its own (holecli orients it to z > 0, see
-   :mod:`holecli.results`) and a spec's normal may have either sign. With three or more matched holes
-   not on one line, a centers-only Kabsch gives a first rotation and every measured normal is turned
-   to agree with its rotated nominal normal. With one or two (or collinear) holes the normals are
+   :mod:`holecli.results`) and a spec's normal may have either sign (hole by hole: not every one
+   reversed, see the notes below). With three or more matched holes not on one line, a centers-only
+   Kabsch gives a first rotation and every measured normal is turned to agree with its rotated
+   nominal normal. With one or two (or collinear) holes the normals are
    taken as they are: the spec's normals must then point out of the material and each scan be taken
    from outside (holecli's measured normals point to +z, toward a sensor above the part).
    When a distance match finds several equally good pairings (a symmetric layout), the one kept is

@@ -261,3 +261,16 @@ def test_symmetric_layout_by_distances_keeps_the_normals(seed):
     assert result.ambiguous and any(code == "ambiguous_match" for code, _ in result.warnings)
     assert not any(hole.normal_flipped for hole in result.holes)
     assert np.allclose(result.transform.apply_directions(UP), truth.apply_directions(UP), atol=1e-5)
+
+
+def test_layout_symmetric_only_by_a_mirror_is_not_ambiguous():
+    # An isosceles trapezoid maps onto itself only by a turn-over: the normals settle it (it was reported
+    # ambiguous, and half of the time turned over).
+    trapezoid = np.array([[0.0, 0.0, 0.0], [100.0, 0.0, 0.0], [75.0, 40.0, 0.0], [25.0, 40.0, 0.0]])
+    for scans in (trapezoid, trapezoid[[1, 0, 3, 2]]):
+        measured = _holes(TRUTH.apply_points(scans), TRUTH.apply_directions(np.tile(UP, (4, 1))), sigma=None)
+        result = register(measured, _spec(PLATE_NAMES, trapezoid, [UP] * 4))
+        assert not result.ambiguous and not any(code == "ambiguous_match" for code, _ in result.warnings)
+        assert [hole.name for hole in result.holes] == [PLATE_NAMES[i] for i in ((0, 1, 2, 3) if scans is trapezoid
+                                                                                else (1, 0, 3, 2))]
+        assert _rotation_error_deg(result.transform, TRUTH) < 1e-9
