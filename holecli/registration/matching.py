@@ -16,7 +16,11 @@ distinct equally good pairings in ``alternatives``. Holes in one plane are alway
 ambiguous in this sense when the part may be turned over: the mirror image of a planar layout is the
 layout turned half a turn about an axis in its plane, a proper rotation. Only the normals (which the
 turned-over part shows reversed) or names resolve that; pass names, or check the fit's normal
-residuals afterwards.
+residuals afterwards. The distances alone cannot: :attr:`HoleMatch.tied` lists the equally good
+pairings (a square's four turns in its plane *and* its four turned-over poses) for the caller to choose
+among by the normals, and a layout matched against its own mirror image is paired (by a turn-over)
+without any tie. :func:`holecli.registration.register` does both: it prefers the tied pairing that
+keeps the measured normals' signs, and refuses a fit that reverses every one of them.
 """
 
 from __future__ import annotations
@@ -66,6 +70,10 @@ class HoleMatch:
         Another, different pairing of as many holes fits about as well (see the module's notes).
     alternatives : int
         Number of distinct equally good pairings found (1 when unambiguous).
+    tied : tuple of tuple
+        The equally good pairings of a distance match, each a sorted tuple of ``(measured, nominal)``
+        pairs, the best fitting (``pairs``) first; ``(pairs,)`` when unambiguous, empty for the other
+        methods. A caller that knows more (the normals' signs) chooses among them: see the module's notes.
     """
 
     pairs: list
@@ -75,6 +83,7 @@ class HoleMatch:
     rms: float
     ambiguous: bool = False
     alternatives: int = 1
+    tied: tuple = ()
 
 
 def _as_points(values, name):
@@ -92,7 +101,7 @@ def _assign(mapped, nominal, tolerance):
     return list(zip(rows[keep].tolist(), cols[keep].tolist())), distances[rows[keep], cols[keep]]
 
 
-def _result(pairs, count_measured, count_nominal, method, rms, ambiguous=False, alternatives=1):
+def _result(pairs, count_measured, count_nominal, method, rms, ambiguous=False, alternatives=1, tied=()):
     pairs = sorted(pairs)
     used_m = {m for m, _ in pairs}
     used_n = {n for _, n in pairs}
@@ -104,6 +113,7 @@ def _result(pairs, count_measured, count_nominal, method, rms, ambiguous=False, 
         rms=float(rms),
         ambiguous=ambiguous,
         alternatives=alternatives,
+        tied=tuple(tied),
     )
 
 
@@ -155,13 +165,11 @@ def _match_by_distances(nominal, measured, tolerance):
         return None
     best = max(candidates, key=lambda key: (len(key), -candidates[key]))
     best_rms = candidates[best]
-    ties = [
-        key
-        for key in candidates
-        if len(key) == len(best)
-        and candidates[key] <= TIE_FACTOR * best_rms + TIE_FRACTION * tolerance
-    ]
-    return best, best_rms, len(ties)
+    ties = sorted(
+        (key for key in candidates
+         if len(key) == len(best) and candidates[key] <= TIE_FACTOR * best_rms + TIE_FRACTION * tolerance),
+        key=lambda key: (key != best, candidates[key]))
+    return best, best_rms, ties
 
 
 def match_holes(
@@ -245,7 +253,8 @@ def match_holes(
     if found is None:
         return _result([], count_m, count_n, "distances", np.nan)
     pairs, rms, ties = found
-    return _result(list(pairs), count_m, count_n, "distances", rms, ambiguous=ties > 1, alternatives=ties)
+    return _result(list(pairs), count_m, count_n, "distances", rms, ambiguous=len(ties) > 1,
+                   alternatives=len(ties), tied=ties)
 
 
 @dataclass(frozen=True, eq=False)

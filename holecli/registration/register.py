@@ -12,11 +12,15 @@ Steps
    some named and some not, the named holes are fitted first and, when they fix every degree of
    freedom, the others pair by nearness after that fit. One or two unnamed holes cannot be matched.
 2. Normals. A measured normal has no sign of its own (holecli orients it to z > 0, see
-   :mod:`holecli.results`) and a spec's normal may have either sign. With three or more matched holes
-   not on one line, a centers-only Kabsch gives a first rotation and every measured normal is turned
-   to agree with its rotated nominal normal. With one or two (or collinear) holes the normals are
+   :mod:`holecli.results`) and a spec's normal may have either sign (hole by hole: not every one
+   reversed, see the notes below). With three or more matched holes not on one line, a centers-only
+   Kabsch gives a first rotation and every measured normal is turned to agree with its rotated
+   nominal normal. With one or two (or collinear) holes the normals are
    taken as they are: the spec's normals must then point out of the material and each scan be taken
    from outside (holecli's measured normals point to +z, toward a sensor above the part).
+   When a distance match finds several equally good pairings (a symmetric layout), the one kept is
+   one whose centers-only rotation reverses the fewest *trusted* measured normals (below): a square's
+   turned-over poses fit its centers exactly as well as its turns in the plane.
 3. Fit. :func:`holecli.registration.fit_rigid` on centers and normals, weighted by the holes' own
    standard uncertainties (``uncertainty.center_in_plane``, ``center_along_normal``, ``normal_deg``)
    when every matched hole has them (floored, see :data:`SIGMA_FLOOR_FRACTION` and
@@ -28,6 +32,29 @@ Steps
    residual or an along-normal residual (absolute) above ``max_residual``, or when an outlier was
    named (a misplaced reference hole is a finding, even though the frame was fitted without it);
    ``pass`` otherwise. Without ``max_residual`` the verdict is None.
+
+Turned over or mirrored: refused
+--------------------------------
+A planar layout's mirror image is the layout turned half a turn about an axis in its plane, a proper
+rotation (see :mod:`holecli.registration.matching`): a part loaded upside down, or a spec whose layout
+is the part's mirror image (a drawing read from the wrong side, x -> -x), matches and fits its centers
+as well as the right one, and step 2 then turns every measured normal round to agree. Only the
+normals' signs tell: after such a fit each measured normal, as measured, points *against* the part's
+normal mapped by the fit. A measured normal's sign is only a convention, z > 0 in the measuring frame
+(:mod:`holecli.results`): it means "toward a sensor above", out of the material, when the normal is at
+least :data:`TRUSTED_NORMAL_MIN_Z` out of the measuring xy plane; nearer the horizontal (a wall, which
+a sensor may see from either side) it means nothing and is not counted. **Check
+``normals_reversed``:** when every used hole with a trusted normal (at least one) has its measured
+normal more than 90 degrees from the mapped spec normal, :func:`register` raises
+:class:`RegistrationError` instead of returning a transform that turns the part over. It is refused
+rather than warned about because the transform is then wrong in a way no residual shows (the fit is
+exact) and the corrected targets would point into the part; the same data also arise from a spec whose
+normals point into the material, or scans taken from below, which the message names: registration
+needs the spec's normals to point out of the material, toward the sensor. Holes whose trusted normals
+disagree among themselves (some reversed, some not) are not refused: that is a spec with mixed signs,
+which step 2 allows. Two holes with parallel normals (or holes on one line) are their own mirror
+image: a mirrored layout is then not detectable, and the fit takes the measured normals' signs as
+they are.
 """
 
 from __future__ import annotations
@@ -50,6 +77,10 @@ DEFAULT_OUTLIER_FACTOR = 5.0
 SIGMA_FLOOR_FRACTION = 0.01
 # Likewise for the normals' angular sigma, degrees.
 NORMAL_SIGMA_FLOOR_DEG = 1e-4
+# A measured normal's sign (z > 0, toward a sensor above) is trusted when its z component is at least
+# this (30 degrees out of the measuring xy plane); a near-horizontal normal (a wall) may face a sensor
+# on either side, so its sign says nothing about which way the part lies.
+TRUSTED_NORMAL_MIN_Z = 0.5
 SCHEMA_VERSION = 1
 
 
@@ -310,6 +341,48 @@ def _orient(nominal_centers, nominal_normals, measured_centers, measured_normals
     return np.where(flipped[:, None], -measured_normals, measured_normals), flipped
 
 
+def _trusted(measured_normals):
+    """Which measured normals' signs mean "toward a sensor above" (module notes)."""
+    return np.abs(measured_normals[:, 2]) >= TRUSTED_NORMAL_MIN_Z
+
+
+def _reversed(rotation, nominal_normals, measured_normals):
+    """Which measured normals point against their nominal normals turned by ``rotation`` (> 90 degrees)."""
+    return np.sum((nominal_normals @ rotation.T) * measured_normals, axis=1) < 0
+
+
+def _reversed_trusted(pairs, nominal_centers, nominal_normals, measured_centers, measured_normals):
+    """How many trusted measured normals a pairing's centers-only rotation reverses (0 when it cannot tell)."""
+    m_idx = [m for m, _ in pairs]
+    n_idx = [n for _, n in pairs]
+    if not _spread_enough(nominal_centers[n_idx]):
+        return 0
+    rotation, _ = kabsch_points(nominal_centers[n_idx], measured_centers[m_idx])
+    normals = measured_normals[m_idx]
+    return int(np.sum(_reversed(rotation, nominal_normals[n_idx], normals) & _trusted(normals)))
+
+
+def _check_not_turned_over(names, nominal_normals, measured_normals, transform):
+    """Check ``normals_reversed`` (module notes): refuse a fit that reverses every trusted measured normal.
+
+    ``measured_normals`` are as measured (before :func:`_orient`), the used holes' only.
+    """
+    trusted = _trusted(measured_normals)
+    if not trusted.any():
+        return
+    against = _reversed(transform.rotation, nominal_normals, measured_normals)
+    if not np.all(against[trusted]):
+        return
+    mapped = transform.apply_directions(nominal_normals[trusted])
+    angles = np.degrees(np.arccos(np.clip(np.sum(mapped * measured_normals[trusted], axis=1), -1.0, 1.0)))
+    listed = ", ".join(f"{name} {angle:.1f} deg" for name, angle in zip(np.asarray(names)[trusted], angles))
+    raise RegistrationError(
+        f"normals_reversed: every measured normal points against its spec normal after the fit ({listed}): "
+        "the part is turned over, or the spec's layout is its mirror image (a drawing read from the wrong side); "
+        "else the spec's normals point into the material or the scans look up from below (registration needs "
+        "spec normals out of the material, toward the sensor: holecli's measured normals point to +z)")
+
+
 def _match(nominal_names, nominal_centers, nominal_normals, measured_centers, measured_normals, measured_names):
     """(pairs, method, ambiguous): see the module's step 1."""
     count = len(measured_centers)
@@ -335,7 +408,16 @@ def _match(nominal_names, nominal_centers, nominal_normals, measured_centers, me
                 f"{count} unnamed measured hole{'s' if count != 1 else ''} cannot be matched by their mutual "
                 "distances (that needs 3 or more): name each scan after its hole (file stem or --name SCAN=HOLE)")
         found = match_holes(nominal_names, nominal_centers, measured_centers)
-        return found.pairs, "distances", found.ambiguous
+        if len(found.tied) < 2:
+            return found.pairs, "distances", found.ambiguous
+        # A symmetric layout: the distances tie between turns in the plane and turned-over poses. Keep a
+        # pairing that reverses the fewest trusted measured normals (the module's step 2); it is still
+        # ambiguous when several do as well.
+        reversals = [_reversed_trusted(pairs, nominal_centers, nominal_normals, measured_centers, measured_normals)
+                     for pairs in found.tied]
+        fewest = min(reversals)
+        kept = [pairs for pairs, count in zip(found.tied, reversals) if count == fewest]
+        return list(kept[0]), "distances", len(kept) > 1
     # Some named, some not: the named holes fix the frame, the others pair by nearness after it.
     index = {name: i for i, name in enumerate(nominal_names)}
     named_pairs = [(m, index[name]) for m, name in enumerate(measured_names) if name is not None]
@@ -392,7 +474,8 @@ def register(measured_holes, nominal_spec_holes, measured_names=None, max_residu
     RegistrationError
         (a ValueError) for no measured or no nominal hole, a name not in the spec or given twice, holes
         that cannot be matched (one or two unnamed holes), no hole matched, a matched spec hole
-        without a normal, a bad ``max_residual``.
+        without a normal, a bad ``max_residual``, a fit that turns the part over (every trusted
+        measured normal reversed, the module's check ``normals_reversed``).
     """
     measured_holes = list(measured_holes)
     nominals = list(nominal_spec_holes)
@@ -443,6 +526,8 @@ def register(measured_holes, nominal_spec_holes, measured_names=None, max_residu
     used_sigmas = None if sigmas is None else {key: value[used] for key, value in sigmas.items()}
     fit = fit_rigid(nom_c[used], nom_n[used], mea_c[used], mea_n[used], **(used_sigmas or {}))
     transform = fit.transform
+    _check_not_turned_over([name for name, keep in zip(names, used) if keep], nom_n[used],
+                           measured_normals[m_idx][used], transform)
 
     # every matched hole's, the outliers' too (where the other holes place them)
     residuals = hole_residuals(transform, nom_c, nom_n, mea_c, mea_n)

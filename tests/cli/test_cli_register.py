@@ -301,3 +301,43 @@ def test_targets_output_into_a_fifo_without_a_reader_is_refused_not_waited_for(h
     assert result.stderr.splitlines() == [f"Error: {fifo}: cannot write the corrected targets: a FIFO that no "
                                           "process reads (refused rather than waiting for a reader)"]
     assert output.read_text() == '{"earlier": true}\n'
+
+
+def _mirrored_spec_text(names):
+    """The spec as drawn from the wrong side: every center and normal mirrored x -> -x."""
+    blocks = []
+    for name in names:
+        (x, y, z), (nx, ny, nz) = LAYOUT[name]
+        blocks.append(f'[[hole]]\nname = "{name}"\ncenter = {[-x, y, z]}\nnormal = {[-nx, ny, nz]}\n'
+                      'diameter = 3.0\ntolerance = 0.05\n')
+    return "\n".join(blocks)
+
+
+@pytest.mark.parametrize("by", ["names", "distances"])
+def test_spec_of_the_mirror_image_is_refused_and_nothing_is_replaced(reg, part, tmp_path, by):
+    # Issue 23: the planar holes A1, A2, A4 against their mirror image matched by a turn-over, fitted
+    # exactly with every normal pointing down, exit 0. Now refused (exit 3), the outputs left as they were.
+    spec = tmp_path / "mirrored.toml"
+    spec.write_text(_mirrored_spec_text(["A1", "A2", "A4"]))
+    paths = _paths(part, "A1", "A2", "A4")
+    if by == "distances":
+        paths = []
+        for index, name in enumerate(("A2", "A4", "A1")):
+            paths.append(tmp_path / f"scan{index}.ply")
+            paths[-1].write_bytes((part / f"{name}.ply").read_bytes())
+    out, corrected = tmp_path / "out.json", tmp_path / "corrected.csv"
+    corrected.write_text("previous\n")
+    result = reg(*paths, "--spec", spec, "--max-residual", 0.01, "--targets", part / "targets.csv",
+                 "--targets-output", corrected, "-o", out)
+    _assert_one_line_error(result, "mirrored.toml: cannot register: normals_reversed", "A1 ", "A2 ", "A4 ",
+                           "mirror image")
+    assert not out.exists() and corrected.read_text() == "previous\n"
+    # the same scans against the spec as drawn: unaffected
+    right = tmp_path / "right.toml"
+    right.write_text(_spec_text(["A1", "A2", "A4"]))
+    result = reg(*paths, "--spec", right, "--max-residual", 0.01)
+    assert result.exit_code == cli.EXIT_OK, result.stderr
+    record = json.loads(result.stdout)
+    assert not any(hole["normal_flipped"] for hole in record["holes"])
+    assert _rotation_error_deg(record["transform"]["matrix"]) < 0.01
+    assert "normals_reversed" not in result.stderr

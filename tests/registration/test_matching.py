@@ -83,6 +83,8 @@ def test_square_layout_is_reported_ambiguous():
     match = match_holes(_names(4), square, square + [1.0, 2.0, 3.0])
     assert match.ambiguous and match.alternatives == 8
     assert len(match.pairs) == 4
+    # the eight pairings are given (the best first) for register to choose among by the normals
+    assert len(match.tied) == 8 and len(set(match.tied)) == 8 and list(match.tied[0]) == match.pairs
 
 
 def test_planar_layout_matches_its_mirror_image():
@@ -93,6 +95,8 @@ def test_planar_layout_matches_its_mirror_image():
     mirrored = plate * [-1.0, 1.0, 1.0]
     match = match_holes(_names(5), plate, mirrored)
     assert match.pairs == [(i, i) for i in range(5)] and match.rms < 1e-9
+    # no tie: the turn-over is the only pairing (register's check normals_reversed refuses the fit)
+    assert not match.ambiguous and match.tied == (tuple(match.pairs),)
 
 
 def test_a_3d_layout_does_not_match_its_mirror_image():

@@ -159,3 +159,118 @@ def test_spec_hole_without_normal():
     nominals = [NominalHole(name="A", diameter=3.0, center=(0.0, 0.0, 0.0))]
     with pytest.raises(RegistrationError, match="has no normal"):
         register(_measured(1), nominals, measured_names=["A"])
+
+
+# --- turned over or mirrored (issue 23): the check ``normals_reversed`` -----------------------------------
+
+PLATE = np.array([[0.0, 0.0, 0.0], [120.0, 0.0, 0.0], [95.0, 70.0, 0.0], [10.0, 55.0, 0.0]])
+PLATE_NAMES = ["P1", "P2", "P3", "P4"]
+UP = (0.0, 0.0, 1.0)
+
+
+def _holes(centers, normals, sigma=0.002):
+    u = None if sigma is None else Uncertainty(center_in_plane=sigma, center_along_normal=sigma, diameter=sigma,
+                                               normal_deg=0.05)
+    return [SimpleNamespace(center=tuple(c), normal=tuple(n), uncertainty=u) for c, n in zip(centers, normals)]
+
+
+def _spec(names, centers, normals):
+    return [NominalHole(name=name, diameter=3.0, center=tuple(c), normal=tuple(n))
+            for name, c, n in zip(names, centers, normals)]
+
+
+def _plate_scans(transform=TRUTH, sigma=0.002):
+    """The plate's holes measured under ``transform``, normals as holecli gives them (z > 0)."""
+    normals = transform.apply_directions(np.tile(UP, (len(PLATE), 1)))
+    normals = np.where(normals[:, 2:] < 0, -normals, normals)
+    return _holes(transform.apply_points(PLATE), normals, sigma)
+
+
+@pytest.mark.parametrize("sigma", [0.002, None])
+@pytest.mark.parametrize("names", [PLATE_NAMES, None], ids=["names", "distances"])
+def test_spec_of_the_mirror_image_is_refused(names, sigma):
+    # The drawing read from the wrong side: x -> -x. A planar layout's mirror image is the layout turned
+    # over (a proper rotation), so it matches and fits exactly, with every normal pointing down.
+    mirrored = _spec(PLATE_NAMES, PLATE * [-1.0, 1.0, 1.0], [UP] * 4)
+    with pytest.raises(RegistrationError, match="normals_reversed: every measured normal points against") as error:
+        register(_plate_scans(sigma=sigma), mirrored, measured_names=names, max_residual=0.01)
+    assert "P1 180.0 deg" in str(error.value) and "mirror image" in str(error.value)
+
+
+@pytest.mark.parametrize("names", [PLATE_NAMES, None], ids=["names", "distances"])
+def test_correct_plate_is_unaffected(names):
+    result = register(_plate_scans(), _spec(PLATE_NAMES, PLATE, [UP] * 4), measured_names=names, max_residual=0.01)
+    assert result.verdict == "pass" and not any(hole.normal_flipped for hole in result.holes)
+    assert _rotation_error_deg(result.transform, TRUTH) < 1e-9
+
+
+def test_part_turned_over_is_refused():
+    # The part loaded upside down (turned half a turn about its x axis) and scanned from above: the scans'
+    # normals (z > 0) point out of its underside, against the spec's top-face normals turned by the pose.
+    turned = RigidTransform(TRUTH.rotation @ Rotation.from_euler("x", 180, degrees=True).as_matrix(),
+                            TRUTH.translation)
+    with pytest.raises(RegistrationError, match="normals_reversed"):
+        register(_plate_scans(turned), _spec(PLATE_NAMES, PLATE, [UP] * 4), measured_names=PLATE_NAMES)
+
+
+def test_spec_normals_into_the_material_are_refused_one_reversed_is_not():
+    # Every spec normal reversed (into the material) gives the same data as a turned-over part.
+    with pytest.raises(RegistrationError, match="normals_reversed"):
+        register(_measured(), [NominalHole(name=n.name, diameter=3.0, center=n.center,
+                                           normal=tuple(-np.asarray(n.normal))) for n in _nominals()],
+                 measured_names=NAMES)
+    result = register(_measured(flip=(0, 1, 2, 3)), _nominals(), measured_names=NAMES)
+    assert [hole.normal_flipped for hole in result.holes] == [True, True, True, True, False]
+
+
+def test_two_holes_of_a_spec_read_upside_down_are_refused():
+    # Two holes: the normals are taken as measured. A stepped part (hole B on a boss 60 above A, 20 aside)
+    # whose spec has the heights reversed (z -> -z): the centers fix the pose, which leaves both normals
+    # pointing away from the sensor (about 143 degrees) with zero center residuals.
+    step = np.array([[0.0, 0.0, 0.0], [20.0, 0.0, 60.0]])
+    scans = _holes(TRUTH.apply_points(step), TRUTH.apply_directions(np.tile(UP, (2, 1))))
+    result = register(scans, _spec("AB", step, [UP] * 2), measured_names=["A", "B"], max_residual=0.01)
+    assert result.verdict == "pass" and max(hole.normal_angle_deg for hole in result.holes) < 1e-6
+    with pytest.raises(RegistrationError, match=r"normals_reversed: .*\(A 14\d\.\d deg, B 14\d\.\d deg\)"):
+        register(scans, _spec("AB", step * [1.0, 1.0, -1.0], [UP] * 2), measured_names=["A", "B"], max_residual=0.01)
+
+
+def test_normals_near_the_horizontal_are_not_trusted():
+    # A plate standing on edge (its normal along the measuring x axis): a wall may be scanned from either
+    # side, so its normals' sign (x > 0 by holecli's convention) says nothing; all reversed is not refused.
+    standing = RigidTransform(Rotation.from_euler("y", 90, degrees=True).as_matrix(), TRUTH.translation)
+    normals = -standing.apply_directions(np.tile(UP, (4, 1)))
+    assert np.all(np.abs(normals[:, 2]) < 1e-12)
+    result = register(_holes(standing.apply_points(PLATE), normals), _spec(PLATE_NAMES, PLATE, [UP] * 4),
+                      measured_names=PLATE_NAMES)
+    assert all(hole.normal_flipped for hole in result.holes)
+    assert _rotation_error_deg(result.transform, standing) < 1e-9
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_symmetric_layout_by_distances_keeps_the_normals(seed):
+    # A square's turned-over poses fit its centers exactly as well as its turns in the plane; the match
+    # keeps one that leaves the normals as measured (it once turned the part over for half the seeds).
+    rng = np.random.default_rng(seed)
+    truth = RigidTransform(Rotation.from_euler("xyz", rng.uniform(-10, 10, 3), degrees=True).as_matrix(),
+                           rng.uniform(-100, 100, 3))
+    square = np.array([[0.0, 0.0, 0.0], [50.0, 0.0, 0.0], [50.0, 50.0, 0.0], [0.0, 50.0, 0.0]])
+    scans = _holes(truth.apply_points(square) + 1e-4 * rng.standard_normal((4, 3)),
+                   truth.apply_directions(np.tile(UP, (4, 1))), sigma=None)
+    result = register(scans, _spec(PLATE_NAMES, square, [UP] * 4))
+    assert result.ambiguous and any(code == "ambiguous_match" for code, _ in result.warnings)
+    assert not any(hole.normal_flipped for hole in result.holes)
+    assert np.allclose(result.transform.apply_directions(UP), truth.apply_directions(UP), atol=1e-5)
+
+
+def test_layout_symmetric_only_by_a_mirror_is_not_ambiguous():
+    # An isosceles trapezoid maps onto itself only by a turn-over: the normals settle it (it was reported
+    # ambiguous, and half of the time turned over).
+    trapezoid = np.array([[0.0, 0.0, 0.0], [100.0, 0.0, 0.0], [75.0, 40.0, 0.0], [25.0, 40.0, 0.0]])
+    for scans in (trapezoid, trapezoid[[1, 0, 3, 2]]):
+        measured = _holes(TRUTH.apply_points(scans), TRUTH.apply_directions(np.tile(UP, (4, 1))), sigma=None)
+        result = register(measured, _spec(PLATE_NAMES, trapezoid, [UP] * 4))
+        assert not result.ambiguous and not any(code == "ambiguous_match" for code, _ in result.warnings)
+        assert [hole.name for hole in result.holes] == [PLATE_NAMES[i] for i in ((0, 1, 2, 3) if scans is trapezoid
+                                                                                else (1, 0, 3, 2))]
+        assert _rotation_error_deg(result.transform, TRUTH) < 1e-9
