@@ -65,7 +65,6 @@ import secrets
 import stat
 import struct
 import tempfile
-import time
 from dataclasses import dataclass
 from typing import Optional
 
@@ -279,29 +278,9 @@ def _named_copy(folder, extension):
 
 def _remove_stale_copies(folder):
     """Remove the copies of standard input that killed processes left in ``folder``."""
-    from holecli.io.outfile import _process_exists
+    from holecli.io.outfile import remove_stale
 
-    try:
-        entries = [entry for entry in os.listdir(folder) if entry.startswith(_COPY_PREFIX)]
-    except OSError:
-        return
-    for entry in entries:
-        path = os.path.join(folder, entry)
-        match = _COPY_NAME.fullmatch(entry)
-        if match:
-            stale = not _process_exists(int(match.group(1)))
-        elif _LEGACY_COPY_NAME.fullmatch(entry):
-            try:
-                stale = time.time() - os.lstat(path).st_mtime > _LEGACY_COPY_AGE_S
-            except OSError:
-                stale = False
-        else:
-            continue
-        if stale:
-            try:
-                os.unlink(path)
-            except OSError:
-                pass
+    remove_stale(folder, _COPY_NAME, _LEGACY_COPY_NAME, _LEGACY_COPY_AGE_S)
 
 
 def _copy_stream(stream, copy, max_bytes, name):

@@ -38,7 +38,7 @@ import stat
 import sys
 import time
 
-__all__ = ["STDOUT", "Outputs", "destination", "open_stream", "write_bytes", "write_bytes_atomic", "write_text", "write_text_atomic"]
+__all__ = ["STDOUT", "Outputs", "destination", "open_stream", "remove_stale", "write_bytes", "write_bytes_atomic", "write_text", "write_text_atomic"]
 
 # The path that means standard output.
 STDOUT = "-"
@@ -432,26 +432,47 @@ def _write_all(descriptor, payload):
 
 def _remove_stale_temporaries(folder, name):
     """Remove the temporaries of ``name`` left by writers that were killed."""
-    ours = re.compile(rf"\.{re.escape(name)}\.([0-9]+)\.[0-9a-f]+\.tmp")
-    legacy = re.compile(rf"\.{re.escape(name)}\.[a-z0-9_]{{8}}\.tmp")
+    remove_stale(folder, re.compile(rf"\.{re.escape(name)}\.([0-9]+)\.[0-9a-f]+\.tmp"),
+                 re.compile(rf"\.{re.escape(name)}\.[a-z0-9_]{{8}}\.tmp"), _LEGACY_TEMPORARY_AGE_S)
+
+
+def remove_stale(folder, ours, legacy, legacy_age_s):
+    """Remove the files of ``folder`` that killed holecli processes left behind.
+
+    Parameters
+    ----------
+    folder : str
+        Where to look (a folder that cannot be listed is left alone).
+    ours : re.Pattern
+        The names with the writer's process id as group 1: stale once that process is gone.
+    legacy : re.Pattern
+        The names of older releases, without a process id: stale once ``legacy_age_s`` old.
+    legacy_age_s : float
+        Seconds.
+
+    Returns
+    -------
+    None
+    """
     try:
         entries = os.listdir(folder)
     except OSError:
         return
     for entry in entries:
+        path = os.path.join(folder, entry)
         match = ours.fullmatch(entry)
         if match:
             stale = not _process_exists(int(match.group(1)))
         elif legacy.fullmatch(entry):
             try:
-                stale = time.time() - os.lstat(os.path.join(folder, entry)).st_mtime > _LEGACY_TEMPORARY_AGE_S
+                stale = time.time() - os.lstat(path).st_mtime > legacy_age_s
             except OSError:
                 stale = False
         else:
             continue
         if stale:
             try:
-                os.unlink(os.path.join(folder, entry))
+                os.unlink(path)
             except OSError:
                 pass
 
