@@ -228,6 +228,19 @@ class RobustSettings:
     # bins, each kept with at least this many points (counts).
     cone_depth_bins: int = 8
     cone_min_bin_points: int = 3
+    # A cone must be resolved by the scan: its points clearly below the surface must reach this many
+    # gaps g inside its edge (5th percentile of their radii). The hinge has two unknowns, the edge and
+    # the slope; points within one row of samples of the edge fix only their product's depth there.
+    # That is where an edge's mixed pixels lie (a laser line's width, a spot straddling the rim: one
+    # sample footprint, under a gap), and a hinge through them reads any plain hole as countersunk.
+    # Twice that fringe; real countersinks span 9 gaps and more, a 40 um line's fringe 0.4.
+    cone_min_span_gaps: float = 2.0
+    # --- The fringe of mixed points at a plain hole's edge (holecli.robust.method._edge_fringe) ---
+    # Points off the surface band within edge_fringe_gaps gaps of the edge, and no deeper than
+    # edge_fringe_depth times that reach, are mixed samples of the edge (a footprint across the rim);
+    # their area over the edge's length is the fringe's width, which enters the diameter's u.
+    edge_fringe_gaps: float = 1.0
+    edge_fringe_depth: float = 3.0
     # --- The whole hole below its edge (holecli.robust.hole_shape) ---
     # A point is below the surface when it lies more than shape_below_sigmas surface-noise sigmas
     # under it (the noise of the surface ring around the hole); the points are gathered within
@@ -301,6 +314,9 @@ class RobustSettings:
     # high_fit_rms: the rim fit's rms above this many gaps g: the sampling alone leaves 0.21-0.41 g on
     # the clean scenes; lateral noise of 0.3 h on the Table I grid gives about 0.7.
     doubt_max_fit_rms_gaps: float = 0.6
+    # A fringe of mixed points at the edge mostly hidden in the surface band (its share off the band
+    # this wide, in gaps): where the edge lies in it is not measured (blurred_edge).
+    doubt_max_hidden_fringe_gaps: float = 0.01
 
     def __post_init__(self):
         for name, low, high in _RANGES:
@@ -354,7 +370,8 @@ _RANGES = (
     ("cone_min_slope", 0.0, _INF), ("cone_max_slope", 0.0, _INF), ("cone_min_points_below", 1, 10 ** 9),
     ("cone_below_sigmas", 0.0, _INF), ("cone_inner_widths", 0.0, _INF), ("cone_trim_sigmas", 0.0, _INF),
     ("cone_trim_rounds", 1, 1000), ("cone_edge_steps", 2, 10 ** 6), ("cone_depth_bins", 2, 10 ** 6),
-    ("cone_min_bin_points", 1, 10 ** 9),
+    ("cone_min_bin_points", 1, 10 ** 9), ("cone_min_span_gaps", 0.0, _INF),
+    ("edge_fringe_gaps", 0.0, _INF), ("edge_fringe_depth", 0.0, _INF),
     ("shape_below_sigmas", 0.0, _INF), ("shape_search_radii", 1.0, _INF),
     ("shape_depth_radii", 0.0, _INF), ("shape_min_points", 7, 10 ** 9), ("shape_min_arc_deg", 0.0, 360.0),
     ("shape_axis_min_span", 0.0, _INF), ("shape_trim_sigmas", 0.0, _INF), ("shape_floor_fraction", 0.0, 1.0),
@@ -367,6 +384,7 @@ _RANGES = (
     ("doubt_surface_sigmas", 0.0, _INF), ("doubt_surface_floor_spacings", 0.0, _INF),
     ("doubt_border_radii", 0.0, _INF), ("doubt_max_bias_spacings", 0.0, _INF),
     ("doubt_max_bias_diameter", 0.0, _INF), ("doubt_max_fit_rms_gaps", 0.0, _INF),
+    ("doubt_max_hidden_fringe_gaps", 0.0, _INF),
 )
 _COUNTS = {"cell_index_from_candidates",
            "ransac_sample", "ransac_hypotheses", "sampling_windows", "sampling_window_points", "bias_passes",

@@ -276,7 +276,7 @@ def verbosity_option_decorators(function):
 
 class WarningCodes(click.ParamType):
     """``--fail-on-warning``'s value: ``any`` (every warning), or comma-separated warning codes
-    (README's warnings table), ``doubts`` standing for the seven of :mod:`holecli.robust.doubts`."""
+    (README's warnings table), ``doubts`` standing for the eight of :mod:`holecli.robust.doubts`."""
 
     name = "CODE[,CODE...]|doubts|any"
 
@@ -315,8 +315,8 @@ def fail_on_warning_option(function):
     return click.option(
         "--fail-on-warning", "fail_on_warning", type=WarningCodes(), default=None,
         help="Exit with 7 when a hole has one of these warnings: comma-separated codes (e.g. "
-             "rim_gap,points_inside), doubts (the seven that make a result doubtful: few_rim_points, rim_gap, "
-             "points_inside, surface_not_flat, near_border, large_bias_correction, high_fit_rms) or any (every "
+             "rim_gap,points_inside), doubts (the eight that make a result doubtful: few_rim_points, rim_gap, "
+             "points_inside, surface_not_flat, near_border, large_bias_correction, high_fit_rms, blurred_edge) or any (every "
              "warning, bore_not_seen too); the output is still written. Codes: README, Output, warnings table.")(function)
 
 

@@ -92,6 +92,9 @@ from holecli.cli.options import Decimal, FloatTuple, check_verbosity, read_small
               help="Profiler: fraction of points lost at random.")
 @click.option("--jitter", type=Decimal(min=0), default=0.0, show_default=True,
               help="Profiler: sigma of the robot's position error, per profile.")
+@click.option("--line-width", type=Decimal(min=0), default=0.0, show_default=True,
+              help="Profiler: thickness of the laser line along the travel (e.g. 0.04); each point is the centroid "
+                   "of the light across it, so points whose line straddles an edge are mixed (0: an ideal line).")
 @click.option("--keep-nan", is_flag=True, help="Profiler: a NaN row for every lost point, as profilers write.")
 @click.option("--metres", is_flag=True, help="Profiler: write the points in metres (the part is in mm).")
 @click.option("--float64", is_flag=True,
@@ -114,7 +117,7 @@ from holecli.cli.options import Decimal, FloatTuple, check_verbosity, read_small
 def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pattern, line_pitch, scan_angle, rotation,
              translation, noise_z, noise_normal, inside_points, countersink, countersink_angle, bore_depth, bottom_depth, outliers, ragged,
              nan_points, panel_file, mesh_file, target, standoff, view, line, line_length, scan_length, parallel_rays,
-             triangulation_deg, max_incidence_deg, range_noise, range_quantum, dropout, jitter, keep_nan, metres,
+             triangulation_deg, max_incidence_deg, range_noise, range_quantum, dropout, jitter, line_width, keep_nan, metres,
              float64, cell_dir, cell_holes, displace, seed, truth_path, quiet, verbose):
     """Write a synthetic scan to OUTPUT (.ply, .pcd, .csv, .txt or .xyz) and its ground truth.
 
@@ -199,7 +202,7 @@ def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pat
 
 # The options of simulate that only a profiler scan of a part uses, and those only a synthetic scene uses.
 _PROFILER_OPTIONS = ("target", "standoff", "view", "line", "line_length", "scan_length", "parallel_rays",
-                     "triangulation_deg", "max_incidence_deg", "range_noise", "range_quantum", "dropout", "jitter",
+                     "triangulation_deg", "max_incidence_deg", "range_noise", "range_quantum", "dropout", "jitter", "line_width",
                      "keep_nan", "metres", "float64")
 _SYNTHETIC_OPTIONS = ("diameter", "center", "holes", "no_hole", "extent", "pattern", "scan_angle", "noise_z",
                       "noise_normal", "inside_points", "countersink", "countersink_angle", "bore_depth", "bottom_depth", "outliers",
@@ -463,5 +466,5 @@ def _profiler_spec(p, vertices):
                         line_pitch=p["line_pitch"] or p["spacing"], fan=not p["parallel_rays"],
                         triangulation_deg=p["triangulation_deg"], max_incidence_deg=p["max_incidence_deg"],
                         range_noise=p["range_noise"], range_quantum=p["range_quantum"], dropout=p["dropout"],
-                        jitter=p["jitter"], keep_nan=p["keep_nan"], frame=frame,
+                        jitter=p["jitter"], line_width=p["line_width"], keep_nan=p["keep_nan"], frame=frame,
                         unit_scale=1e-3 if p["metres"] else 1.0, float32=not p["float64"])

@@ -60,7 +60,9 @@ class NotACone:
     hole floor, value and limit as fractions of the fitted slope) or ``"wall_column"`` (a hinge found
     from the least-median start whose points below the surface stand at one radius, a bore's wall:
     value and limit the interquartile range of their radii over the edge's distance to the innermost,
-    :data:`WALL_COLUMN_SPREAD`).
+    :data:`WALL_COLUMN_SPREAD`) or ``"unresolved"`` (the points clearly below the surface reach less
+    than ``cone_min_span_gaps`` gaps inside the edge: the fringe of mixed pixels at a plain hole's
+    rim, not a cone the scan resolves; value and limit in the scan's length unit).
     """
 
     check: str
@@ -197,7 +199,7 @@ def _trimmed_hinge(rho, depth, radius, width, noise, settings, median_start=None
 
 
 def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOPE_RATIO, *,
-                  settings=DEFAULT_SETTINGS):
+                  settings=DEFAULT_SETTINGS, gap=None):
     """Countersink edge from points around a hole, or the reason there is no cone.
 
     Parameters
@@ -219,7 +221,9 @@ def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOP
         Source of the cone's other limits: ``cone_inner_widths`` (the window reaches that many
         ``width`` inside ``radius``), ``cone_below_sigmas``, ``cone_min_points_below``,
         ``cone_trim_sigmas``, ``cone_trim_rounds``, ``cone_edge_steps``, ``cone_min_slope``,
-        ``cone_max_slope``, ``cone_depth_bins`` and ``cone_min_bin_points``.
+        ``cone_max_slope``, ``cone_depth_bins``, ``cone_min_bin_points`` and ``cone_min_span_gaps``.
+    gap : float, optional
+        The scan's gap scale g, for the ``"unresolved"`` check (None: not checked).
 
     Returns
     -------
@@ -254,6 +258,13 @@ def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOP
     low_slope, high_slope = settings.cone_min_slope, settings.cone_max_slope
     if not low_slope <= slope <= high_slope:
         return NotACone("slope", slope, low_slope if slope < low_slope else high_slope)
+    if gap is not None:
+        # Resolved: the points below the surface reach beyond the fringe of mixed pixels at an edge.
+        inner = (depth > clearly_below) & (rho < edge)
+        span = float(edge - np.percentile(rho[inner], 5.0)) if np.any(inner) else 0.0
+        least = settings.cone_min_span_gaps * gap
+        if span < least:
+            return NotACone("unresolved", span, least)
     # The points below the surface inside the edge must deepen toward the center at about the cone's
     # slope. All of them, not only those the hinge kept: a hinge through a floor keeps the few floor
     # points where its line crosses the floor's depth, and noise gives those any slope.

@@ -27,6 +27,8 @@ DOUBT_CODES = {
     "near_border": "the hole is at the scan's border: its surroundings are not all scanned",
     "large_bias_correction": "a large sampling-bias correction of the diameter",
     "high_fit_rms": "the rim points scatter about the circle well beyond what the sampling explains",
+    "blurred_edge": "the edge's points are mixed with what lies below it (a wide laser line) and the surface band "
+                    "hides most of the mix: the edge lies somewhere within it, the diameter's u does not hold that",
 }
 
 
@@ -64,6 +66,9 @@ class Doubts:
         Rms radial residual of the rim fit.
     gap : float
         The gap scale g.
+    hidden_fringe : float
+        Mean radial width of the fringe of mixed points seen off the surface band at the edge when the
+        band hides most of it (``holecli.robust.method._edge_fringe``); 0 otherwise.
     """
 
     rim_points: int
@@ -79,6 +84,7 @@ class Doubts:
     spacing: float
     fit_rms: float
     gap: float
+    hidden_fringe: float = 0.0
 
 
 def _warning(code, detail):
@@ -129,4 +135,8 @@ def doubt_warnings(doubts, settings=DEFAULT_SETTINGS):
     if d.fit_rms > limit:
         out.append(_warning("high_fit_rms", f"rms {d.fit_rms:.3g} > {limit:.3g} = "
                                             f"{s.doubt_max_fit_rms_gaps:g} gaps"))
+    limit = s.doubt_max_hidden_fringe_gaps * d.gap
+    if d.hidden_fringe > limit:
+        out.append(_warning("blurred_edge", f"{d.hidden_fringe:.3g} of mixed points seen off the band > {limit:.3g} = "
+                                            f"{s.doubt_max_hidden_fringe_gaps:g} gaps"))
     return tuple(out)

@@ -117,6 +117,7 @@ class _Measured:
     estimator: str = "rim_fit"    # how the edge was measured: rim_fit, lattice, empty_circle, cone
     synthetic: object = None      # SyntheticErrors of that estimator on synthetic holes (None: none measured)
     cone_covariance: object = None  # (3, 3) covariance of the cone edge's (cx, cy, R) (estimator cone)
+    fringe: tuple = (0.0, 0.0, 0.0)  # the edge's fringe of mixed points: (width, shift, hidden) (_edge_fringe)
     surface_uncertainty: tuple = (None, None)  # of the local plane's height at the hole and of its normal (rad)
 
 
@@ -287,7 +288,8 @@ def _countersink(scene, center, radius, settings):
         xy, depth = _points_around_edge(scene, center, radius, width, settings)
         rho = np.hypot(xy[:, 0] - center[0], xy[:, 1] - center[1])
         found = fit_cone_edge(rho, depth, radius, width, scene.height_noise,
-                              depth_slope_ratio=settings.cone_depth_slope_ratio, settings=settings)
+                              depth_slope_ratio=settings.cone_depth_slope_ratio, settings=settings,
+                              gap=scene.sampling.gap)
         if not isinstance(found, Cone):
             return found if cone is None else cone
         cone = found
@@ -609,8 +611,52 @@ def _measure_void(scene, grid, void, settings):
         bias, synthetic = _sampling_bias(scene, center, radius, settings, floor, partial)
     if radius - bias < scene.min_radius:
         return reject("below_min_diameter", 2.0 * (radius - bias), 2.0 * scene.min_radius, center, radius - bias)
+    # The band's edge lies inside the fringe of mixed points a wide laser line leaves at the rim:
+    # moved to the fringe's middle, the true edge's place (_edge_fringe).
+    fringe = _edge_fringe(scene, center, radius - bias, arc, settings)
+    bias += fringe[1]
     return _Measured(center=center, radius=radius - bias, bias=bias, fit=fit, rim_xy=rim_xy[used],
-                     partial=partial, arc_deg=arc, estimator=estimator, synthetic=synthetic)
+                     partial=partial, arc_deg=arc, estimator=estimator, synthetic=synthetic, fringe=fringe)
+
+
+def _edge_fringe(scene, center, radius, arc_deg, settings):
+    """The fringe of mixed points along a plain hole's edge: ``(width, shift, hidden)``, its mean radial
+    width, how far the edge measured on the surface band lies outside the true edge (both 0: a sharp
+    edge), and the width of a fringe seen but mostly hidden in the band (then width and shift are 0:
+    the band holds the part that decides where the edge falls, the caller warns).
+
+    A sample whose footprint straddles the edge (a laser line of finite width: the sensor reads the
+    centroid of the light it sees) is mixed: the part of the footprint on the surface moves the
+    centroid, and the triangulated point stands off the surface, by nothing when the footprint lies
+    wholly on the surface up to the most when only its far end does; above it on one side of the hole
+    and below it on the other. The mixed points within the band count as surface, the others not:
+    the band decides where the measured edge falls inside the fringe. Modelled as heights spread
+    evenly over ``[0, H]`` across a fringe whose middle is the true edge:
+
+    * the fringe points are the points off the band within ``edge_fringe_gaps`` gaps of the edge
+      and no farther off it than ``edge_fringe_depth`` times that reach, counted on each side of the
+      surface, twice the smaller count (a bore wall or a floor is only below the surface);
+    * their area (count over the surface density) over the edge's length is the width ``v`` of the
+      fringe seen off the band, their mean height ``m`` gives ``H = 2 m - band``;
+    * the whole fringe is ``v H / (H - band)`` wide, and the band's edge lies ``width (1/2 - band / H)``
+      outside its middle.
+    """
+    reach = settings.edge_fringe_gaps * scene.sampling.gap
+    index = _within(scene, scene.xy, center, max(radius - reach, 0.0), radius + reach)
+    height = scene.heights[index] - _surface_height(scene, center, radius, settings, scene.xy[index])
+    near = np.abs(height) <= settings.edge_fringe_depth * reach
+    above, below = near & (height > scene.band), near & (height < -scene.band)
+    side = above if np.count_nonzero(above) <= np.count_nonzero(below) else below
+    count = 2 * np.count_nonzero(side)
+    if count == 0:
+        return 0.0, 0.0, 0.0
+    length = 2.0 * np.pi * radius * min(arc_deg, 360.0) / 360.0
+    seen = count / max(scene.surface_density * length, 1e-300)
+    top = 2.0 * float(np.mean(np.abs(height[side]))) - scene.band
+    if not top > 2.0 * scene.band:  # the band hides half the fringe or more: its share is not measured
+        return 0.0, 0.0, seen
+    width = seen * top / (top - scene.band)
+    return width, width * (0.5 - scene.band / top), 0.0
 
 
 def _outline_shape(rim_xy):
@@ -781,7 +827,8 @@ def _uncertainty(scene, measured):
     fit = measured.fit
     u_center, u_diameter = edge_uncertainty(measured.estimator, measured.synthetic, measured.rim_xy, fit.center,
                                             fit.radius, float(scene.sampling.spacing), float(scene.height_noise),
-                                            measured.cone_covariance, diameter_correction=2.0 * measured.bias)
+                                            measured.cone_covariance, diameter_correction=2.0 * measured.bias,
+                                            edge_fringe=measured.fringe[0])
     height, normal = measured.surface_uncertainty
     if height is None:  # no local plane: the scan's plane (its height noise over its inliers)
         count = max(len(scene.surface_xy), 1)
@@ -1001,7 +1048,8 @@ def _doubts(scene, hole, measured):
                   surface_rms=None if surface is None else float(surface.rms), height_noise=float(scene.height_noise),
                   arc_deg=float(hole.arc_deg), border_gap=border_gap, radius=float(radius),
                   bias_correction=None if measured.cone_slope is not None else float(hole.bias_correction),
-                  spacing=float(scene.sampling.spacing), fit_rms=float(hole.fit_rms), gap=float(gap))
+                  spacing=float(scene.sampling.spacing), fit_rms=float(hole.fit_rms), gap=float(gap),
+                  hidden_fringe=float(measured.fringe[2]))
 
 
 def _on_curved_surface(scene, measured, settings, view_dir, rng):

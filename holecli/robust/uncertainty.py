@@ -125,7 +125,7 @@ def circle_fit_covariance(rim_xy, center, radius):
 
 
 def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, height_noise, cone_covariance=None,
-                     diameter_correction=0.0):
+                     diameter_correction=0.0, edge_fringe=0.0):
     """Standard uncertainties of an edge's in-plane center (per coordinate) and of its diameter.
 
     Parameters
@@ -149,6 +149,11 @@ def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, heig
         For ``"cone"``: the covariance of the cone edge's ``(cx, cy, R)``.
     diameter_correction : float, optional
         The sampling-bias correction applied to the diameter (for :data:`CORRECTION_SHARE`).
+    edge_fringe : float, optional
+        Mean radial width ``F`` of the fringe of mixed points along the edge (a laser line of finite
+        width; :func:`holecli.robust.method._edge_fringe`), whose middle was taken as the edge: the
+        model of that fringe is uncertain over its width, a Type B term ``F / sqrt(12)`` on the
+        diameter (a rectangular distribution, GUM 4.3.7).
 
     Returns
     -------
@@ -160,7 +165,8 @@ def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, heig
     (ca, cb), (da, db) = METHOD_TERMS[estimator]["center"], METHOD_TERMS[estimator]["diameter"]
     correction = CORRECTION_SHARE.get(estimator, 0.0) * abs(float(diameter_correction))
     return (math.hypot(u_center, ca * spacing, cb * height_noise),
-            math.hypot(2.0 * u_radius, da * spacing, db * height_noise, correction))
+            math.hypot(2.0 * u_radius, da * spacing, db * height_noise, correction,
+                       float(edge_fringe) / math.sqrt(12.0)))
 
 
 def _sampled_uncertainty(estimator, synthetic, rim_xy, center, radius, cone_covariance):

@@ -41,6 +41,17 @@ Triangulation
 Ranges
     Distance from the ray's origin to the point along the ray, in the units of the mesh (times
     ``unit_scale``); noise and quantization act on it.
+Line width
+    ``line_width > 0``: the laser sheet is that thick along ``motion``, and each sample is the
+    centroid of ``line_subrays`` sub-rays spread evenly across it (each sub-ray the ray translated by
+    its offset along ``motion``). The camera sees each lit, unoccluded sub-ray's hit and the sensor
+    triangulates it as if it lay on the nominal ray: its range is where the camera's line of sight to
+    the hit passes the nominal ray (closest approach; with ``triangulation_deg`` 0, the hit's
+    distance along the ray). The sample's range is the mean of those of its visible sub-rays. On a
+    flat face this is the range of the nominal ray; where the footprint straddles an edge (a hole's
+    rim) only part of it returns light and the centroid moves: a *mixed pixel*, off the surface by
+    up to ``line_width / 2 / tan(triangulation)``, toward or away from the sensor depending on the
+    side of the hole.
 """
 
 from __future__ import annotations
@@ -142,6 +153,11 @@ class ProfilerSpec:
     float32 : bool
         Round the output coordinates and ranges through float32, as sensors write them (after
         ``frame`` and ``unit_scale``).
+    line_width : float
+        Thickness of the laser line along ``motion``, >= 0 (0: an ideal line, one ray per sample);
+        see *Line width* in the module docstring (a few tens of um on real sensors).
+    line_subrays : int
+        Sub-rays per sample across ``line_width`` (used when it is > 0), >= 2.
     """
 
     target: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -165,6 +181,8 @@ class ProfilerSpec:
     frame: Optional[tuple] = None
     unit_scale: float = 1.0
     float32: bool = False
+    line_width: float = 0.0
+    line_subrays: int = 7
 
 
 @dataclass(frozen=True, eq=False)
@@ -437,13 +455,18 @@ def _geometry(spec: ProfilerSpec) -> _Geometry:
     _flag("float32", spec.float32)
     frame = None if spec.frame is None else _rigid_matrix("frame", spec.frame)
     _number("unit_scale", spec.unit_scale, 0, low_open=True, text="a finite number > 0")
+    _number("line_width", spec.line_width, 0, text="a finite number >= 0 (0: an ideal line)")
+    if (isinstance(spec.line_subrays, (bool, np.bool_)) or not isinstance(spec.line_subrays, (int, np.integer))
+            or spec.line_subrays < 2):
+        _fail("line_subrays", "an integer >= 2", spec.line_subrays)
 
     columns = _lattice(line_length, point_pitch)
     stations = _lattice(scan_length, line_pitch)
-    rays = len(columns) * len(stations)
+    rays = len(columns) * len(stations) * (int(spec.line_subrays) if spec.line_width > 0 else 1)
     if rays > _MAX_RAYS:
         raise SpecError(f"the scan must cast at most {_MAX_RAYS} rays, got {rays} "
-                        f"({len(stations)} profiles of {len(columns)} points): "
+                        f"({len(stations)} profiles of {len(columns)} points"
+                        f"{f' of {spec.line_subrays} sub-rays' if spec.line_width > 0 else ''}): "
                         f"raise point_pitch or line_pitch")
     baseline = spec.camera_side * standoff * math.tan(math.radians(tri)) * motion
     return _Geometry(target=target, view=view, line=line, motion=motion, baseline=baseline,
@@ -511,6 +534,45 @@ def _scan(verts, tris, spec: ProfilerSpec, geo: _Geometry, rng: np.random.Genera
         aims = spec.standoff * geo.view + geo.columns[:, None] * geo.line
         fan_dirs = aims / np.linalg.norm(aims, axis=1, keepdims=True)
 
+    def trace(actual, dirs):
+        """The rays from ``actual`` along ``dirs`` that give a point: their rows, triangles and
+        distances along the ray, and the counts (hits, beyond_incidence, occluded) with the rows
+        that met the mesh (``"hit_rows"``) and were lit (``"lit_rows"``)."""
+        ans = scene.cast_rays(o3d.core.Tensor(np.hstack([actual, dirs]).astype(np.float32)))
+        prim = ans["primitive_ids"].numpy().astype(np.int64)
+        hit = np.flatnonzero(prim != o3d.t.geometry.RaycastingScene.INVALID_ID)
+        lost = dict(hits=len(hit), beyond_incidence=0, occluded=0)
+        tid = prim[hit]
+        d = dirs[hit]
+        n = normals[tid]
+        nd = np.einsum("ij,ij->i", n, d)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cos_inc = np.abs(nd) / lengths[tid]
+            t = np.einsum("ij,ij->i", n, v0[tid] - actual[hit]) / nd
+        bad_t = ~np.isfinite(t)
+        t[bad_t] = ans["t_hit"].numpy()[hit][bad_t]
+        lit = np.isfinite(cos_inc) & (cos_inc > 0) & (cos_inc >= cos_limit)
+        lost["beyond_incidence"] = int(np.count_nonzero(~lit))
+        hit_rows = hit
+        hit, tid, d, n, nd, t = hit[lit], tid[lit], d[lit], n[lit], nd[lit], t[lit]
+        lost["hit_rows"], lost["lit_rows"] = hit_rows, hit
+
+        if occlusion:
+            point = actual[hit] + t[:, None] * d
+            camera = actual[hit] + geo.baseline
+            sight = point - camera
+            dist = np.linalg.norm(sight, axis=1)
+            sight /= dist[:, None]
+            cam = scene.cast_rays(o3d.core.Tensor(np.hstack([camera, sight]).astype(np.float32)))
+            t_cam = cam["t_hit"].numpy().astype(np.float64)
+            # The face must be turned toward the camera as well as toward the laser (nd < 0 after
+            # orienting n against the ray): an open sheet seen from behind is not seen.
+            facing = -np.sign(nd) * np.einsum("ij,ij->i", n, camera - point) > 0
+            seen = facing & ((t_cam >= dist - tolerance) | ~np.isfinite(t_cam))
+            lost["occluded"] = int(np.count_nonzero(~seen))
+            hit, tid, t = hit[seen], tid[seen], t[seen]
+        return hit, tid, t, lost
+
     counts = dict(hits=0, beyond_incidence=0, occluded=0, dropped=0)
     parts = []
     per_chunk = max(1, _CHUNK_RAYS // n_cols)
@@ -525,37 +587,13 @@ def _scan(verts, tris, spec: ProfilerSpec, geo: _Geometry, rng: np.random.Genera
             nominal = nominal + geo.columns[col, None] * geo.line
             dirs = np.broadcast_to(geo.view, nominal.shape)
         actual = nominal + shifts[prof]
-        ans = scene.cast_rays(o3d.core.Tensor(np.hstack([actual, dirs]).astype(np.float32)))
-        prim = ans["primitive_ids"].numpy().astype(np.int64)
-        hit = np.flatnonzero(prim != o3d.t.geometry.RaycastingScene.INVALID_ID)
-        counts["hits"] += len(hit)
-        tid = prim[hit]
+        if spec.line_width > 0:
+            hit, tid, t, lost = _wide_line(trace, actual, dirs, geo, spec)
+        else:
+            hit, tid, t, lost = trace(actual, dirs)
         d = dirs[hit]
-        n = normals[tid]
-        nd = np.einsum("ij,ij->i", n, d)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            cos_inc = np.abs(nd) / lengths[tid]
-            t = np.einsum("ij,ij->i", n, v0[tid] - actual[hit]) / nd
-        bad_t = ~np.isfinite(t)
-        t[bad_t] = ans["t_hit"].numpy()[hit][bad_t]
-        lit = np.isfinite(cos_inc) & (cos_inc > 0) & (cos_inc >= cos_limit)
-        counts["beyond_incidence"] += int(np.count_nonzero(~lit))
-        hit, tid, d, n, nd, t = hit[lit], tid[lit], d[lit], n[lit], nd[lit], t[lit]
-
-        if occlusion:
-            point = actual[hit] + t[:, None] * d
-            camera = actual[hit] + geo.baseline
-            sight = point - camera
-            dist = np.linalg.norm(sight, axis=1)
-            sight /= dist[:, None]
-            cam = scene.cast_rays(o3d.core.Tensor(np.hstack([camera, sight]).astype(np.float32)))
-            t_cam = cam["t_hit"].numpy().astype(np.float64)
-            # The face must be turned toward the camera as well as toward the laser (nd < 0 after
-            # orienting n against the ray): an open sheet seen from behind is not seen.
-            facing = -np.sign(nd) * np.einsum("ij,ij->i", n, camera - point) > 0
-            seen = facing & ((t_cam >= dist - tolerance) | ~np.isfinite(t_cam))
-            counts["occluded"] += int(np.count_nonzero(~seen))
-            hit, tid, d, t = hit[seen], tid[seen], d[seen], t[seen]
+        for key in counts:
+            counts[key] += lost.get(key, 0)
 
         if spec.dropout > 0:
             kept = rng.random(len(hit)) >= spec.dropout
@@ -609,3 +647,81 @@ def _scan(verts, tris, spec: ProfilerSpec, geo: _Geometry, rng: np.random.Genera
         ranges=ranges,
         info=info,
     )
+
+
+def _wide_line(trace, actual, dirs, geo: _Geometry, spec: ProfilerSpec):
+    """The samples of a laser line ``spec.line_width`` thick (module docstring, *Line width*).
+
+    ``trace(origins, dirs)`` casts rays and returns the rows that give a point, their triangles,
+    their distances along the ray and the losses counted; here it is called once per sub-ray, each
+    the nominal ray translated along ``motion``. Returns the same for the samples: a sample gives a
+    point when at least one of its sub-rays does, its triangle that of the visible sub-ray nearest
+    the middle of the line. Its range is the centroid of its visible sub-rays' spots as the camera
+    sees them, triangulated on the nominal ray: the middle-most visible spot is triangulated
+    exactly, and each spot adds its offset from it as seen along that line of sight (linear in the
+    offset, as the centroid of an image is: a footprint wholly on a flat face reads the nominal
+    range, as a calibrated sensor does). A sample is counted as hit when a sub-ray hit the mesh,
+    and lost beyond incidence (occluded) when none of its sub-rays was lit (seen).
+    """
+    rows = len(actual)
+    k = int(spec.line_subrays)
+    offsets = ((np.arange(k) + 0.5) / k - 0.5) * float(spec.line_width)
+    order = np.argsort(np.abs(offsets), kind="stable")  # the middle sub-ray first
+    spots = np.full((k, rows, 3), np.nan)
+    tid = np.full(rows, -1, dtype=np.int64)
+    hits = np.zeros(rows, dtype=bool)
+    lit = np.zeros(rows, dtype=bool)
+    for rank, index in enumerate(order):
+        origin = actual + offsets[index] * geo.motion
+        rows_hit, tri, t, reached = trace(origin, dirs)
+        hits[reached["hit_rows"]] = True
+        lit[reached["lit_rows"]] = True
+        spots[rank, rows_hit] = origin[rows_hit] + t[:, None] * dirs[rows_hit]
+        fresh = tid[rows_hit] < 0
+        tid[rows_hit[fresh]] = tri[fresh]
+    visible = np.isfinite(spots[:, :, 0])
+    seen = visible.sum(axis=0)
+    hit = np.flatnonzero(seen > 0)
+    spots, visible = spots[:, hit], visible[:, hit]
+    origin, direction = actual[hit], dirs[hit]
+    camera = origin + geo.baseline
+    reference = spots[np.argmax(visible, axis=0), np.arange(len(hit))]
+    t_ref = _triangulated_range(reference, origin, direction, camera)
+    sight = origin + t_ref[:, None] * direction - camera
+    norm = np.linalg.norm(sight, axis=1)
+    if len(hit) and np.all(norm > 0) and np.any(np.linalg.norm(geo.baseline) > 0):
+        sight /= norm[:, None]
+        b = np.einsum("ij,ij->i", direction, sight)
+        oblique = 1.0 - b * b > 1e-12
+    else:
+        sight, b, oblique = direction, np.ones(len(hit)), np.zeros(len(hit), dtype=bool)
+    shift = np.zeros(len(hit))
+    for rank in range(k):
+        delta = np.where(visible[rank][:, None], spots[rank] - reference, 0.0)
+        along = np.einsum("ij,ij->i", delta, direction)
+        across = np.einsum("ij,ij->i", delta, sight)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            shift += np.where(oblique, (along - b * across) / np.where(oblique, 1.0 - b * b, 1.0), along)
+    counts = dict(hits=int(np.count_nonzero(hits)), beyond_incidence=int(np.count_nonzero(hits & ~lit)),
+                  occluded=int(np.count_nonzero(lit & (seen == 0))))
+    return hit, tid[hit], t_ref + shift / seen[hit], counts
+
+
+def _triangulated_range(point, origin, direction, camera):
+    """Range on the nominal ray ``origin + t direction`` that the sensor reports for a light spot at
+    ``point`` seen from ``camera``: where the camera's line of sight to the spot passes closest to
+    the ray (the spot's own distance along the ray when the camera sits on it)."""
+    sight = point - camera
+    norm = np.linalg.norm(sight, axis=1)
+    along = np.einsum("ij,ij->i", point - origin, direction)
+    baseline = origin - camera
+    if len(point) == 0 or not np.any(np.linalg.norm(baseline, axis=1) > 0):
+        return along
+    e = sight / np.where(norm > 0, norm, 1.0)[:, None]
+    b = np.einsum("ij,ij->i", direction, e)
+    dd = np.einsum("ij,ij->i", direction, baseline)
+    ee = np.einsum("ij,ij->i", e, baseline)
+    denominator = 1.0 - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (b * ee - dd) / denominator
+    return np.where(np.isfinite(t) & (denominator > 1e-12), t, along)

@@ -265,6 +265,56 @@ def test_no_points_inside_the_hole_at_the_surface():
     assert scan.info["occluded"] > 0
 
 
+@pytest.mark.parametrize("triangulation", [0.0, 25.0])
+def test_a_wide_line_changes_nothing_on_a_flat_face(triangulation):
+    spec = replace(BASE, fan=True, triangulation_deg=triangulation, line_length=6.0, scan_length=6.0)
+    thin = scan_mesh(*plate(), spec)
+    wide = scan_mesh(*plate(), replace(spec, line_width=0.06))
+    np.testing.assert_allclose(wide.points, thin.points, atol=1e-9)
+    assert wide.info == thin.info
+
+
+@pytest.mark.parametrize("side", [1, -1])
+def test_a_wide_line_makes_mixed_pixels_at_a_hole_edge(side):
+    """Where the footprint straddles the rim only part of it returns light: the centroid moves by up
+    to w/2 along the motion and the point by up to w/2/tan(triangulation) in height, above the surface
+    on one side of the hole (along the motion) and below it on the other, as the camera side says;
+    nothing farther than w/2 inside the edge, and the ideal line's points are unchanged elsewhere."""
+    radius, sides, width, angle = 2.0, 256, 0.04, 25.0
+    verts, tris, n_plate = holed_plate(radius=radius, sides=sides)
+    spec = replace(BASE, fan=False, triangulation_deg=angle, camera_side=side, line_length=6.0, scan_length=6.0,
+                   point_pitch=0.05, line_pitch=0.05, max_incidence_deg=89.0)
+    scan = scan_mesh(verts, tris, replace(spec, line_width=width))
+    x, y, z = scan.points.T
+    rho = np.hypot(x, y)
+    top = scan.triangle_id < n_plate
+    bound = width / 2.0 / math.tan(math.radians(angle))
+    mixed = top & (np.abs(z) > 1e-9)
+    assert mixed.sum() > 20
+    assert np.all(np.abs(z[top]) <= bound * (1 + 1e-6))
+    assert np.abs(z[top]).max() > 0.6 * bound
+    assert np.all(rho[mixed] > radius - width / 2.0 - 1e-9) and np.all(rho[mixed] < radius + width / 2.0)
+    # above on one side, below on the other: the sign of height * y is the camera's side
+    assert np.all(np.sign(z[mixed]) * np.sign(y[mixed]) == -side)
+    far = rho > radius + width
+    thin = scan_mesh(verts, tris, spec)
+    keep = np.hypot(*thin.points[:, :2].T) > radius + width
+    np.testing.assert_allclose(np.sort(z[far]), np.sort(thin.points[keep, 2]), atol=1e-9)
+
+
+def test_a_wide_line_without_triangulation_mixes_ranges():
+    """With the camera on the laser the sensor reads the mean range of the lit sub-rays: at the rim
+    of a blind hole, points between the surface and the floor, never above the surface."""
+    radius, depth, width = 2.0, 0.1, 0.05
+    verts, tris, _ = holed_plate(radius=radius, sides=256, depth=depth)
+    floor = np.array([[-3.0, -3.0, -depth], [3.0, -3.0, -depth], [3.0, 3.0, -depth], [-3.0, 3.0, -depth]])
+    verts, tris = merge((verts, tris), (floor, np.array([[0, 1, 2], [0, 2, 3]])))
+    spec = replace(BASE, line_length=6.0, scan_length=6.0, point_pitch=0.05, line_pitch=0.05, line_width=width)
+    z = scan_mesh(verts, tris, spec).points[:, 2]
+    between = (z < -1e-9) & (z > -depth + 1e-9)
+    assert between.sum() > 20 and np.all(z < 1e-9)
+
+
 def test_keep_nan_writes_one_row_per_ray():
     spec = replace(BASE, line_length=30.0, scan_length=1.0, point_pitch=0.5, keep_nan=True,
                    dropout=0.1)
@@ -375,6 +425,9 @@ def test_load_mesh_refuses_bad_files(tmp_path, capfd, name, content, match):
     ("frame", np.diag([-1.0, 1.0, 1.0, 1.0]), "frame must be a rigid transform"),
     ("unit_scale", 0.0, "unit_scale must be a finite number > 0"),
     ("float32", "yes", "float32 must be True or False"),
+    ("line_width", -0.01, "line_width must be a finite number >= 0"),
+    ("line_subrays", 1, "line_subrays must be an integer >= 2"),
+    ("line_subrays", 3.0, "line_subrays must be an integer >= 2"),
     ("point_pitch", 1e-6, "at most 50000000 rays"),
 ])
 def test_invalid_spec_is_refused(field, value, match):
