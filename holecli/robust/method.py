@@ -95,6 +95,8 @@ REJECTION_REASONS = {
     "below_min_diameter": "smaller than the minimum diameter",
     "material_inside": "surface material fills the inside of the fitted circle (the island of a groove, not a hole)",
     "not_round": "the rim is not round (robust scatter of the radial residuals above the limit)",
+    "material_in_first_circle": "surface material lies deep inside the circle first fitted to its rim "
+                                "(the long sides of a slot or cut-out, not reflections inside a hole)",
     "partial_rim_arc": "a partial hole whose rim covers too little of its circle",
     "boss": "material stands above the surface inside it (a pin or boss, not a hole)",
     "duplicate": "the same hole as another candidate with more rim points",
@@ -261,6 +263,11 @@ def _material_inside(scene, center, radius, settings):
     inside = len(_within(scene, scene.material_xy, center, 0.0, 0.5 * radius))
     allowed = settings.max_material_inside * scene.surface_density * np.pi * (0.5 * radius) ** 2
     return inside, float(allowed)
+
+
+def _material_allowed(scene, radius, fraction):
+    """``fraction`` of the surface points a disk of ``radius`` holds at the scan's density."""
+    return float(fraction * scene.surface_density * np.pi * max(radius, 0.0) ** 2)
 
 
 def _boss_points(scene, center, radius, settings):
@@ -538,7 +545,13 @@ def _measure_void(scene, grid, void, settings):
     # Points deep inside the fitted hole (reflections next to the edge) can shield the true rim from
     # the triangulation: drop them and extract the rim once more.
     deep = np.hypot(*(local - fit.center).T) < fit.radius - scene.envelope
+    dropped = 0, 0.0, None
     if np.any(deep):
+        # What is dropped must be reflections: material cells of the grid (specks are not) deep inside
+        # the first circle are the sides of a cut-out that circle spans (check below).
+        dropped = (int(np.sum(grid.lookup(grid.material, local[deep]))),
+                   _material_allowed(scene, fit.radius - scene.envelope, settings.max_material_dropped),
+                   (fit.center, fit.radius, rim_xy))
         local = local[~deep]
         rim = hole_rim(local, in_void, alpha, cut=cut[~deep])
         if rim is None:
@@ -563,6 +576,13 @@ def _measure_void(scene, grid, void, settings):
     allowed = settings.max_relative_scatter * radius + scene.gap_scatter
     if scatter > allowed:
         return reject("not_round", scatter, float(allowed), center, radius, shape=_outline_shape(rim_xy))
+    # The refit is only as good as the points it dropped: a long cut-out (a slot, a rectangular
+    # window) first fits a circle across its own long sides, and without them its ends give a round
+    # rim. A hole's first circle holds reflections only (<= 1 % of the disk on the validation scans).
+    if dropped[0] > dropped[1]:
+        first_center, first_radius, first_rim = dropped[2]
+        return reject("material_in_first_circle", dropped[0], dropped[1], first_center, first_radius,
+                      shape=_outline_shape(first_rim))
     # A closed region whose rim still misses a third of the circle lost its rim to missing data.
     # Partial: the circle is not surrounded by scanned material (cut by the scan's border, or its
     # rim lost to missing data). Such a hole is accepted on the rim points' own (conservative)
