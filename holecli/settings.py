@@ -382,7 +382,7 @@ _COUNTS = {"cell_index_from_candidates",
            "cone_min_points_below", "cone_trim_rounds", "cone_edge_steps", "cone_depth_bins",
            "cone_min_bin_points", "shape_min_points", "shape_floor_hypotheses", "doubt_min_rim_points",
            "doubt_min_inside_points"}
-_CLOSED = {"doubt_max_rim_gap_deg", "shape_min_arc_deg", "shape_floor_fraction", "min_partial_arc_deg", "full_arc_deg", "boss_fraction", "lattice_min_present_fraction",
+_CLOSED = {"max_material_dropped", "doubt_max_rim_gap_deg", "shape_min_arc_deg", "shape_floor_fraction", "min_partial_arc_deg", "full_arc_deg", "boss_fraction", "lattice_min_present_fraction",
            "lattice_max_gap_deg"}
 
 
