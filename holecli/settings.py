@@ -72,6 +72,11 @@ class RobustSettings:
     # groove, a C-shaped slot), whose outer rim is a good circle (check "material_inside"). A hole's
     # inner half holds at most a few reflections; 0.7 let a 0.8 mm island through.
     max_material_inside: float = 0.5
+    # The points more than an envelope inside the first circle fitted to a rim are dropped as
+    # reflections before the refit; those on material cells of the occupancy grid (specks are not)
+    # may be at most this fraction of the points the disk holds, else the circle spanned a cut-out's
+    # own sides (check "material_in_first_circle"). Holes on the validation scans drop <= 1 %.
+    max_material_dropped: float = 0.05
     # Default smallest reported diameter, in gaps (natural gaps of random sampling reach ~4 g).
     min_diameter_gaps: float = 6.0
     # Rim circle fit: sigma clipping threshold, and a floor of the residual scale (in spacings).
@@ -347,6 +352,7 @@ _RANGES = (
     ("plane_clip", 0.0, _INF), ("sampling_windows", 1, 1000), ("sampling_window_points", 10, 10 ** 9),
     ("cell_gaps", 0.0, _INF), ("alpha_gaps", 0.0, _INF), ("margin_alphas", 0.0, _INF),
     ("envelope_gaps", 0.0, _INF), ("empty_circle_max_noise", 0.0, _INF), ("max_material_inside", 0.0, 1.0),
+    ("max_material_dropped", 0.0, 1.0),
     ("min_diameter_gaps", 0.0, _INF), ("clip_sigmas", 0.0, _INF),
     ("clip_floor_spacings", 0.0, _INF), ("max_relative_scatter", 0.0, _INF),
     ("min_partial_arc_deg", 0.0, 360.0), ("full_arc_deg", 0.0, 360.0), ("boss_fraction", 0.0, 1.0),
@@ -394,7 +400,7 @@ _COUNTS = {"cell_index_from_candidates",
            "cone_min_points_below", "cone_trim_rounds", "cone_edge_steps", "cone_depth_bins",
            "cone_min_bin_points", "shape_min_points", "shape_floor_hypotheses", "doubt_min_rim_points",
            "doubt_min_inside_points"}
-_CLOSED = {"doubt_max_rim_gap_deg", "shape_min_arc_deg", "shape_floor_fraction", "min_partial_arc_deg", "full_arc_deg", "boss_fraction", "lattice_min_present_fraction",
+_CLOSED = {"max_material_dropped", "doubt_max_rim_gap_deg", "shape_min_arc_deg", "shape_floor_fraction", "min_partial_arc_deg", "full_arc_deg", "boss_fraction", "lattice_min_present_fraction",
            "lattice_max_gap_deg"}
 
 

@@ -2,7 +2,7 @@
 
 A panel is a sheet of ``width x height x thickness`` mm, flat or bent into a cylinder of radius
 ``radius`` about an axis along the sheet's ``v`` direction, with through holes, countersunk and
-counterbored holes, blind holes, rounded slots and bosses (pins). :func:`build_panel` returns the mesh (arrays in
+counterbored holes, blind holes, rounded slots, rectangular cut-outs (rounded corners) and bosses (pins). :func:`build_panel` returns the mesh (arrays in
 memory; writing files is another module's job) and, for every feature, its ground truth.
 
 Frames
@@ -91,6 +91,7 @@ __all__ = [
     "CURVATURES",
     "FLOOR",
     "KINDS",
+    "NOT_HOLES",
     "SIDE",
     "TOP",
     "WALL",
@@ -102,7 +103,9 @@ __all__ = [
     "parse_panel_toml",
 ]
 
-KINDS = ("through", "countersunk", "counterbored", "blind", "slot", "boss")
+KINDS = ("through", "countersunk", "counterbored", "blind", "slot", "cutout", "boss")
+# Kinds that are not holes: a detector must report nothing on them.
+NOT_HOLES = ("slot", "cutout", "boss")
 CURVATURES = ("flat", "convex", "concave")
 
 # Per-triangle part labels of Panel.parts.
@@ -151,19 +154,21 @@ class FeatureSpec:
 
     Attributes
     ----------
-    kind : {'through', 'countersunk', 'counterbored', 'blind', 'slot', 'boss'}
+    kind : {'through', 'countersunk', 'counterbored', 'blind', 'slot', 'cutout', 'boss'}
         ``'through'``: a cylindrical bore through the sheet. ``'countersunk'``: a cone of
         ``countersink_angle_deg`` from ``countersink_diameter`` at the surface down to the bore, then
         the bore through. ``'counterbored'``: a step of ``counterbore_diameter`` and
         ``counterbore_depth``, then the bore through. ``'blind'``: a bore to a flat floor at
         ``depth``. ``'slot'``: a rounded slot cut through, ``width`` by ``length`` (overall, end
-        to end) along ``direction_deg``; not a hole. ``'boss'``: a cylindrical pin of ``diameter``
+        to end) along ``direction_deg``; not a hole. ``'cutout'``: a rectangular window cut through,
+        ``width`` by ``length`` along ``direction_deg``, its corners rounded to ``corner_radius`` (a
+        milled window; ``corner_radius`` = width / 2 is a slot); not a hole. ``'boss'``: a cylindrical pin of ``diameter``
         standing ``height`` above the tangent plane at the centre, flat-topped; not a hole.
     center : (2,) tuple of float
         ``(u, v)`` of the feature's axis on the top surface, mm (arc length on a curved sheet): the
         centre point ``c``.
     diameter : float or None
-        Bore diameter, mm, > 0, perpendicular to the axis; None (omitted) for a slot.
+        Bore diameter, mm, > 0, perpendicular to the axis; None (omitted) for a slot or a cut-out.
     countersink_diameter : float or None
         Outer diameter of the cone in the plane perpendicular to the axis through the centre (the
         tangent plane when the hole is not tilted), > ``diameter``.
@@ -178,12 +183,14 @@ class FeatureSpec:
     height : float or None
         A boss's height above the tangent plane at the centre, along the axis, > 0.
     width, length, direction_deg : float or None
-        A slot's width, overall length (> width) and the direction of its length, degrees from +u
-        towards +v.
+        A slot's or cut-out's width, overall length (> width) and the direction of its length, degrees
+        from +u towards +v.
+    corner_radius : float or None
+        A cut-out's corner radius, in (0, width / 2].
     tilt_deg : float
         Angle between the drilling axis and the top surface's normal ``n`` at the centre, degrees,
         in [0, 30) (and at most 85 - half the included angle for a countersink). Holes only
-        (through, countersunk, counterbored, blind); 0 (omitted) for a slot or a boss.
+        (through, countersunk, counterbored, blind); 0 (omitted) for a slot, a cut-out or a boss.
     tilt_direction_deg : float
         Direction the axis leans toward, degrees from ``+u`` toward ``+v`` in the tangent plane:
         the axis (pointing out of the material) is ``a = cos(tilt) n + sin(tilt) (cos(dir) e_u +
@@ -210,6 +217,7 @@ class FeatureSpec:
     width: Optional[float] = None
     length: Optional[float] = None
     direction_deg: float = 0.0
+    corner_radius: Optional[float] = None
     tilt_deg: float = 0.0
     tilt_direction_deg: float = 0.0
     name: Optional[str] = None
@@ -227,7 +235,7 @@ class FeatureSpec:
             return self.countersink_diameter / 2.0
         if self.kind == "counterbored":
             return self.counterbore_diameter / 2.0
-        if self.kind == "slot":
+        if self.kind in ("slot", "cutout"):
             return self.width / 2.0
         return self.diameter / 2.0
 
@@ -366,18 +374,19 @@ def _validate_feature(name, f, spec) -> None:
     t = spec.thickness
     allowed = {"through": set(), "countersunk": {"countersink_diameter", "countersink_angle_deg"},
                "counterbored": {"counterbore_diameter", "counterbore_depth"}, "blind": {"depth"},
-               "slot": {"width", "length", "direction_deg"}, "boss": {"height"}}[f.kind]
+               "slot": {"width", "length", "direction_deg"},
+               "cutout": {"width", "length", "direction_deg", "corner_radius"}, "boss": {"height"}}[f.kind]
     if f.kind in _TILTABLE:
         allowed = allowed | {"tilt_deg", "tilt_direction_deg"}
     defaults = FeatureSpec(kind=f.kind, center=f.center)
     for key in ("diameter", "countersink_diameter", "countersink_angle_deg", "counterbore_diameter",
-                "counterbore_depth", "depth", "height", "width", "length", "direction_deg", "tilt_deg",
-                "tilt_direction_deg"):
-        if key == "diameter" and f.kind != "slot":
+                "counterbore_depth", "depth", "height", "width", "length", "direction_deg", "corner_radius",
+                "tilt_deg", "tilt_direction_deg"):
+        if key == "diameter" and f.kind not in ("slot", "cutout"):
             continue
         if key not in allowed and getattr(f, key) != getattr(defaults, key):
             _fail(f"{name}.{key}", f"omitted for a {f.kind} feature", getattr(f, key))
-    if f.kind != "slot":
+    if f.kind not in ("slot", "cutout"):
         _positive(f"{name}.diameter", f.diameter)
     if f.kind in _TILTABLE:
         if not (_number(f.tilt_deg) and 0.0 <= f.tilt_deg < _MAX_TILT_DEG):
@@ -413,14 +422,16 @@ def _validate_feature(name, f, spec) -> None:
             _fail(f"{name}.depth", f"a number in (0, thickness = {t:g})", f.depth)
     if f.kind == "boss":
         _positive(f"{name}.height", f.height)
-    if f.kind == "slot":
+    if f.kind in ("slot", "cutout"):
         if f.diameter is not None:
-            _fail(f"{name}.diameter", "omitted for a slot (give width and length)", f.diameter)
+            _fail(f"{name}.diameter", f"omitted for a {f.kind} (give width and length)", f.diameter)
         _positive(f"{name}.width", f.width)
         if not (_number(f.length) and f.length > f.width):
             _fail(f"{name}.length", f"a finite number > width ({f.width:g}), the overall length", f.length)
         if not _number(f.direction_deg):
             _fail(f"{name}.direction_deg", "a finite angle in degrees", f.direction_deg)
+    if f.kind == "cutout" and not (_number(f.corner_radius) and 0 < f.corner_radius <= f.width / 2.0):
+        _fail(f"{name}.corner_radius", f"a number in (0, width / 2 = {f.width / 2.0:g}]", f.corner_radius)
 
 
 def _shape(f):
@@ -433,6 +444,12 @@ def _shape(f):
     if f.kind == "slot":
         a = math.radians(f.direction_deg)
         return c, np.array([math.cos(a), math.sin(a)]), (f.length - f.width) / 2.0, f.width / 2.0
+    if f.kind == "cutout":
+        # the capsule about the rectangle's axis that holds its corners (conservative for the gaps)
+        a = math.radians(f.direction_deg)
+        inner = f.width / 2.0 - f.corner_radius
+        return (c, np.array([math.cos(a), math.sin(a)]), (f.length - f.width) / 2.0,
+                math.sqrt(2.0) * inner + f.corner_radius)
     return c, np.array([1.0, 0.0]), 0.0, f.outer_radius
 
 
@@ -595,6 +612,30 @@ def _slot_outline(f, n_arc):
     return np.concatenate([bottom, right, top, left])
 
 
+def _cutout_outline(f, n_quarter):
+    """Counter-clockwise outline of a rectangle with rounded corners in its own frame (length along
+    x), every edge at most the corners' segment length: (k, 2) float."""
+    r = f.corner_radius
+    a, b = f.length / 2.0 - r, f.width / 2.0 - r
+    step = 0.5 * math.pi * r / n_quarter
+    pieces = []
+    for k, (cx, cy) in enumerate(((a, -b), (a, b), (-a, b), (-a, -b))):
+        start = -0.5 * math.pi + 0.5 * math.pi * k
+        arc = start + np.linspace(0.0, 0.5 * math.pi, n_quarter, endpoint=False)
+        pieces.append(np.stack([cx + r * np.cos(arc), cy + r * np.sin(arc)], axis=1))
+        # the straight side from this corner's end to the next corner's start
+        end = np.array([cx + r * math.cos(start + 0.5 * math.pi), cy + r * math.sin(start + 0.5 * math.pi)])
+        nx, ny = ((a, b), (-a, b), (-a, -b), (a, -b))[k]
+        nstart = start + 0.5 * math.pi
+        target = np.array([nx + r * math.cos(nstart), ny + r * math.sin(nstart)])
+        length = float(np.linalg.norm(target - end))
+        count = math.ceil(length / step) if length > 1e-12 else 0
+        if count:
+            t = np.arange(count)[:, None] / count
+            pieces.append(end + t * (target - end))
+    return np.concatenate(pieces)
+
+
 @dataclass(frozen=True, eq=False)
 class _Loops:
     loops: list          # (k, 3) arrays from the top edge down
@@ -696,25 +737,31 @@ def _feature_loops(k, f, spec, bend, label):
 
     perpendicularity = math.degrees(math.atan2(float(np.linalg.norm(np.cross(a, n))), float(a @ n)))
     truth = {"index": k, "name": f.name if f.name is not None else f"{f.kind}{k}", "kind": f.kind,
-             "is_hole": f.kind not in ("slot", "boss"), "center": [float(v) for v in c],
+             "is_hole": f.kind not in NOT_HOLES, "center": [float(v) for v in c],
              "center_uv": [uc, vc], "axis": [float(v) for v in a], "normal": [float(v) for v in n],
              "perpendicularity_deg": perpendicularity, "tilt_deg": float(f.tilt_deg),
              "tilt_direction_deg": float(f.tilt_direction_deg), "partial": False, "arc_deg": 360.0}
     floor_center, strips = None, []
-    if f.kind == "slot":
-        n_arc = _segments_for(f.width / 2.0, spec) // 2
+    if f.kind in ("slot", "cutout"):
+        if f.kind == "slot":
+            n_arc = _segments_for(f.width / 2.0, spec) // 2
+            outline = _slot_outline(f, n_arc)
+        else:
+            n_arc = max(2, _segments_for(f.corner_radius, spec) // 4)
+            outline = _cutout_outline(f, n_arc)
         angle = math.radians(f.direction_deg)
         d3 = math.cos(angle) * eu + math.sin(angle) * ev
         b3 = np.cross(n, d3)
-        outline = _slot_outline(f, n_arc)
         base = c + outline[:, :1] * d3 + outline[:, 1:] * b3
         dirs = np.broadcast_to(n, base.shape)
         top, top_s = on_surface(base, dirs, 0.0, 0.0)
         bottom, _ = on_surface(base, dirs, t, -t)
-        loops, strips, segments = [top, bottom], [WALL], 2 * n_arc
+        loops, strips, segments = [top, bottom], [WALL], (2 if f.kind == "slot" else 4) * n_arc
         truth.update({"diameter": None, "bore_diameter": None, "width": float(f.width),
                       "length": float(f.length), "direction": [float(v) for v in d3],
                       "direction_deg": float(f.direction_deg), "through": True})
+        if f.kind == "cutout":
+            truth["corner_radius"] = float(f.corner_radius)
     else:
         r = f.diameter / 2.0
         count = _segments_for(f.outer_radius, spec)
@@ -1003,7 +1050,7 @@ def build_panel(spec: PanelSpec) -> Panel:
     -------
     Panel
         Closed, consistently oriented mesh. ``features[k]`` is a dict with ``index``, ``name``,
-        ``kind``, ``is_hole`` (False for a slot or a boss), ``center`` (3D, mm: the axis on the top surface),
+        ``kind``, ``is_hole`` (False for a slot, a cut-out or a boss), ``center`` (3D, mm: the axis on the top surface),
         ``center_uv``, ``axis`` (unit, the drilling axis, out of the material), ``normal`` (unit,
         the top normal at the centre, out of the material; equal to ``axis`` unless tilted),
         ``perpendicularity_deg`` (the angle between them), ``tilt_deg`` and ``tilt_direction_deg``
@@ -1015,8 +1062,8 @@ def build_panel(spec: PanelSpec) -> Panel:
         normal), ``bore_polygon_inradius``; and
         ``countersink_angle_deg``, ``countersink_diameter``, ``countersink_depth`` (along the axis, from
         the centre to the start of the bore) / ``counterbore_diameter``, ``counterbore_depth`` /
-        ``floor_depth`` / ``height`` (boss) where they apply; for slots ``width``, ``length``, ``direction`` (3D unit)
-        and ``direction_deg``.
+        ``floor_depth`` / ``height`` (boss) where they apply; for slots and cut-outs ``width``, ``length``, ``direction``
+        (3D unit) and ``direction_deg``, for a cut-out also ``corner_radius``.
 
     Raises
     ------
@@ -1164,6 +1211,7 @@ _FEATURE_KEYS = {
     "counterbored": ("diameter", "counterbore_diameter", "counterbore_depth") + _TILT_KEYS,
     "blind": ("diameter", "depth") + _TILT_KEYS,
     "slot": ("width", "length", "direction_deg"),
+    "cutout": ("width", "length", "direction_deg", "corner_radius"),
     "boss": ("diameter", "height"),
 }
 _OPTIONAL_FEATURE_KEYS = {"countersink_angle_deg", "direction_deg"} | set(_TILT_KEYS)
@@ -1178,7 +1226,7 @@ def parse_panel_toml(text) -> PanelSpec:
     (``kind``, ``center = [u, v]``, optional ``name``, and the keys of that kind: ``diameter``;
     ``countersink_diameter``, ``countersink_angle_deg`` (default 100); ``counterbore_diameter``,
     ``counterbore_depth``; ``depth``; ``height`` (boss); for a slot ``width``, ``length``, ``direction_deg``
-    (default 0); for a hole (not a slot or a boss) ``tilt_deg`` and ``tilt_direction_deg`` (default
+    (default 0), for a cut-out those and ``corner_radius``; for a hole (not a slot, a cut-out or a boss) ``tilt_deg`` and ``tilt_direction_deg`` (default
     0: drilled along the normal)).
 
     Parameters

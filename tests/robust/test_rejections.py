@@ -72,6 +72,45 @@ def test_a_slot_is_not_round_and_has_its_shape():
     assert all(r.shape is None for r in detection.rejected if r.check != "not_round")
 
 
+def _cutout_among_holes(width=4.5, length=15.0, corner=0.6, spacing=0.1, tilt_deg=20.0, seed=0):
+    """A tilted grid scan of a plate with a rectangular cut-out (rounded corners, its length along y)
+    between four 1.5 mm holes, 2 um noise: the class of the tray's 12.7 x 45 mm window."""
+    u, v = np.meshgrid(np.arange(-10.0, 10.0, spacing), np.arange(-10.0, 10.0, spacing))
+    u, v = u.ravel(), v.ravel()
+    qu, qv = np.abs(u) - (width / 2 - corner), np.abs(v) - (length / 2 - corner)
+    outside = np.hypot(np.maximum(qu, 0), np.maximum(qv, 0)) + np.minimum(np.maximum(qu, qv), 0) > corner
+    for x in (-8.0, 8.0):
+        for y in (-8.0, 8.0):
+            outside &= np.hypot(u - x, v - y) > 0.75
+    noise = np.random.default_rng(seed).normal(0.0, 0.002, outside.sum())
+    points = np.column_stack([u[outside], v[outside], noise])
+    t = np.radians(tilt_deg)
+    rotation = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(t), -np.sin(t)], [0.0, np.sin(t), np.cos(t)]])
+    return points @ rotation.T + [10.0, 20.0, 30.0]
+
+
+def test_a_long_cutout_is_no_hole_though_its_ends_are_round():
+    # Its first circle spans the window's long sides; without them (dropped as reflections) the rim
+    # left is its two ends, which a circle through the corners fits well (the tray's d45.5 "hole").
+    detection = detect(_cutout_among_holes())
+    assert [round(hole.diameter, 1) for hole in detection.holes] == [1.5] * 4
+    (cutout,) = [r for r in detection.rejected if r.check == "material_in_first_circle"]
+    assert cutout.value > cutout.limit
+    assert cutout.center == pytest.approx((10.0, 20.0, 30.0), abs=0.5)
+    # its outline: 15 x 4.5 mm along y, to about a spacing
+    assert cutout.shape["length"] == pytest.approx(15.0, abs=0.2)
+    assert cutout.shape["width"] == pytest.approx(4.5, abs=0.2)
+    assert abs(cutout.shape["direction"][0]) < 1e-2
+
+
+def test_reflections_inside_a_hole_are_not_material():
+    # 100 reflections scattered in the paper's 3 mm hole lie deep inside its first circle: specks of
+    # the occupancy grid, not material, so the check above leaves the hole alone.
+    detection = detect(synth.make_scan(synth.table1_scene(inside_points=100), 0).points)
+    assert len(detection.holes) == 1
+    assert "material_in_first_circle" not in _checks(detection)
+
+
 def test_max_holes_and_full_only_name_what_they_leave_out():
     holes = [synth.HoleSpec(center=(-2.0, 0.0), diameter=3.0), synth.HoleSpec(center=(2.5, 0.0), diameter=2.0),
              synth.HoleSpec(center=(5.6, 0.0), diameter=2.0)]  # the last one cut by the border
