@@ -24,7 +24,7 @@ COLLINEAR_SINE = 1e-12
 # float32 coordinate resolves 6e-8 of its magnitude, a profiler's range quantum is ~1e-5 of its
 # range; a face a thousandth of the field above another is a step of the part, not a quantum).
 LEVEL_SHARE = 0.05
-LEVEL_WIDTH = 0.25
+LEVEL_WIDTH = 0.5
 LEVEL_HELD = 0.9
 LEVEL_LIMIT = 1e-3
 LEVEL_MIN_HEIGHTS = 50
