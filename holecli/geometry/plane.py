@@ -18,6 +18,16 @@ __all__ = ["PlaneFit", "fit_plane_robust", "fit_plane_scatter", "fit_plane_svd",
 ROUND_OFF = 1e-9
 # Smallest sine of the angle between the two edges of a point triple that still defines a plane.
 COLLINEAR_SINE = 1e-12
+# Discrete height levels (see :func:`level_step`): a level holds at least LEVEL_SHARE of the heights
+# looked at, is at most LEVEL_WIDTH of the step wide, the levels hold at least LEVEL_HELD of the
+# heights between the outermost ones, and the step is at most LEVEL_LIMIT of the face's extent (a
+# float32 coordinate resolves 6e-8 of its magnitude, a profiler's range quantum is ~1e-5 of its
+# range; a face a thousandth of the field above another is a step of the part, not a quantum).
+LEVEL_SHARE = 0.05
+LEVEL_WIDTH = 0.5
+LEVEL_HELD = 0.9
+LEVEL_LIMIT = 1e-3
+LEVEL_MIN_HEIGHTS = 50
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,6 +47,10 @@ class PlaneFit:
     major : (3,) float or None
         Unit in-plane direction along which the fitted points spread most (its sign arbitrary), when
         the fit computed it.
+    resolution : float
+        The smallest height difference the data resolve about the plane (:func:`fit_plane_robust`):
+        the step between the discrete levels its inliers' heights sit on (a quantised range, float32
+        storage), else the round-off floor; 0 when the fit did not compute it.
     """
 
     point: np.ndarray
@@ -44,6 +58,7 @@ class PlaneFit:
     rms: float
     inliers: np.ndarray | None = None
     major: np.ndarray | None = None  # (3,) in-plane direction of largest spread of the fitted points
+    resolution: float = 0.0
 
     @property
     def inlier_count(self) -> int:
@@ -125,6 +140,56 @@ def _round_off_floor(points, origin):
     return ROUND_OFF * (float(np.max(np.abs(center + origin))) + 2.0 * float(np.max(reach)))
 
 
+def _extent(points):
+    """Extent of ``points`` in the plane: twice the 90th percentile of their offsets from their median
+    (the largest over the axes), so that a few far points do not set it."""
+    center = np.median(points, axis=0)
+    return 2.0 * float(np.max(np.percentile(np.abs(points - center), 90, axis=0)))
+
+
+def level_step(heights, tolerance, largest):
+    """The step between the discrete levels that ``heights`` sit on near zero, or 0 when they do not.
+
+    A noise-free range quantised by the sensor, or written in float32, puts a face's heights about its
+    plane on a few levels a quantum apart (a noise-free parallel-ray scan at 100 mm: 7.6e-6 mm, with
+    half the points on one level): their quantile, and their median absolute value, is then 0 and
+    says nothing of where the face's points lie. The heights within ``2 largest`` of zero are cut into
+    runs wherever two consecutive ones (sorted) are more than ``tolerance`` apart; they sit on levels
+    when the runs holding at least :data:`LEVEL_SHARE` of them are at least two, each at most
+    :data:`LEVEL_WIDTH` of the smallest step between their centers wide, hold at least
+    :data:`LEVEL_HELD` of the heights between the outermost, and that step is at most ``largest``.
+    Smooth heights (noise, the round-off of fan rays) make one run, or many small ones: 0.
+
+    Parameters
+    ----------
+    heights : (n,) float
+        Signed distances to a plane.
+    tolerance : float
+        Spread of one level (the round-off floor).
+    largest : float
+        Largest step taken for a quantum.
+
+    Returns
+    -------
+    float
+    """
+    heights = np.asarray(heights, dtype=np.float64)
+    values = np.sort(heights[np.abs(heights) <= 2.0 * largest])
+    if len(values) < LEVEL_MIN_HEIGHTS:
+        return 0.0
+    cuts = np.flatnonzero(np.diff(values) > tolerance) + 1
+    starts, ends = np.r_[0, cuts], np.r_[cuts, len(values)]
+    big = (ends - starts) >= LEVEL_SHARE * len(values)
+    if np.count_nonzero(big) < 2:
+        return 0.0
+    low, high = values[starts[big]], values[ends[big] - 1]
+    step = float(np.min(np.diff(0.5 * (low + high))))
+    if not 0.0 < step <= largest or float(np.max(high - low)) > LEVEL_WIDTH * step:
+        return 0.0
+    between = ends[big][-1] - starts[big][0]
+    return step if int(np.sum(ends[big] - starts[big])) >= LEVEL_HELD * between else 0.0
+
+
 def _hypothesis_normals(sample, rng, count):
     triples = rng.integers(0, len(sample), size=(count, 3))
     a, b, c = sample[triples[:, 0]], sample[triples[:, 1]], sample[triples[:, 2]]
@@ -138,13 +203,15 @@ def _hypothesis_normals(sample, rng, count):
 
 
 def _faces(sample, rng, hypotheses, quantile, clip, origin, max_faces):
-    """Planar faces in a sample, one after the other: (count, normal, offset, sigma) each.
+    """Planar faces in a sample, one after the other: (count, normal, offset, sigma, step) each.
 
     Each round takes the RANSAC hypothesis with the smallest ``quantile`` of absolute residuals
     (least quantile of squares) over the points not yet assigned, sets its noise from that quantile
     (never below the round-off floor of the points within it), and removes its points (within
     ``clip`` sigma). Taking faces one by one lets a noisy main surface win over a flatter but smaller
-    side face, which a single threshold would favour.
+    side face, which a single threshold would favour. Where the heights about the face sit on discrete
+    levels (:func:`level_step`), the noise is at least the step between them: the quantile of a
+    noise-free quantised face is 0, and a band of a fraction of a step would cut the face into strips.
     """
     # |r| at quantile q of a normal distribution is sigma * z((1 + q) / 2): 0.385 sigma for q = 0.3.
     z = NormalDist().inv_cdf((1.0 + quantile) / 2.0)
@@ -163,8 +230,10 @@ def _faces(sample, rng, hypotheses, quantile, clip, origin, max_faces):
         best = int(np.argmin(quantiles))
         floor = _round_off_floor(remaining[residuals[best] <= quantiles[best]], origin)
         sigma = max(float(quantiles[best]) / z, floor)
+        step = level_step(remaining @ normals[best] - offsets[best], floor, LEVEL_LIMIT * _extent(remaining))
+        sigma = max(sigma, step)
         members = residuals[best] <= clip * sigma
-        faces.append((int(members.sum()), normals[best], float(offsets[best]), sigma))
+        faces.append((int(members.sum()), normals[best], float(offsets[best]), sigma, step))
         remaining = remaining[~members]
     return faces
 
@@ -181,6 +250,15 @@ def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
     when the scan holds several). The plane is then refined by least squares (:func:`fit_plane_scatter`)
     on the points within ``clip`` robust standard deviations (1.4826 * MAD) until the inlier set
     stops changing: on a subsample of ``refine_sample`` points first, then on all points.
+
+    Noise-free data leaves the noise at a floor: the round-off floor (a multiple of the magnitude of
+    the coordinates, far below any real noise), or, where the heights about the plane sit on discrete
+    levels (a quantised range, float32 storage: :func:`level_step`), the step between the levels. The
+    step itself, not its standard deviation ``step / sqrt(12)``: a face's true height is one value,
+    not one spread uniformly over a step, and the roundings of a chain (range, then coordinates) put
+    its points a level or two either side of the nearest; ``clip`` steps keep them with room, a band of
+    ``clip / sqrt(12)`` steps (1.15 at clip 4) would keep the next level by a hair, whatever the
+    plane's offset between levels.
 
     Every default is the field of :data:`holecli.settings.DEFAULT_SETTINGS` named in brackets.
 
@@ -207,7 +285,8 @@ def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
     Returns
     -------
     PlaneFit
-        With ``inliers`` set and ``rms`` the rms distance of the inliers.
+        With ``inliers`` set, ``rms`` the rms distance of the inliers and ``resolution`` the step
+        between the levels of their heights, or the round-off floor where they are not on levels.
     """
     points = np.asarray(points, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 3 or len(points) < 3:
@@ -226,20 +305,26 @@ def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
     if not faces:
         raise PointsError("the points are collinear (or coincide): no plane is defined")
     # The dominant face is the one that holds the most points, whatever its noise.
-    _, normal, offset, sigma = max(faces, key=lambda face: face[0])
+    _, normal, offset, sigma, face_step = max(faces, key=lambda face: face[0])
     # Iterate on a subsample (a million points need not be refitted ten times), then settle the
     # inlier set on every point: the result depends on the subsample only through points exactly at
     # the band's edge.
     refine = sample_of(refine_sample)
     inliers = np.abs(refine @ normal - offset) <= clip * sigma
     # The noise floor from the surface's own points, never from the extent of the whole cloud.
+    # The step between the levels the face's heights sit on (found about its exact RANSAC plane: the
+    # least-squares plane of quantised heights tilts by a fraction of a step over the face and
+    # blurs them) is a property of the data: it stays a floor.
     floor = _round_off_floor(refine[inliers], origin) if inliers.sum() >= 3 else 0.0
+    floor = max(floor, face_step)
+    largest = LEVEL_LIMIT * _extent(refine[inliers]) if inliers.sum() >= 3 else 0.0
     for _ in range(max_rounds):
         if inliers.sum() < 3:
             raise PointsError("no plane holds enough of the points")
         fit = fit_plane_scatter(refine[inliers])
         normal, offset = fit.normal, float(fit.normal @ fit.point)
         distance = refine @ normal - offset
+        floor = max(floor, level_step(distance, floor, largest))
         sigma = max(robust_sigma(distance[inliers]), floor)
         new_inliers = np.abs(distance) <= clip * sigma
         if np.array_equal(new_inliers, inliers):
@@ -249,4 +334,5 @@ def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
     if inliers.sum() < 3:
         raise PointsError("no plane holds enough of the points")
     fit = fit_plane_scatter(points[inliers])
-    return PlaneFit(point=fit.point, normal=fit.normal, rms=fit.rms, inliers=inliers, major=fit.major)
+    return PlaneFit(point=fit.point, normal=fit.normal, rms=fit.rms, inliers=inliers, major=fit.major,
+                    resolution=floor)

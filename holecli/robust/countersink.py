@@ -180,6 +180,13 @@ def _trimmed_hinge(rho, depth, radius, width, noise, settings, median_start=None
     The first hinge is a least-squares one, or, given ``median_start`` (a mask of the points below the
     surface), a least median one over those points (:func:`_least_median_hinge`); the next are least
     squares over the points kept.
+
+    The trimming scale is that of the kept points inside the edge (the cone's; when they are at least
+    ``cone_min_points_below``), not of all kept points: most of those lie on the surface beyond the
+    edge, where the hinge is flat and fits them to their noise. On a noise-free scan their residuals
+    are 0 (or a range quantum), while a CAD countersink is a pyramid of flat facets whose points lie
+    up to a sagitta off the cone: a scale from the surface trims every cone point and leaves a hinge
+    of slope 0.
     """
     keep = np.ones(len(rho), dtype=bool)
     for round_ in range(settings.cone_trim_rounds):
@@ -190,8 +197,10 @@ def _trimmed_hinge(rho, depth, radius, width, noise, settings, median_start=None
         else:
             edge, slope = _best_edge(rho[keep], depth[keep], radius - width, radius + width,
                                      settings.cone_edge_steps)
+        cone = keep & (rho < edge)
+        among = cone if np.count_nonzero(cone) >= settings.cone_min_points_below else keep
         new_keep = points_on_hinge(rho, depth, edge, slope, noise, 1e-12 * radius, settings.cone_trim_sigmas,
-                                   among=keep)
+                                   among=among)
         if np.array_equal(new_keep, keep):
             break
         keep = new_keep

@@ -41,7 +41,8 @@ from holecli.robust.empty_circle import empty_circle_errors, largest_empty_circl
 from holecli.robust.hole_shape import measure_hole_shape
 from holecli.robust.lattice import lattice_errors, lattice_steps, separating_circle
 from holecli.robust.sampling import estimate_sampling
-from holecli.robust.uncertainty import edge_uncertainty, plane_uncertainty, synthetic_reflections
+from holecli.robust.uncertainty import (edge_uncertainty, plane_uncertainty, resolution_uncertainty,
+                                        synthetic_reflections)
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.stages import StageClock
 
@@ -55,7 +56,7 @@ class _Scene:
     material_xy: np.ndarray  # surface_xy in material cells of the grid (specks inside holes removed)
     above_xy: np.ndarray     # (k, 2) points standing above the surface band (a boss, outliers)
     surface_density: float   # surface points per unit area of scanned material
-    height_noise: float      # robust sd of the surface points' heights
+    height_noise: float      # robust sd of the surface points' heights, at least resolution / sqrt(12)
     band: float              # largest |height| of a surface point: above it stand a boss or outliers
     points: np.ndarray       # (n, 3) the cloud, world coordinates
     surface_index: np.ndarray  # (m,) rows of the plane inliers in points
@@ -72,6 +73,7 @@ class _Scene:
     cell_indices: dict = None  # id(array) -> CellIndex of xy, surface_xy, material_xy (many candidates)
     grid: object = None        # the occupancy grid (for the border distance below)
     border_distance: np.ndarray = None  # per grid cell, distance to the scan's outside (candidates.distance_to_outside)
+    resolution: float = 0.0    # of the heights: the plane's (PlaneFit.resolution: a level step, else round-off)
 
 
 @dataclass(frozen=True)
@@ -168,8 +170,8 @@ def _local_normal(scene, center, radius, settings):
         return None, (None, None)
     points, plane = ring
     on_plane = from_plane_frame(np.array([center[0], center[1], 0.0]), scene.origin, scene.rotation)
-    tangent = _tangent_of_quadric(points, plane, on_plane, settings.curvature_sigmas)
-    return tangent, plane_uncertainty(points, tangent, on_plane)
+    tangent = _tangent_of_quadric(points, plane, on_plane, settings.curvature_sigmas, scene.resolution)
+    return tangent, plane_uncertainty(points, tangent, on_plane, resolution=scene.resolution)
 
 
 def _ring_plane(scene, center, radius, outer_radii):
@@ -195,7 +197,7 @@ def _plane_frame_at(plane, near):
     return foot, np.vstack([first, np.cross(normal, first), normal])
 
 
-def _tangent_of_quadric(points, plane, near, sigmas):
+def _tangent_of_quadric(points, plane, near, sigmas, resolution=0.0):
     """Tangent plane of ``h = a + b s + c t + d s^2 + e s t + f t^2`` fitted to ``points`` in the frame
     of ``plane`` centred at ``near``'s foot on it, taken at that foot; ``plane`` itself when the
     curvature is not significant.
@@ -210,7 +212,7 @@ def _tangent_of_quadric(points, plane, near, sigmas):
     first, second, normal = basis
     local = (points - foot) @ basis.T
     scale = float(np.sqrt(np.mean(local[:, 0] ** 2 + local[:, 1] ** 2)))  # conditioning: unit-size coordinates
-    quadric = _curved_quadric(local, scale, sigmas)
+    quadric = _curved_quadric(local, scale, sigmas, resolution)
     if quadric is None:
         return plane
     origin = np.zeros((1, 2))
@@ -377,7 +379,8 @@ def _cone_in_the_plane(scene, center, cone, settings):
     shift = float(np.hypot(cx - center[0], cy - center[1]))
     if not result.success or shift > width or abs(edge - cone.radius) > width or not MIN_CONE_SLOPE <= slope:
         return center, cone.radius, None
-    return np.array([cx, cy]), float(edge), _least_squares_covariance(result, scale)[:3, :3]
+    covariance = _least_squares_covariance(result, scale)  # None: singular (no covariance, not a crash)
+    return np.array([cx, cy]), float(edge), None if covariance is None else covariance[:3, :3]
 
 
 def _least_squares_covariance(result, scale):
@@ -405,7 +408,7 @@ def _surface_height(scene, center, radius, settings, xy):
     if len(ring) < 30:
         return np.zeros(len(xy))
     local = np.column_stack([scene.surface_xy[ring] - center, scene.heights[scene.surface_index[ring]]])
-    quadric = _curved_quadric(local, radius, settings.curvature_sigmas)
+    quadric = _curved_quadric(local, radius, settings.curvature_sigmas, scene.resolution)
     if quadric is None:
         return np.zeros(len(xy))
     return quadric.height(xy - center)
@@ -865,13 +868,15 @@ def _uncertainty(scene, measured):
     u_center, u_diameter = edge_uncertainty(measured.estimator, measured.synthetic, measured.rim_xy, fit.center,
                                             fit.radius, float(scene.sampling.spacing), float(scene.height_noise),
                                             measured.cone_covariance, diameter_correction=2.0 * measured.bias,
-                                            edge_fringe=measured.fringe[0])
+                                            edge_fringe=measured.fringe[0],
+                                            resolution=scene.resolution)
     height, normal = measured.surface_uncertainty
     if height is None:  # no local plane: the scan's plane (its height noise over its inliers)
         count = max(len(scene.surface_xy), 1)
-        height = float(scene.height_noise) / math.sqrt(count)
+        least = resolution_uncertainty(scene.resolution)
+        height = max(float(scene.height_noise) / math.sqrt(count), least)
         extent = float(np.sqrt(np.mean(np.sum(scene.surface_xy ** 2, axis=1)))) if len(scene.surface_xy) else 1.0
-        normal = float(scene.height_noise) / max(extent * math.sqrt(count), 1e-300)
+        normal = max(float(scene.height_noise) / math.sqrt(count), least) / max(extent, 1e-300)
     return Uncertainty(center_in_plane=float(u_center), center_along_normal=float(height),
                        diameter=float(u_diameter), normal_deg=math.degrees(float(normal)),
                        estimator=measured.estimator)
@@ -966,13 +971,15 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     material_xy = np.asfortranarray(surface_xy[grid.lookup(grid.material, surface_xy)])
     above_xy = np.asfortranarray(xy[(heights > band) & ~surface])
     surface_density = len(surface_xy) / max(float(np.count_nonzero(grid.material)) * cell * cell, 1e-300)
-    height_noise = robust_sigma(heights[surface])
+    # Never 0: noise-free data still holds its heights only to its resolution.
+    resolution = float(plane.resolution)
+    height_noise = max(robust_sigma(heights[surface]), resolution_uncertainty(resolution))
     scene = _Scene(xy=xy, surface_xy=surface_xy, material_xy=material_xy, above_xy=above_xy,
                    surface_density=surface_density, height_noise=height_noise, band=band, heights=heights,
                    points=points, surface_index=np.flatnonzero(surface), origin=origin, rotation=rotation,
                    direction=direction, sampling=sampling, alpha=settings.alpha_gaps * gap, cell=cell,
                    min_radius=min_radius, gap_scatter=0.5 * gap, envelope=settings.envelope_gaps * gap,
-                   cell_indices={})
+                   cell_indices={}, resolution=resolution)
     if not flat_crop:  # (a flat crop's holes get no warnings: the caller's scene judges them)
         scene = replace(scene, grid=grid, border_distance=distance_to_outside(grid))
     voids = find_voids(grid)
@@ -1037,17 +1044,31 @@ def _with_shape(scene, hole, measured, gauge_depth, settings):
     return Hole(**{**hole.__dict__, "type": shape.type, "countersink": shape.countersink,
                    "counterbore": shape.counterbore, "bore": shape.bore, "axis": shape.axis,
                    "perpendicularity_deg": shape.perpendicularity_deg, "warnings": shape.warnings + doubts,
-                   "uncertainty": _with_shape_uncertainty(hole.uncertainty, shape)})
+                   "uncertainty": _with_shape_uncertainty(hole.uncertainty, shape, scene.resolution)})
 
 
-def _with_shape_uncertainty(uncertainty, shape):
+def _at_least(values, least):
+    """A dataclass of standard uncertainties with each length (every field but ``angle_deg``) raised
+    to ``least`` (``2 least`` for a diameter); None stays None."""
+    if values is None:
+        return None
+    raised = {name: (value if value is None or name == "angle_deg"
+                     else max(value, (2.0 if "diameter" in name else 1.0) * least))
+              for name, value in values.__dict__.items()}
+    return replace(values, **raised)
+
+
+def _with_shape_uncertainty(uncertainty, shape, resolution=0.0):
     """The hole's :class:`holecli.results.Uncertainty` with its shape's values'
     (:func:`holecli.robust.hole_shape.measure_hole_shape`): a counterbore's diameter is the edge's,
     an axis from a floor's normal is as uncertain as the surface's normal, and the perpendicularity
-    combines the axis's and the normal's."""
+    combines the axis's and the normal's. No length is below the data's resolution
+    (:func:`holecli.robust.uncertainty.resolution_uncertainty`)."""
     if uncertainty is None or shape.uncertainty is None:
         return uncertainty
-    values = dict(shape.uncertainty)
+    least = resolution_uncertainty(resolution)
+    values = {name: _at_least(value, least) if name != "axis_deg" else value
+              for name, value in dict(shape.uncertainty).items()}
     if values["counterbore"] is not None:
         values["counterbore"] = replace(values["counterbore"], diameter=uncertainty.diameter)
     if shape.axis is not None and values["axis_deg"] is None:
@@ -1109,7 +1130,7 @@ def _on_curved_surface(scene, measured, settings, view_dir, rng):
     near = from_plane_frame(np.array([center[0], center[1], 0.0]), scene.origin, scene.rotation)
     foot, basis = _plane_frame_at(plane, near)
     first, second, normal = basis
-    quadric = _curved_quadric((ring_points - foot) @ basis.T, radius, settings.curvature_sigmas)
+    quadric = _curved_quadric((ring_points - foot) @ basis.T, radius, settings.curvature_sigmas, scene.resolution)
     if quadric is None:
         return None
     crop = scene.points[_within(scene, scene.xy, center, 0.0, settings.crop_radii * radius)]
@@ -1153,10 +1174,12 @@ class _Quadric:
         return np.column_stack([b + 2 * d * u + e * v, c + e * u + 2 * f * v]) / self.scale
 
 
-def _curved_quadric(local, scale, sigmas):
+def _curved_quadric(local, scale, sigmas, resolution=0.0):
     """The quadric of ``local`` ((k, 3): s, t and the height, in a frame centred on a hole), or None
     when the surface is not significantly curved there: its sag at the origin within ``sigmas``
-    standard errors (check ``curvature_sigmas``), or within the round-off of the coordinates.
+    standard errors (check ``curvature_sigmas``), within the round-off of the coordinates, or within
+    the heights' ``resolution`` (a noise-free quantised face's levels lie in bands across it, which
+    a quadric bends to by a fraction of a step, far beyond its standard error).
 
     On a flat surface a quadric's height at the center is only noisier than a plane's (its curvature
     terms are fitted to noise: about 1.7 times the spread on the Table I ring), so it is used only where
@@ -1180,7 +1203,7 @@ def _curved_quadric(local, scale, sigmas):
     residuals = sum(c * column for c, column in zip(coefficients, columns)) - h
     variance = float(residuals @ residuals) / (len(h) - 6)
     standard_error = np.sqrt(variance * inverse[0, 0])
-    if abs(coefficients[0]) <= max(sigmas * standard_error, _SAG_ROUND_OFF * scale):
+    if abs(coefficients[0]) <= max(sigmas * standard_error, _SAG_ROUND_OFF * scale, resolution):
         return None
     return _Quadric(coefficients=coefficients, scale=scale)
 

@@ -43,6 +43,17 @@ Edge (center in the plane, diameter)
 Surface (center along the normal, normal)
     The local plane's least-squares covariance: the height at the center ``sigma^2 / n`` and the
     slopes ``sigma^2 / sum s^2`` along the ring's principal axes (``sigma`` the plane's rms).
+
+Resolution
+    No uncertainty is below the data's own resolution ``q`` (:func:`resolution_uncertainty`): the
+    step between the levels a quantised range or float32 storage puts the heights on, the float32
+    spacing of stored coordinates, else the round-off floor of the plane fit. On exact data every
+    covariance above is 0 (the height at the center of a noise-free scan came out 1.6e-17 mm), and
+    the rounding of noise-free data is not random: every point of a face at one true height is
+    rounded the same way, so averaging ``n`` of them does not divide its effect by ``sqrt(n)``. Each
+    length is given at least ``q / sqrt(12)`` (the standard uncertainty of a value known to a
+    resolution ``q``, GUM F.2.2.1), a diameter twice that (two edges), and the normal that height over
+    the ring's rms reach along its narrower axis.
 """
 
 from __future__ import annotations
@@ -70,6 +81,22 @@ CORRECTION_SHARE = {"empty_circle": 1.0 / math.sqrt(3.0)}
 # freedom: widens a few-sample spread so that +-2u keeps a 95 % coverage (index: degrees of freedom).
 _T_975 = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262,
           10: 2.228}
+
+
+def resolution_uncertainty(resolution) -> float:
+    """The standard uncertainty of a length known to the data's resolution: ``resolution / sqrt(12)``
+    (a rectangular distribution one step wide, GUM F.2.2.1).
+
+    Parameters
+    ----------
+    resolution : float
+        The data's resolution (>= 0).
+
+    Returns
+    -------
+    float
+    """
+    return max(float(resolution), 0.0) / math.sqrt(12.0)
 
 
 def small_sample_factor(degrees_of_freedom) -> float:
@@ -125,7 +152,7 @@ def circle_fit_covariance(rim_xy, center, radius):
 
 
 def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, height_noise, cone_covariance=None,
-                     diameter_correction=0.0, edge_fringe=0.0):
+                     diameter_correction=0.0, edge_fringe=0.0, resolution=0.0):
     """Standard uncertainties of an edge's in-plane center (per coordinate) and of its diameter.
 
     Parameters
@@ -154,6 +181,9 @@ def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, heig
         width; :func:`holecli.robust.method._edge_fringe`), whose middle was taken as the edge: the
         model of that fringe is uncertain over its width, a Type B term ``F / sqrt(12)`` on the
         diameter (a rectangular distribution, GUM 4.3.7).
+    resolution : float, optional
+        The data's resolution: the center's uncertainty is at least
+        :func:`resolution_uncertainty` of it, the diameter's twice that.
 
     Returns
     -------
@@ -164,9 +194,10 @@ def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, heig
     u_center, u_radius = _sampled_uncertainty(estimator, synthetic, rim_xy, center, radius, cone_covariance)
     (ca, cb), (da, db) = METHOD_TERMS[estimator]["center"], METHOD_TERMS[estimator]["diameter"]
     correction = CORRECTION_SHARE.get(estimator, 0.0) * abs(float(diameter_correction))
-    return (math.hypot(u_center, ca * spacing, cb * height_noise),
-            math.hypot(2.0 * u_radius, da * spacing, db * height_noise, correction,
-                       float(edge_fringe) / math.sqrt(12.0)))
+    least = resolution_uncertainty(resolution)
+    return (max(math.hypot(u_center, ca * spacing, cb * height_noise), least),
+            max(math.hypot(2.0 * u_radius, da * spacing, db * height_noise, correction,
+                           float(edge_fringe) / math.sqrt(12.0)), 2.0 * least))
 
 
 def _sampled_uncertainty(estimator, synthetic, rim_xy, center, radius, cone_covariance):
@@ -195,7 +226,7 @@ def _sampled_uncertainty(estimator, synthetic, rim_xy, center, radius, cone_cova
     return max(spread_center, fit_center), max(spread_radius, fit_radius)
 
 
-def plane_uncertainty(points, plane, at):
+def plane_uncertainty(points, plane, at, resolution=0.0):
     """Standard uncertainties of a local plane's height at ``at`` and of its normal's direction.
 
     Parameters
@@ -206,6 +237,9 @@ def plane_uncertainty(points, plane, at):
         Its fit (point, normal, rms).
     at : (3,) float
         Where the height is wanted (the hole's center).
+    resolution : float, optional
+        The data's resolution: the height's uncertainty is at least :func:`resolution_uncertainty`
+        of it, the normal's that height over the points' rms reach along the narrower in-plane axis.
 
     Returns
     -------
@@ -229,7 +263,9 @@ def plane_uncertainty(points, plane, at):
     offset = (np.asarray(at, dtype=np.float64) - np.asarray(plane.point, dtype=np.float64)) @ axes
     slopes = variance / np.maximum(spread, 1e-300)
     height = math.sqrt(variance / n + float(np.sum(offset ** 2 * slopes)))
-    return height, math.sqrt(float(slopes.max()))
+    least = resolution_uncertainty(resolution)
+    tilt = least / max(math.sqrt(float(spread.min()) / n), 1e-300)
+    return max(height, least), max(math.sqrt(float(slopes.max())), tilt)
 
 
 def synthetic_reflections(inside_count, inner_radius, center, radii, band):
