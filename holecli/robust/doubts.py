@@ -27,6 +27,12 @@ DOUBT_CODES = {
     "near_border": "the hole is at the scan's border: its surroundings are not all scanned",
     "large_bias_correction": "a large sampling-bias correction of the diameter",
     "high_fit_rms": "the rim points scatter about the circle well beyond what the sampling explains",
+    "bias_not_measured": "the sampling-bias correction of the diameter could not be measured (no synthetic hole "
+                         "cut around it gave a rim): the diameter is the rim fit's, uncorrected, and its "
+                         "uncertainty includes the correction's possible size",
+    "view_dir_contradicted": "the points seen through the surface lie on the sensor's side that --view-dir gives "
+                             "(--view-dir is the direction the sensor looks, from the sensor toward the part: "
+                             "is its sign reversed?)",
 }
 
 
@@ -64,6 +70,11 @@ class Doubts:
         Rms radial residual of the rim fit.
     gap : float
         The gap scale g.
+    bias_measured : bool
+        False when the diameter's sampling-bias correction was wanted and could not be measured.
+    facing_conflict : bool
+        The data say the sensor saw the other side of the surface than ``--view-dir``
+        (:class:`holecli.robust.facing.Facing`).
     """
 
     rim_points: int
@@ -79,6 +90,8 @@ class Doubts:
     spacing: float
     fit_rms: float
     gap: float
+    bias_measured: bool = True
+    facing_conflict: bool = False
 
 
 def _warning(code, detail):
@@ -129,4 +142,8 @@ def doubt_warnings(doubts, settings=DEFAULT_SETTINGS):
     if d.fit_rms > limit:
         out.append(_warning("high_fit_rms", f"rms {d.fit_rms:.3g} > {limit:.3g} = "
                                             f"{s.doubt_max_fit_rms_gaps:g} gaps"))
+    if not d.bias_measured:
+        out.append(_warning("bias_not_measured", f"the rim fit's diameter {2.0 * d.radius:.6g}"))
+    if d.facing_conflict:
+        out.append(_warning("view_dir_contradicted", "the heights are read toward the sensor --view-dir gives"))
     return tuple(out)
