@@ -34,12 +34,15 @@ class Plane:
         Root mean square distance of the fitted points from the plane, in file units.
     inliers : int
         Number of points the plane was fitted to (all points for the paper method).
+    facing : holecli.robust.facing.Facing or None
+        Which side of the plane the sensor saw and how that was decided (``robust`` only).
     """
 
     point: Vector
     normal: Vector
     rms: float
     inliers: int
+    facing: Optional[object] = None
 
 
 @dataclass(frozen=True)

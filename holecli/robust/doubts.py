@@ -29,6 +29,12 @@ DOUBT_CODES = {
     "high_fit_rms": "the rim points scatter about the circle well beyond what the sampling explains",
     "blurred_edge": "the edge's points are mixed with what lies below it (a wide laser line) and the surface band "
                     "hides most of the mix: the edge lies somewhere within it, the diameter's u does not hold that",
+    "bias_not_measured": "the sampling-bias correction of the diameter could not be measured (no synthetic hole "
+                         "cut around it gave a rim): the diameter is the rim fit's, uncorrected, and its "
+                         "uncertainty includes the correction's possible size",
+    "view_dir_contradicted": "the points seen through the surface lie on the sensor's side that --view-dir gives "
+                             "(--view-dir is the direction the sensor looks, from the sensor toward the part: "
+                             "is its sign reversed?)",
 }
 
 
@@ -69,6 +75,11 @@ class Doubts:
     hidden_fringe : float
         Mean radial width of the fringe of mixed points seen off the surface band at the edge when the
         band hides most of it (``holecli.robust.method._edge_fringe``); 0 otherwise.
+    bias_measured : bool
+        False when the diameter's sampling-bias correction was wanted and could not be measured.
+    facing_conflict : bool
+        The data say the sensor saw the other side of the surface than ``--view-dir``
+        (:class:`holecli.robust.facing.Facing`).
     """
 
     rim_points: int
@@ -85,6 +96,8 @@ class Doubts:
     fit_rms: float
     gap: float
     hidden_fringe: float = 0.0
+    bias_measured: bool = True
+    facing_conflict: bool = False
 
 
 def _warning(code, detail):
@@ -139,4 +152,8 @@ def doubt_warnings(doubts, settings=DEFAULT_SETTINGS):
     if d.hidden_fringe > limit:
         out.append(_warning("blurred_edge", f"{d.hidden_fringe:.3g} of mixed points seen off the band > {limit:.3g} = "
                                             f"{s.doubt_max_hidden_fringe_gaps:g} gaps"))
+    if not d.bias_measured:
+        out.append(_warning("bias_not_measured", f"the rim fit's diameter {2.0 * d.radius:.6g}"))
+    if d.facing_conflict:
+        out.append(_warning("view_dir_contradicted", "the heights are read toward the sensor --view-dir gives"))
     return tuple(out)

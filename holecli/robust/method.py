@@ -37,6 +37,7 @@ from holecli.robust.countersink import MIN_SLOPE as MIN_CONE_SLOPE
 from holecli.robust.countersink import Cone, fit_cone_edge, points_on_hinge
 from holecli.robust.doubts import Doubts, doubt_warnings
 from holecli.robust.edge import fit_edge
+from holecli.robust.facing import decide, seen_through
 from holecli.robust.empty_circle import empty_circle_errors, largest_empty_circle
 from holecli.robust.hole_shape import measure_hole_shape
 from holecli.robust.lattice import lattice_errors, lattice_steps, separating_circle
@@ -74,6 +75,7 @@ class _Scene:
     grid: object = None        # the occupancy grid (for the border distance below)
     border_distance: np.ndarray = None  # per grid cell, distance to the scan's outside (candidates.distance_to_outside)
     resolution: float = 0.0    # of the heights: the plane's (PlaneFit.resolution: a level step, else round-off)
+    facing: object = None      # the sensor's side of the surface (holecli.robust.facing.Facing)
 
 
 @dataclass(frozen=True)
@@ -775,12 +777,20 @@ def _sampling_bias(scene, center, radius, settings, floor, partial):
     offsets = [k * period for k in settings.bias_offsets[:final]]
     scales, ring = _synthetic_ring(scene, center, radius, offsets, settings, floor)
     bias, errors = 0.0, None
+    allow_open = partial
     for passes in range(settings.bias_passes):
         # Cut the synthetic holes in phase with the current estimate of the true edge.
         last = passes == settings.bias_passes - 1
         used = offsets if last else offsets[:count]
-        estimate = sampling_errors(ring, center, radius - bias, used, scales, allow_open=partial, settings=settings,
+        estimate = sampling_errors(ring, center, radius - bias, used, scales, allow_open=allow_open, settings=settings,
                                    reflections=_reflections(scene, center, radius - bias, used))
+        if estimate is None and errors is None and not allow_open:
+            # A full hole near the scan's border: the synthetic holes cut around it (larger than
+            # it) reach the outside and their rims open. Measured as for a partial hole rather than
+            # not at all (issue 24: a d3.96 hole 0.23 mm from the border kept +53 um uncorrected).
+            allow_open = True
+            estimate = sampling_errors(ring, center, radius - bias, used, scales, allow_open=True, settings=settings,
+                                       reflections=_reflections(scene, center, radius - bias, used))
         if estimate is None:
             break
         bias, errors = estimate.bias, estimate
@@ -836,7 +846,7 @@ def _to_hole(scene, measured, index):
     center2d = measured.center
     local_plane = measured.surface_plane
     on_plane = from_plane_frame(np.array([center2d[0], center2d[1], 0.0]), scene.origin, scene.rotation)
-    normal = scene.rotation[2]
+    normal = orient_normal(scene.rotation[2])  # (toward the sensor in the scene: reported z-positive)
     if local_plane is not None:
         normal = local_plane.normal
         # Move the center along the projection direction onto the local plane.
@@ -870,6 +880,10 @@ def _uncertainty(scene, measured):
                                             measured.cone_covariance, diameter_correction=2.0 * measured.bias,
                                             edge_fringe=measured.fringe[0],
                                             resolution=scene.resolution)
+    if _bias_not_measured(measured):
+        # The correction it would have had: the rim lies inside the edge by up to a gap (radius), so
+        # the diameter is off by up to two gaps; uniform over +-2 g (warning bias_not_measured).
+        u_diameter = math.hypot(u_diameter, 2.0 * scene.sampling.gap / math.sqrt(3.0))
     height, normal = measured.surface_uncertainty
     if height is None:  # no local plane: the scan's plane (its height noise over its inliers)
         count = max(len(scene.surface_xy), 1)
@@ -909,32 +923,24 @@ class RobustResult(NamedTuple):
     candidates: int
 
 
-def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, full_only=False,
-                  gauge_depth=None, settings=DEFAULT_SETTINGS, rng=0, flat_crop=False, progress=None):
-    """The robust method; see the module docstring.
+class _Frame(NamedTuple):
+    """The scan in the frame of its plane, with the sampling and the occupancy grid of its surface."""
 
-    Parameters
-    ----------
-    points : (n, 3) float64
-        Checked points (:func:`holecli.pipeline.validate_points`).
-    view_dir, min_diameter, max_holes, full_only, gauge_depth, settings, rng
-        See :func:`holecli.detect`.
-    flat_crop : bool
-        Marks the call that measures one hole of a curved surface again on its flattened
-        neighbourhood (see :func:`_on_curved_surface`): it does not recurse.
-    progress : callable, optional
-        Called with the name of each stage as it starts (see :class:`holecli.stages.StageClock`).
+    rotation: np.ndarray
+    xy: np.ndarray
+    heights: np.ndarray
+    band: float
+    direction: np.ndarray
+    sampling: object
+    min_radius: float
+    surface_xy: np.ndarray
+    grid: object
 
-    Returns
-    -------
-    RobustResult
-    """
-    clock = StageClock(progress)
-    clock.start("plane")
-    plane = fit_plane_robust(points, rng=rng, sample=settings.ransac_sample,
-                             hypotheses=settings.ransac_hypotheses, quantile=settings.ransac_quantile,
-                             clip=settings.plane_clip, max_rounds=settings.plane_refine_rounds,
-                             refine_sample=settings.plane_refine_sample, max_faces=settings.plane_max_faces)
+
+def _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock):
+    """Steps 2-4 of the module docstring up to the grid, about ``plane`` with its normal's sign as
+    given: the rotation into its frame, the plane-frame xy (surface points slid along ``view_dir``
+    when given) and heights, the band, the sampling and the occupancy grid of the surface."""
     normal, origin = plane.normal, plane.point
     # In-plane axes from the surface points themselves (centroid, principal axes), so that the grid
     # and the windows below move with the cloud under any rigid motion.
@@ -966,8 +972,55 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     min_radius = 0.5 * (min_diameter if min_diameter is not None else settings.min_diameter_gaps * gap)
     clock.start("grid")
     surface_xy = np.asfortranarray(xy[surface])
+    grid = occupancy_grid(surface_xy, settings.cell_gaps * gap, max_speck_cells=settings.max_speck_cells)
+    return _Frame(rotation=rotation, xy=xy, heights=heights, band=band, direction=direction, sampling=sampling,
+                  min_radius=min_radius, surface_xy=surface_xy, grid=grid)
+
+
+def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, full_only=False,
+                  gauge_depth=None, settings=DEFAULT_SETTINGS, rng=0, flat_crop=False, progress=None):
+    """The robust method; see the module docstring.
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+        Checked points (:func:`holecli.pipeline.validate_points`).
+    view_dir, min_diameter, max_holes, full_only, gauge_depth, settings, rng
+        See :func:`holecli.detect`.
+    flat_crop : bool
+        Marks the call that measures one hole of a curved surface again on its flattened
+        neighbourhood (see :func:`_on_curved_surface`): it does not recurse.
+    progress : callable, optional
+        Called with the name of each stage as it starts (see :class:`holecli.stages.StageClock`).
+
+    Returns
+    -------
+    RobustResult
+    """
+    clock = StageClock(progress)
+    clock.start("plane")
+    plane = fit_plane_robust(points, rng=rng, sample=settings.ransac_sample,
+                             hypotheses=settings.ransac_hypotheses, quantile=settings.ransac_quantile,
+                             clip=settings.plane_clip, max_rounds=settings.plane_refine_rounds,
+                             refine_sample=settings.plane_refine_sample, max_faces=settings.plane_max_faces)
+    frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
+    # The heights are read along the normal toward the sensor (holecli.robust.facing): from
+    # --view-dir, else from the points seen through the surface, else the z-positive normal. A flat
+    # crop's frame has the sensor on +z (_on_curved_surface).
+    below, above = seen_through(frame.heights, frame.xy, plane.inliers, frame.grid, frame.band,
+                                frame.sampling.spacing)
+    facing = decide(plane.normal, (0.0, 0.0, -1.0) if flat_crop else view_dir, below, above)
+    if facing.sign < 0:
+        # The frame again about the flipped normal (not a mirror of the first one), so that a scan
+        # and its rigid motions are measured in the same frame of the part.
+        plane = replace(plane, normal=-plane.normal)
+        frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
+    normal, origin = plane.normal, plane.point
+    rotation, xy, heights, band, direction = frame.rotation, frame.xy, frame.heights, frame.band, frame.direction
+    sampling, grid, surface, min_radius = frame.sampling, frame.grid, plane.inliers, frame.min_radius
+    gap = sampling.gap
     cell = settings.cell_gaps * gap
-    grid = occupancy_grid(surface_xy, cell, max_speck_cells=settings.max_speck_cells)
+    surface_xy = frame.surface_xy
     material_xy = np.asfortranarray(surface_xy[grid.lookup(grid.material, surface_xy)])
     above_xy = np.asfortranarray(xy[(heights > band) & ~surface])
     surface_density = len(surface_xy) / max(float(np.count_nonzero(grid.material)) * cell * cell, 1e-300)
@@ -979,7 +1032,7 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
                    points=points, surface_index=np.flatnonzero(surface), origin=origin, rotation=rotation,
                    direction=direction, sampling=sampling, alpha=settings.alpha_gaps * gap, cell=cell,
                    min_radius=min_radius, gap_scatter=0.5 * gap, envelope=settings.envelope_gaps * gap,
-                   cell_indices={}, resolution=resolution)
+                   cell_indices={}, resolution=resolution, facing=facing)
     if not flat_crop:  # (a flat crop's holes get no warnings: the caller's scene judges them)
         scene = replace(scene, grid=grid, border_distance=distance_to_outside(grid))
     voids = find_voids(grid)
@@ -1018,8 +1071,8 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         holes = [_with_shape(scene, hole, measured, gauge_depth, settings) for hole, measured in zip(holes, found)]
     holes.sort(key=lambda hole: (hole.partial, hole.center))
     holes = tuple(Hole(**{**hole.__dict__, "index": i}) for i, hole in enumerate(holes))
-    plane_result = Plane(point=tuple(map(float, origin)), normal=tuple(map(float, normal)), rms=plane.rms,
-                         inliers=int(surface.sum()))
+    plane_result = Plane(point=tuple(map(float, origin)), normal=tuple(map(float, orient_normal(normal))),
+                         rms=plane.rms, inliers=int(surface.sum()), facing=facing)
     rejections = tuple(sorted((_to_rejection(scene, r) for r in rejected), key=lambda r: (-r.diameter, r.center)))
     scales = Scales(point_spacing=float(sampling.spacing), gap_scale=float(gap),
                     line_pitch=None if sampling.line_pitch is None else float(sampling.line_pitch),
@@ -1107,7 +1160,14 @@ def _doubts(scene, hole, measured):
                   arc_deg=float(hole.arc_deg), border_gap=border_gap, radius=float(radius),
                   bias_correction=None if measured.cone_slope is not None else float(hole.bias_correction),
                   spacing=float(scene.sampling.spacing), fit_rms=float(hole.fit_rms), gap=float(gap),
-                  hidden_fringe=float(measured.fringe[2]))
+                  hidden_fringe=float(measured.fringe[2]),
+                  bias_measured=not _bias_not_measured(measured), facing_conflict=scene.facing.conflict)
+
+
+def _bias_not_measured(measured):
+    """A rim fit whose sampling-bias correction was wanted and could not be measured: no synthetic
+    hole cut into the material around it gave a rim (:func:`_sampling_bias`)."""
+    return measured.estimator == "rim_fit" and measured.synthetic is None
 
 
 def _on_curved_surface(scene, measured, settings, view_dir, rng):
@@ -1130,6 +1190,10 @@ def _on_curved_surface(scene, measured, settings, view_dir, rng):
     near = from_plane_frame(np.array([center[0], center[1], 0.0]), scene.origin, scene.rotation)
     foot, basis = _plane_frame_at(plane, near)
     first, second, normal = basis
+    if float(normal @ scene.rotation[2]) < 0:
+        # The crop's frame with the sensor on +z, as the scene's (its detect_robust takes that side).
+        second, normal = -second, -normal
+        basis = np.vstack([first, second, normal])
     quadric = _curved_quadric((ring_points - foot) @ basis.T, radius, settings.curvature_sigmas, scene.resolution)
     if quadric is None:
         return None

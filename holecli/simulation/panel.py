@@ -100,6 +100,7 @@ __all__ = [
     "PanelSpec",
     "build_panel",
     "panel_truth",
+    "with_backing",
     "parse_panel_toml",
 ]
 
@@ -1306,3 +1307,50 @@ def parse_panel_toml(text) -> PanelSpec:
     # The gap and depth checks that need the exact loops run here too, so that a file is refused on reading.
     _checked_loops(spec, _Bend(spec.curvature, spec.radius), "feature")
     return spec
+
+
+def with_backing(panel, gap, margin=5.0):
+    """The panel's mesh with a flat backing plate ``gap`` mm behind its bottom face, as
+    ``(vertices, triangles)``: what a sensor sees through the panel's holes when the part lies on a
+    fixture, or when the face is one leg of a bracket with the other behind it.
+
+    The plate is one thin box (0.5 mm) parallel to a flat panel's top face, its top at ``z =
+    -(thickness + gap)`` and reaching ``margin`` mm beyond the panel's border; only flat panels.
+    Together with :class:`holecli.simulation.profiler.ProfilerSpec`'s ``view`` (an inclined face)
+    and ``frame`` (a part turned over in the file's frame) it makes the scans of issue 24's
+    "surfaces facing away from +z": floors seen through holes behind a surface whose normal points
+    anywhere.
+
+    Parameters
+    ----------
+    panel : Panel
+        A flat panel (:func:`build_panel`).
+    gap : float
+        Distance from the panel's bottom face to the plate's top, mm, > 0.
+    margin : float
+        How far the plate reaches beyond the panel's border, mm, >= 0.
+
+    Returns
+    -------
+    vertices : (n, 3) float64
+    triangles : (m, 3) int64
+    """
+    spec = panel.spec
+    if spec.curvature != "flat":
+        _fail("curvature", "'flat' for a backing plate", spec.curvature)
+    if not (_number(gap) and gap > 0):
+        _fail("gap", "a positive number (mm)", gap)
+    if not (_number(margin) and margin >= 0):
+        _fail("margin", "a number >= 0 (mm)", margin)
+    half_u, half_v = 0.5 * spec.width + margin, 0.5 * spec.height + margin
+    top, bottom = -(spec.thickness + gap), -(spec.thickness + gap + 0.5)
+    corners = np.array([[-half_u, -half_v], [half_u, -half_v], [half_u, half_v], [-half_u, half_v]])
+    box = np.vstack([np.column_stack([corners, np.full(4, top)]), np.column_stack([corners, np.full(4, bottom)])])
+    # Counter-clockwise seen from outside: the top up, the bottom down, the four sides out.
+    faces = [(0, 1, 2), (0, 2, 3), (4, 6, 5), (4, 7, 6)]
+    for a in range(4):
+        b = (a + 1) % 4
+        faces += [(a, a + 4, b + 4), (a, b + 4, b)]
+    offset = len(panel.vertices)
+    return (np.vstack([panel.vertices, box]),
+            np.vstack([panel.triangles, np.asarray(faces, dtype=np.int64) + offset]))
