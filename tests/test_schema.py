@@ -87,7 +87,7 @@ def test_the_schema_refuses_what_is_not_a_record(panel_record):
 
 @pytest.mark.parametrize("args", [
     ["--method", "paper"],
-    ["--nominal-diameter", "3", "--tolerance", "+0.036/-0", "--view-dir", "0,0,1", "--max-holes", "1"],
+    ["--nominal-diameter", "3", "--tolerance", "+0.036/-0", "--view-dir", "0,0,-1", "--max-holes", "1"],
     ["--full-only", "--min-diameter", "1"],
     ["--units", "mm", "--output-units", "m", "--gauge-depth", "0.0005", "--explain"],
 ])

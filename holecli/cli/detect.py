@@ -500,7 +500,7 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
     Examples:
       holecli detect scan.ply
       holecli detect scan.csv --format csv --output result.csv
-      holecli detect scan.pcd --view-dir 0,0,1 --full-only --format table
+      holecli detect scan.pcd --view-dir 0,0,-1 --full-only --format table
       holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0
       holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0 --decision-rule guarded
       holecli detect scan.ply --nominal-center 3.65,5.14,5.53 --position-tolerance 0.1 \\

@@ -239,7 +239,7 @@ def plot(scan, output, input_format, scan_index, units, max_panels, dpi, method,
     Examples:
       holecli plot scan.ply -o fit.png
       holecli plot scan.ply -o fit.png --max-panels 2 --dpi 60
-      holecli plot scan.pcd -o fit.png --view-dir 0,0,1 --full-only
+      holecli plot scan.pcd -o fit.png --view-dir 0,0,-1 --full-only
     """
     check_verbosity(quiet, verbose)
     from holecli.cli.detect import check_stdin_format
