@@ -232,9 +232,16 @@ def _shape_table(holes, length_digits=4):
         return "-" if value is None else f"{value:.{digits}f}"
 
     table = Table(title="below the edge")
+    # the words are never cut: the numbers' headers wrap instead (the table is 140 columns wide)
+    words = {"type": [hole.get("type") or "-" for hole in holes],
+             "warnings": [warning["code"] for hole in holes for warning in hole.get("warnings", [])],
+             "notes": [note["code"] for hole in holes for note in hole.get("notes", [])]}
     for column in ("hole", "type", "csk dia", "csk angle", "csk depth", "cbore dia", "cbore depth", "bore dia",
                    "floor depth", "perp deg", "warnings", "notes"):
-        table.add_column(column, justify="left" if column in ("type", "warnings", "notes") else "right")
+        if column in words:
+            table.add_column(column, justify="left", no_wrap=True, min_width=max(map(len, words[column]), default=1))
+        else:
+            table.add_column(column, justify="right")
     for hole in holes:
         countersink, counterbore, bore = (hole.get(key) or {} for key in ("countersink", "counterbore", "bore"))
         table.add_row(str(hole["index"]), hole.get("type") or "-", number(countersink.get("diameter")),
@@ -242,8 +249,9 @@ def _shape_table(holes, length_digits=4):
                       number(counterbore.get("diameter")), number(counterbore.get("depth")),
                       number(bore.get("diameter")), number(bore.get("floor_depth")),
                       number(hole.get("perpendicularity_deg"), 3),
-                      ", ".join(warning["code"] for warning in hole.get("warnings", [])),
-                      ", ".join(note["code"] for note in hole.get("notes", [])))
+                      # one code a line: the cells stay as narrow as the longest code
+                      "\n".join(warning["code"] for warning in hole.get("warnings", [])),
+                      "\n".join(note["code"] for note in hole.get("notes", [])))
     return table
 # The value a failed check is shown with in the table: the field of the checked hole (a deviation, or
 # the measured angle for tilt and perpendicularity).
