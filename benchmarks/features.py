@@ -192,7 +192,7 @@ def measure(kind, seed):
 def _score(points, true_scan, description):
     """Detect the holes of ``points`` and score the one nearest the truth's center."""
     if true_scan is None:
-        return dict(description, found=False, typed=False, type=None, errors=[], warnings=[], cpu=0.0,
+        return dict(description, found=False, typed=False, type=None, errors=[], warnings=[], notes=[], cpu=0.0,
                     points=len(points))
     started = time.process_time()
     detection = detect(points)
@@ -204,7 +204,8 @@ def _score(points, true_scan, description):
     return dict(description, found=match is not None, typed=match is not None and match.type == expected_type,
                 type=None if match is None else match.type,
                 errors=[] if match is None else errors_of(match, true_scan, description["unit_scale"]),
-                warnings=[] if match is None else [w.code for w in match.warnings], cpu=cpu, points=len(points))
+                warnings=[] if match is None else [w.code for w in match.warnings],
+                notes=[] if match is None else [note.code for note in match.notes], cpu=cpu, points=len(points))
 
 
 def main(argv=None):
@@ -214,7 +215,7 @@ def main(argv=None):
     parser.add_argument("--verbose", action="store_true", help="print every scene")
     args = parser.parse_args(argv)
     collected = {}
-    print(f"{'class':<13} {'found':>6} {'typed':>6} {'cpu s':>6}  warnings")
+    print(f"{'class':<13} {'found':>6} {'typed':>6} {'cpu s':>6}  warnings | notes")
     for kind in args.classes.split(","):
         rows = [measure(kind, seed) for seed in range(args.seeds)]
         for seed, row in enumerate(rows):
@@ -223,10 +224,12 @@ def main(argv=None):
             if args.verbose:
                 print(f"  {kind} seed {seed}: {row['type']} pitch {row['pitch']:.3f} noise {row['noise']:.3f} "
                       f"view {row['view_tilt']:.0f} drill {row['drill_tilt']:.0f} "
-                      + " ".join(f"{n}={e:+.4f}" for n, e in row["errors"]) + f" {row['warnings']}")
+                      + " ".join(f"{n}={e:+.4f}" for n, e in row["errors"]) + f" {row['warnings']} {row['notes']}")
         warnings = sorted({code for row in rows for code in row["warnings"]})
+        notes = sorted({code for row in rows for code in row["notes"]})
         print(f"{kind:<13} {sum(r['found'] for r in rows):>3}/{len(rows):<2} {sum(r['typed'] for r in rows):>3}/{len(rows):<2} "
-              f"{np.median([r['cpu'] for r in rows]):>6.2f}  {', '.join(warnings)}", flush=True)
+              f"{np.median([r['cpu'] for r in rows]):>6.2f}  {', '.join(warnings) or 'none'} | {', '.join(notes)}",
+              flush=True)
     print()
     print(f"{'value':<21} {'scenes':>6} {'median':>9} {'worst':>9} {'target':>8}  met")
     missed = False

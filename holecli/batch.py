@@ -44,6 +44,8 @@ FORMATS = ("jsonl", "csv")
 
 # The batch CSV header before the provenance columns (schema 1, records without schema_version).
 _SCHEMA_1_COLUMNS = CSV_COLUMNS[:CSV_COLUMNS.index("schema_version")] + ("error", "path")
+# The batch CSV header of schema 2.1 (and 2.0 since the decision rules), before the notes column.
+_SCHEMA_2_1_COLUMNS = CSV_COLUMNS[:CSV_COLUMNS.index("notes")] + ("error", "path")
 
 # Files handed to the pool ahead of the free workers, per worker: enough to keep every worker busy
 # while the parent writes, few enough that an interrupt has little queued work to throw away.
@@ -930,6 +932,8 @@ def _earlier_records(path, complete, fmt):
             why = " (it was written by holecli 0.1, without the path column: start a new output)"
         elif header == _SCHEMA_1_COLUMNS:
             why = " (it was written before schema 2.0, without the provenance columns: start a new output)"
+        elif header == _SCHEMA_2_1_COLUMNS:
+            why = " (it was written before schema 2.2, without the notes column: start a new output)"
         else:
             why = ""
         raise ResumeError(f"{path}: cannot resume: its header is not the header of holecli batch --format csv"
@@ -967,7 +971,7 @@ class FileSummary:
     undecided: int = 0  # holes with an undecided check and none failed (--decision-rule guarded)
     missing: int = 0
     path: str = ""  # resolved_path of the file; "" in records of holecli 0.1
-    warnings: tuple = ()  # per hole, the tuple of its warning codes
+    warnings: tuple = ()  # per hole, the tuple of its warning codes (never a note's, see _warning_codes)
 
     @classmethod
     def of_record(cls, record):
@@ -978,7 +982,7 @@ class FileSummary:
         return cls(file=record["file"], failed=False, holes=len(record.get("holes", ())),
                    out_of_tolerance=verdict.get("out_of_tolerance", 0), undecided=verdict.get("undecided", 0),
                    missing=len(verdict.get("missing", ())),
-                   path=path, warnings=tuple(tuple(warning["code"] for warning in hole.get("warnings", ()))
+                   path=path, warnings=tuple(_warning_codes(warning["code"] for warning in hole.get("warnings", ()))
                                              for hole in record.get("holes", ())))
 
     @classmethod
@@ -992,8 +996,17 @@ class FileSummary:
                    out_of_tolerance=sum(row["in_tolerance"] == "false" and not _only_undecided(row) for row in holes),
                    undecided=sum(row["in_tolerance"] == "false" and _only_undecided(row) for row in holes),
                    missing=sum(row["in_tolerance"] == "false" for row in rows if not row["hole"]),
-                   warnings=tuple(tuple(code for code in (row.get("warnings") or "").split(";") if code)
+                   warnings=tuple(_warning_codes(code for code in (row.get("warnings") or "").split(";") if code)
                                   for row in holes))
+
+
+def _warning_codes(codes):
+    """The warning codes among ``codes``, without the notes' (:data:`holecli.robust.hole_shape.NOTE_CODES`),
+    which records before schema 2.2 (a resumed batch's earlier ones) gave as warnings: a note never counts
+    as a doubt or fails ``--fail-on-warning``."""
+    from holecli.robust.hole_shape import NOTE_CODES
+
+    return tuple(code for code in codes if code not in NOTE_CODES)
 
 
 def _only_undecided(row):
@@ -1012,7 +1025,7 @@ class Tally:
     out_of_tolerance: int = 0
     undecided: int = 0
     missing: int = 0
-    doubtful_holes: int = 0  # holes with a warning of holecli.robust.doubts (a doubtful result)
+    doubtful_holes: int = 0  # holes with a warning (a doubtful result; notes are not warnings)
     warning_codes: dict = field(default_factory=dict)  # every warning code -> holes with it
 
     def add(self, summary):
@@ -1028,10 +1041,8 @@ class Tally:
         self.out_of_tolerance += summary.out_of_tolerance
         self.undecided += summary.undecided
         self.missing += summary.missing
-        from holecli.robust.doubts import DOUBT_CODES
-
         for codes in summary.warnings:
-            self.doubtful_holes += any(code in DOUBT_CODES for code in codes)
+            self.doubtful_holes += bool(codes)
             for code in set(codes):
                 self.warning_codes[code] = self.warning_codes.get(code, 0) + 1
 

@@ -17,7 +17,7 @@ One row per hole (the first ``max_panels``):
 * the radial residuals of the edge against the angle (polar): for each angular sector, the
   nearest surface point to the center, minus the fitted radius, the rejected ones marked;
 * a text box with the hole's values: diameter ± U, center, normal, type, countersink, bore,
-  warnings, and, last, its conformance and verdict (:func:`verdict_lines`) when the checked record
+  warnings, notes (when there are), and, last, its conformance and verdict (:func:`verdict_lines`) when the checked record
   is given.
 """
 
@@ -283,6 +283,8 @@ def hole_text(hole, unit=None):
         lines.append(f"perpendicularity: {hole.perpendicularity_deg:.3f}°")
     codes = [w.code for w in hole.warnings]
     lines.append("warnings: " + (", ".join(codes) if codes else "none"))
+    if hole.notes:
+        lines.append("notes: " + ", ".join(note.code for note in hole.notes))
     return "\n".join(lines)
 
 

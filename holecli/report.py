@@ -32,6 +32,9 @@ CSV_COLUMNS = (
     # undecided checks, the conformance of every check as compact JSON (value, limits, U, decision),
     # and, with the provenance, options.tolerances' decision_rule and coverage_factor.
     "undecided_checks", "conformance", "decision_rule", "coverage_factor",
+) + (
+    # The notes' codes (schema 2.2: why a value is null, out of warnings), after the older columns too.
+    "notes",
 )
 
 # The columns of the provenance that come from the record's options and scales.
@@ -98,7 +101,7 @@ def csv_cell(value):
     if isinstance(value, float):
         return repr(value)
     if isinstance(value, (list, tuple)):
-        # failed_checks, warnings, view_dir: a few words or numbers, never holding the separator
+        # failed_checks, warnings, notes, view_dir: a few words or numbers, never holding the separator
         return ";".join(repr(item) if isinstance(item, float) else str(item) for item in value)
     if isinstance(value, dict):
         # settings, nominal, conformance: compact JSON in one cell
@@ -156,7 +159,8 @@ def csv_rows(record, columns=CSV_COLUMNS):
                        "counterbore_diameter": counterbore.get("diameter"), "counterbore_depth": counterbore.get("depth"),
                        "bore_diameter": bore.get("diameter"), "bore_rms": bore.get("rms"),
                        "floor_depth": bore.get("floor_depth"),
-                       "warnings": [warning["code"] for warning in hole.get("warnings", [])]})
+                       "warnings": [warning["code"] for warning in hole.get("warnings", [])],
+                       "notes": [note["code"] for note in hole.get("notes", [])]})
         for axis, name in enumerate("xyz"):
             values[f"axis_{name}"] = None if hole.get("axis") is None else hole["axis"][axis]
         position = hole.get("position_deviation") or {}

@@ -192,8 +192,18 @@ class Uncertainty:
 
 @dataclass(frozen=True)
 class HoleWarning:
-    """Something that makes a hole's result doubtful or incomplete: a short stable ``code`` and a
-    sentence (``message``) with the numbers (the codes are listed in the README)."""
+    """Something that makes a hole's result doubtful (a value given may be wrong): a short stable
+    ``code`` and a sentence (``message``) with the numbers (the codes are listed in the README)."""
+
+    code: str
+    message: str
+
+
+@dataclass(frozen=True)
+class HoleNote:
+    """Why a value of a hole is null, or a fact that makes no value given doubtful (a scan straight
+    down a bore sees no bore wall): a short stable ``code`` and a sentence (``message``) with the
+    numbers, as :class:`HoleWarning` (the codes are listed in the README)."""
 
     code: str
     message: str
@@ -244,7 +254,9 @@ class Hole:
     perpendicularity_deg : float or None
         Angle between :attr:`axis` and :attr:`normal`, degrees.
     warnings : tuple of HoleWarning
-        What makes the result doubtful or a value null.
+        What makes the result doubtful: a value given may be wrong (empty for a clean scan).
+    notes : tuple of HoleNote
+        Why a value is null (``bore_not_seen``, ``axis_not_measured``, ...): nothing doubtful.
     uncertainty : Uncertainty or None
         The standard uncertainties of the values (None from the ``paper`` method).
     """
@@ -268,6 +280,7 @@ class Hole:
     axis: Optional[Vector] = None
     perpendicularity_deg: Optional[float] = None
     warnings: tuple[HoleWarning, ...] = ()
+    notes: tuple[HoleNote, ...] = ()
     uncertainty: Optional[Uncertainty] = None
 
     @property
@@ -295,6 +308,7 @@ class Hole:
         if self.bore is not None and self.bore.depth_range is not None:
             out["bore"]["depth_range"] = list(self.bore.depth_range)
         out["warnings"] = [asdict(warning) for warning in self.warnings]
+        out["notes"] = [asdict(note) for note in self.notes]
         return out
 
 
@@ -347,8 +361,8 @@ class Rejection:
 # The version of the record's layout (``schema_version``): MAJOR.MINOR. MINOR grows when a key is
 # added (a reader may ignore keys it does not know); MAJOR when a key is removed, renamed or moved or
 # its type or meaning changes. The README documents the rule; holecli/schema/record.schema.json
-# describes this version.
-SCHEMA_VERSION = "2.1"
+# describes this version. 2.2 (issue 24): holes[].notes, the reasons a value is null, out of warnings.
+SCHEMA_VERSION = "2.2"
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ The lengths of a record (every other number is not one):
 
 Not converted: ``normal``, ``axis``, ``shape.direction`` (unit vectors), every ``..._deg`` and
 ``arc_deg`` and ``countersink_angle_deviation`` (degrees), counts, ``elapsed_ms``, and the text of
-``warnings[].message``, which quotes its numbers in file units.
+``warnings[].message`` and ``notes[].message``, which quote their numbers in file units.
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ PLANE_KEYS = {"point", "normal", "rms", "inliers"}
 HOLE_KEYS = {
     "index", "center", "diameter", "normal", "rim_points", "fit_rms", "max_residual", "roundness",
     "bias_correction", "partial", "arc_deg", "scan_lines", "type", "countersink", "counterbore", "bore", "axis",
-    "perpendicularity_deg", "warnings", "uncertainty",
+    "perpendicularity_deg", "warnings", "notes", "uncertainty",
 }  # fmt: skip
 RECORD_KEYS = {"schema_version", "holecli_version", "file", "points", "dropped_points", "method", "options", "scales",
                "candidates", "plane", "holes", "timing"}
@@ -325,9 +325,11 @@ def test_the_panel_sample_s_holes_are_measured_below_their_edges(repo_root):
     hole, expected = by_kind["blind"]
     assert abs(hole.bore.floor_depth - expected["floor_depth"]) < 0.005
     hole, _ = by_kind["through"]
-    assert hole.bore.diameter is None and {w.code for w in hole.warnings} == {"bore_not_seen", "axis_not_measured"}
+    assert hole.bore.diameter is None and {n.code for n in hole.notes} == {"bore_not_seen", "axis_not_measured"}
+    # a clean straight-down scan: why its values are null are notes, and no hole has a warning
+    assert all(h.warnings == () for h, _ in by_kind.values())
     paper = detect_file(repo_root / "sample_clouds" / "table1.ply", method="paper").holes[0]
-    assert paper.type is None and paper.bore is None and paper.warnings == ()
+    assert paper.type is None and paper.bore is None and paper.warnings == () and paper.notes == ()
 
 
 # --- provenance: scales, options, candidates and timing of a detection (issue 13) ---------------------

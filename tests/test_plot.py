@@ -50,6 +50,9 @@ def test_a_text_box_per_hole_with_its_diameter(drawn):
         assert "normal: (" in text and "type: " in text and "warnings: " in text
         for warning in hole.warnings:
             assert warning.code in text
+        assert ("notes: " in text) == bool(hole.notes)
+        for note in hole.notes:
+            assert note.code in text
 
 
 def test_the_countersink_circle_where_measured():

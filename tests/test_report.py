@@ -20,7 +20,7 @@ DOCUMENTED_COLUMNS = (
     "countersink_depth_deviation,bore_diameter_deviation,in_tolerance,failed_checks,"
     "schema_version,holecli_version,units,method,view_dir,min_diameter,min_diameter_effective,max_holes,full_only,"
     "gauge_depth,rng,settings,input_format,scan,spec_file,spec_sha256,nominal,point_spacing,gap_scale,line_pitch,period,lattice,"
-    "height_noise,triangle_area_bound,candidates,undecided_checks,conformance,decision_rule,coverage_factor"
+    "height_noise,triangle_area_bound,candidates,undecided_checks,conformance,decision_rule,coverage_factor,notes"
 ).split(",")
 # The provenance columns (issue 13): the same in every row of a record.
 PROVENANCE = DOCUMENTED_COLUMNS.index("schema_version")
@@ -98,6 +98,25 @@ def test_csv_rows_one_row_per_hole_in_column_order():
     assert float(first["arc_deg"]) == 360.0
 
 
+def test_csv_gives_the_codes_of_the_warnings_and_of_the_notes_apart():
+    from dataclasses import replace
+
+    from holecli.results import HoleNote, HoleWarning
+
+    detection = Detection(holes=(), plane=Plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), rms=0.0, inliers=9),
+                          points=9, method="robust")
+    hole = Hole(index=0, center=(0.0, 0.0, 0.0), diameter=3.0, normal=(0.0, 0.0, 1.0), rim_points=40, fit_rms=0.01,
+                warnings=(HoleWarning("rim_gap", "a gap"),),
+                notes=(HoleNote("bore_not_seen", "no wall"), HoleNote("axis_not_measured", "no axis")))
+    record = replace(detection, holes=(hole,)).to_dict()
+    assert [entry["code"] for entry in record["holes"][0]["notes"]] == ["bore_not_seen", "axis_not_measured"]
+    row = dict(zip(report.CSV_COLUMNS, report.csv_rows(record)[0]))
+    assert (row["warnings"], row["notes"]) == ("rim_gap", "bore_not_seen;axis_not_measured")
+    clean = replace(detection, holes=(replace(hole, warnings=()),)).to_dict()
+    row = dict(zip(report.CSV_COLUMNS, report.csv_rows(clean)[0]))
+    assert (row["warnings"], row["notes"]) == ("", "bore_not_seen;axis_not_measured")
+
+
 def test_csv_booleans_and_none():
     first, second = (dict(zip(report.CSV_COLUMNS, row)) for row in report.csv_rows(_record(holes=2)))
     assert (first["partial"], second["partial"]) == ("false", "true")
@@ -113,7 +132,7 @@ def test_csv_record_without_holes_is_one_row_with_only_the_file_and_its_provenan
     record = _record(holes=0)
     rows = report.csv_rows(record)
     assert rows == [["scans/part 7, left.ply"] + [""] * (PROVENANCE - 1) + _provenance_cells(record)]
-    assert dict(zip(DOCUMENTED_COLUMNS[PROVENANCE:], rows[0][PROVENANCE:]))["schema_version"] == "2.1"
+    assert dict(zip(DOCUMENTED_COLUMNS[PROVENANCE:], rows[0][PROVENANCE:]))["schema_version"] == "2.2"
 
 
 def test_csv_record_without_file_or_holes():

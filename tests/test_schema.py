@@ -139,3 +139,24 @@ def test_the_record_says_how_the_file_was_read(run, tmp_path):
     assert (record["options"]["input_format"], record["options"]["scan"]) == ("ply", 0)
     plain = json.loads(run("detect", _sample("table1.ply")).stdout)
     assert (plain["options"]["input_format"], plain["options"]["scan"]) == (None, None)
+
+
+def test_notes_are_apart_from_warnings_in_the_schema(panel_record):
+    # schema 2.2: why a value is null is a note (a straight-down scan sees no bore wall), never a warning
+    from holecli.robust.doubts import DOUBT_CODES
+    from holecli.robust.hole_shape import NOTE_CODES, WARNING_CODES
+
+    defs = record_schema()["$defs"]
+    assert set(defs["note"]["properties"]["code"]["enum"]) == set(NOTE_CODES)
+    assert set(defs["warning"]["properties"]["code"]["enum"]) == set(WARNING_CODES) | set(DOUBT_CODES)
+    holes = panel_record["holes"]
+    assert all(hole["warnings"] == [] for hole in holes)
+    assert {note["code"] for hole in holes for note in hole["notes"]} == {"bore_not_seen", "axis_not_measured"}
+    validator = _validator("detect_record")
+    hole = holes[0]
+    note_as_warning = dict(hole, warnings=hole["notes"], notes=[])
+    assert not validator.is_valid(dict(panel_record, holes=[note_as_warning]))
+    warning_as_note = dict(hole, notes=[{"code": "rim_gap", "message": "a gap"}])
+    assert not validator.is_valid(dict(panel_record, holes=[warning_as_note]))
+    without_notes = {key: value for key, value in hole.items() if key != "notes"}
+    assert not validator.is_valid(dict(panel_record, holes=[without_notes]))

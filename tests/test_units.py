@@ -13,14 +13,14 @@ SAMPLES = Path(__file__).resolve().parents[1] / "sample_clouds"
 
 
 def _compare(converted, reference, path="record"):
-    """Every number of two records equal to round-off; every other value equal. The warnings' text
-    quotes numbers in file units and is compared by code only."""
+    """Every number of two records equal to round-off; every other value equal. The warnings' and
+    notes' text quotes numbers in file units and is compared by code only."""
     if isinstance(reference, dict):
         assert set(converted) == set(reference), path
         for key in reference:
             if key in ("timing", "file"):
                 continue
-            if key == "warnings":
+            if key in ("warnings", "notes"):
                 assert [w["code"] for w in converted[key]] == [w["code"] for w in reference[key]], path
                 continue
             _compare(converted[key], reference[key], f"{path}.{key}")

@@ -232,9 +232,16 @@ def _shape_table(holes, length_digits=4):
         return "-" if value is None else f"{value:.{digits}f}"
 
     table = Table(title="below the edge")
+    # the words are never cut: the numbers' headers wrap instead (the table is 140 columns wide)
+    words = {"type": [hole.get("type") or "-" for hole in holes],
+             "warnings": [warning["code"] for hole in holes for warning in hole.get("warnings", [])],
+             "notes": [note["code"] for hole in holes for note in hole.get("notes", [])]}
     for column in ("hole", "type", "csk dia", "csk angle", "csk depth", "cbore dia", "cbore depth", "bore dia",
-                   "floor depth", "perp deg", "warnings"):
-        table.add_column(column, justify="left" if column in ("type", "warnings") else "right")
+                   "floor depth", "perp deg", "warnings", "notes"):
+        if column in words:
+            table.add_column(column, justify="left", no_wrap=True, min_width=max(map(len, words[column]), default=1))
+        else:
+            table.add_column(column, justify="right")
     for hole in holes:
         countersink, counterbore, bore = (hole.get(key) or {} for key in ("countersink", "counterbore", "bore"))
         table.add_row(str(hole["index"]), hole.get("type") or "-", number(countersink.get("diameter")),
@@ -242,7 +249,9 @@ def _shape_table(holes, length_digits=4):
                       number(counterbore.get("diameter")), number(counterbore.get("depth")),
                       number(bore.get("diameter")), number(bore.get("floor_depth")),
                       number(hole.get("perpendicularity_deg"), 3),
-                      ", ".join(warning["code"] for warning in hole.get("warnings", [])))
+                      # one code a line: the cells stay as narrow as the longest code
+                      "\n".join(warning["code"] for warning in hole.get("warnings", [])),
+                      "\n".join(note["code"] for note in hole.get("notes", [])))
     return table
 # The value a failed check is shown with in the table: the field of the checked hole (a deviation, or
 # the measured angle for tilt and perpendicularity).
@@ -344,9 +353,8 @@ def _rejected_table(rejected, digits=4):
 
 def warning_lines(record):
     """The stderr lines of a record's doubtful results: ``holecli: warning: FILE hole N: code: message``
-    for each warning of :mod:`holecli.robust.doubts` (those of :mod:`holecli.robust.hole_shape`, which
-    say why a value is null, are in the record only: a scan straight down a bore gives
-    ``bore_not_seen`` on every hole).
+    for each warning of a hole (the notes, which say why a value is null, are in the record, and with
+    ``--verbose`` on stderr: a scan straight down a bore gives ``bore_not_seen`` on every hole).
 
     Parameters
     ----------
@@ -357,11 +365,8 @@ def warning_lines(record):
     -------
     list of str
     """
-    from holecli.robust.doubts import DOUBT_CODES
-
     return [f"holecli: warning: {record['file']} hole {hole['index']}: {warning['code']}: {warning['message']}"
-            for hole in record.get("holes", ()) for warning in hole.get("warnings", ())
-            if warning["code"] in DOUBT_CODES]
+            for hole in record.get("holes", ()) for warning in hole.get("warnings", ())]
 
 
 def undecided_line(record):
@@ -519,8 +524,9 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
       holecli detect scan.ply -v
       holecli detect scan.ply --fail-on-warning rim_gap,points_inside,near_border
 
-    A hole's warnings that make its result doubtful (rim_gap, points_inside, ...) are also said on
-    stderr, one line each (not with --quiet); every warning is in the record.
+    A hole's warnings (a result that may be wrong: rim_gap, points_inside, ...) are also said on
+    stderr, one line each (not with --quiet); its notes (why a value is null: bore_not_seen, ...) are
+    in the record's notes, and on stderr with --verbose.
     """
     check_verbosity(quiet, verbose)
     check_stdin_format(scan, input_format)

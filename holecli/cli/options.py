@@ -276,7 +276,12 @@ def verbosity_option_decorators(function):
 
 class WarningCodes(click.ParamType):
     """``--fail-on-warning``'s value: ``any`` (every warning), or comma-separated warning codes
-    (README's warnings table), ``doubts`` standing for the eight of :mod:`holecli.robust.doubts`."""
+    (README's warnings table), ``doubts`` standing for every warning code (:mod:`holecli.robust.doubts`'s
+    and :data:`holecli.robust.hole_shape.WARNING_CODES`: since schema 2.2 every warning is a doubt).
+
+    A note code (:data:`holecli.robust.hole_shape.NOTE_CODES`: why a value is null) is refused: notes
+    never fail a run, and a code that would silently select nothing must not pass for a check. A value
+    that must be measured is checked with a tolerance instead (a value not measured fails it)."""
 
     name = "CODE[,CODE...]|doubts|any"
 
@@ -284,17 +289,23 @@ class WarningCodes(click.ParamType):
         if isinstance(value, frozenset) or value is None:
             return value
         from holecli.robust.doubts import DOUBT_CODES
-        from holecli.robust.hole_shape import WARNING_CODES
+        from holecli.robust.hole_shape import NOTE_CODES, WARNING_CODES
 
+        known = [*WARNING_CODES, *DOUBT_CODES]
         codes = frozenset(part.strip() for part in str(value).split(",") if part.strip())
         if codes == {"any"}:
             return codes
         if "doubts" in codes:
-            codes = (codes - {"doubts"}) | frozenset(DOUBT_CODES)
-        unknown = sorted(codes - set(WARNING_CODES) - set(DOUBT_CODES))
+            codes = (codes - {"doubts"}) | frozenset(known)
+        notes = sorted(codes & set(NOTE_CODES))
+        if notes:
+            self.fail(f"{', '.join(notes)}: a note (why a value is null), not a warning: --fail-on-warning acts "
+                      f"on warnings only (a result that may be wrong). To require the value, check it with a "
+                      f"tolerance option or --spec: a check of a value not measured fails (exit 5)", param, ctx)
+        unknown = sorted(codes - set(known))
         if not codes or unknown:
             self.fail(f"{', '.join(unknown) or repr(value)}: not a warning code (known: any, doubts, "
-                      f"{', '.join([*WARNING_CODES, *DOUBT_CODES])})", param, ctx)
+                      f"{', '.join(known)})", param, ctx)
         return codes
 
 
@@ -314,10 +325,10 @@ def fail_on_warning_option(function):
     """
     return click.option(
         "--fail-on-warning", "fail_on_warning", type=WarningCodes(), default=None,
-        help="Exit with 7 when a hole has one of these warnings: comma-separated codes (e.g. "
-             "rim_gap,points_inside), doubts (the eight that make a result doubtful: few_rim_points, rim_gap, "
-             "points_inside, surface_not_flat, near_border, large_bias_correction, high_fit_rms, blurred_edge) or any (every "
-             "warning, bore_not_seen too); the output is still written. Codes: README, Output, warnings table.")(function)
+        help="Exit with 7 when a hole has one of these warnings (a result that may be wrong): comma-separated "
+             "codes (e.g. rim_gap,points_inside), or any (every warning; doubts is the same); the output is "
+             "still written. Notes (bore_not_seen, axis_not_measured, ...: why a value is null) never fail a run "
+             "and are refused here. Codes: README, Output, warnings table.")(function)
 
 
 def warned(codes, selected):

@@ -32,7 +32,8 @@ def _number(value, digits=4):
 
 
 def verbose_text(record):
-    """The ``--verbose`` account of one record: the scales the pipeline chose and where the time went.
+    """The ``--verbose`` account of one record: the scales the pipeline chose, the holes' notes (why a
+    value is null) and where the time went.
 
     Parameters
     ----------
@@ -74,6 +75,9 @@ def verbose_text(record):
     holes, rejected = len(record["holes"]), record["candidates"] - len(record["holes"])
     lines.append(f"  {record['candidates']} candidate{'' if record['candidates'] == 1 else 's'} tried: "
                  f"{holes} hole{'' if holes == 1 else 's'}, {rejected} rejected")
+    # the notes: why a value is null (the warnings are said without --verbose too)
+    lines.extend(f"  hole {hole['index']} note: {note['code']}: {note['message']}"
+                 for hole in record["holes"] for note in hole.get("notes", ()))
     stages = ", ".join(f"{name} {ms:.1f}" for name, ms in (timing.get("stages") or {}).items())
     read = timing.get("read_ms")
     lines.append(f"  time {timing.get('elapsed_ms', 0.0):.1f} ms: {stages} ms"
@@ -159,8 +163,8 @@ def batch_summary(tally, seconds, checked, earlier, output):
     -------
     str
         e.g. ``3 files: 3 measured, 0 failed; 5 holes found; tolerances not checked; 2 doubtful
-        holes (points_inside 1, rim_gap 2); 1.2 s`` (that part only when a hole has a warning of
-        :mod:`holecli.robust.doubts`).
+        holes (points_inside 1, rim_gap 2); 1.2 s`` (that part only when a hole has a warning; notes
+        are not counted).
     """
     def count(number, noun):
         return f"{number} {noun}{'' if number == 1 else 's'}"
@@ -176,9 +180,7 @@ def batch_summary(tally, seconds, checked, earlier, output):
     else:
         text += "; tolerances not checked"
     if tally.doubtful_holes:
-        from holecli.robust.doubts import DOUBT_CODES
-
-        codes = ", ".join(f"{code} {n}" for code, n in sorted(tally.warning_codes.items()) if code in DOUBT_CODES)
+        codes = ", ".join(f"{code} {n}" for code, n in sorted(tally.warning_codes.items()))
         text += f"; {count(tally.doubtful_holes, 'doubtful hole')} ({codes})"
     text += f"; {seconds:.1f} s"
     if earlier:

@@ -38,7 +38,11 @@ REGISTER_EXIT_CODES_HELP = (
 )
 
 SCHEMA = "holecli.register"
+# The record's MAJOR version stays the integer ``schema_version`` it always was (a reader comparing it
+# with 1 keeps working); ``schema_minor_version`` counts the keys added since (absent: 0). 1.1 (issue
+# 24): ``notes``, the facts that make nothing doubtful (unmatched_hole, no_uncertainty), out of warnings.
 SCHEMA_VERSION = 1
+SCHEMA_MINOR_VERSION = 1
 
 CSV_HOLE_COLUMNS = ("name", "scan", "scan_hole", "used", "outlier", "measured_x", "measured_y", "measured_z",
                     "nominal_x", "nominal_y", "nominal_z", "residual_in_plane", "residual_along_normal",
@@ -183,7 +187,7 @@ def render(record, fmt):
               help="Write the result to this file (atomically; - is stdout) instead of stdout; with "
                    "--targets-output, both are written or neither.")
 @detection_option_decorators
-@click.option("--quiet", "-q", is_flag=True, help="Say nothing on stderr but errors (no warnings, no verdict line).")
+@click.option("--quiet", "-q", is_flag=True, help="Say nothing on stderr but errors (no warnings, notes or verdict line).")
 def register(scans, spec_file, name_pairs, targets_file, targets_output, max_residual, outlier_factor, outlier_floor,
              fmt, output, method, view_dir, min_diameter, max_holes, full_only, gauge_depth, quiet):
     """Register a part: fit the rigid transform from the part (CAD) frame of --spec to the frame of the
@@ -259,7 +263,8 @@ def register(scans, spec_file, name_pairs, targets_file, targets_output, max_res
                                     outlier_floor=outlier_floor)
         except RegistrationError as error:
             raise Failure(f"{spec_file}: cannot register: {error}", EXIT_INPUT) from None
-        record = {"schema": SCHEMA, "schema_version": SCHEMA_VERSION, "holecli_version": __version__,
+        record = {"schema": SCHEMA, "schema_version": SCHEMA_VERSION, "schema_minor_version": SCHEMA_MINOR_VERSION,
+                  "holecli_version": __version__,
                   "units": "file units of the scans and the spec",
                   "spec": {"file": spec_file, "sha256": spec.sha256}, "scans": scan_records}
         registration = result.to_dict()
@@ -286,6 +291,8 @@ def register(scans, spec_file, name_pairs, targets_file, targets_output, max_res
     if not quiet:
         for warning in record["warnings"]:
             click.echo(f"holecli: warning: register: {warning['code']}: {warning['message']}", err=True)
+        for note in record["notes"]:
+            click.echo(f"holecli: note: register: {note['code']}: {note['message']}", err=True)
     if record["verdict"] == "fail":
         if not quiet:
             click.echo(f"holecli: registration fails --max-residual {record['max_residual']:g}: "

@@ -161,8 +161,11 @@ class Registration:
     failed : tuple of str
         Why the verdict failed: ``"<hole>: in_plane 0.012 > 0.01"``, ``"<hole>: outlier"``.
     warnings : tuple of (str, str)
-        ``(code, message)``: ``outlier``, ``ambiguous_match``, ``unmatched_hole``, ``free_dofs``,
-        ``no_uncertainty``.
+        ``(code, message)`` of what makes the registration doubtful: ``outlier``, ``ambiguous_match``,
+        ``free_dofs``.
+    notes : tuple of (str, str)
+        ``(code, message)`` of facts that make nothing given doubtful: ``unmatched_hole`` (a measured
+        hole not used), ``no_uncertainty`` (the fit is unweighted).
     """
 
     transform: RigidTransform
@@ -179,6 +182,7 @@ class Registration:
     verdict: object
     failed: tuple
     warnings: tuple
+    notes: tuple = ()
 
     @property
     def free_dofs(self):
@@ -222,7 +226,7 @@ class Registration:
             ``uncertainty`` (:meth:`uncertainty`), ``free_dofs``, ``rms``, ``dof``, ``match``
             (``method``, ``ambiguous``, ``unmatched_measured``, ``unmatched_nominal``), ``holes`` (one
             dict per :class:`RegisteredHole`), ``outliers``, ``outlier_check`` (``checked``,
-            ``reason``), ``max_residual``, ``verdict``, ``failed``, ``warnings``.
+            ``reason``), ``max_residual``, ``verdict``, ``failed``, ``warnings``, ``notes``.
         """
         transform = self.transform.to_dict()
         transform["roll_pitch_yaw_convention"] = (
@@ -259,6 +263,7 @@ class Registration:
             "verdict": self.verdict,
             "failed": list(self.failed),
             "warnings": [{"code": code, "message": message} for code, message in self.warnings],
+            "notes": [{"code": code, "message": message} for code, message in self.notes],
         }
 
     def corrected_targets(self, targets):
@@ -552,7 +557,8 @@ def register(measured_holes, nominal_spec_holes, measured_names=None, max_residu
                 failed.append(f"{hole.name}: along_normal {hole.along_normal:+.6g} exceeds {max_residual:g}")
         verdict = "fail" if failed else "pass"
 
-    warnings = []
+    # warnings: the transform may be wrong; notes: facts that make nothing given doubtful
+    warnings, notes = [], []
     if outliers:
         warnings.append(("outlier", check.reason))
     if ambiguous:
@@ -561,15 +567,15 @@ def register(measured_holes, nominal_spec_holes, measured_names=None, max_residu
     unmatched_measured = tuple(sorted(set(range(len(measured_holes))) - set(m_idx.tolist())))
     unmatched_nominal = tuple(nominal_names[n] for n in range(len(nominals)) if n not in set(n_idx.tolist()))
     if unmatched_measured:
-        warnings.append(("unmatched_hole", f"{len(unmatched_measured)} measured hole(s) match no spec hole "
-                                           f"(measured indices {list(unmatched_measured)}): not used"))
+        notes.append(("unmatched_hole", f"{len(unmatched_measured)} measured hole(s) match no spec hole "
+                                        f"(measured indices {list(unmatched_measured)}): not used"))
     if fit.free_dofs:
         warnings.append(("free_dofs", f"{len(names) - len(outliers)} hole(s) leave free: {', '.join(fit.free_dofs)}"))
     if sigmas is None:
-        warnings.append(("no_uncertainty", "not every hole has its own uncertainty: the fit is unweighted and its "
-                                            "uncertainty comes from the residuals"))
+        notes.append(("no_uncertainty", "not every hole has its own uncertainty: the fit is unweighted and its "
+                                         "uncertainty comes from the residuals"))
     return Registration(
         transform=transform, fit=fit, holes=holes, match_method=method, ambiguous=bool(ambiguous),
         unmatched_measured=unmatched_measured, unmatched_nominal=unmatched_nominal, outlier_check=check,
         outliers=outliers, sigmas=sigmas is not None, max_residual=max_residual, verdict=verdict,
-        failed=tuple(failed), warnings=tuple(warnings))
+        failed=tuple(failed), warnings=tuple(warnings), notes=tuple(notes))

@@ -5,8 +5,10 @@ The method (:mod:`holecli.robust.method`) gathers the numbers of one hole into a
 :class:`holecli.settings.RobustSettings`, each with why its value) and returns the warnings, each a
 short stable code (:data:`DOUBT_CODES`) and a sentence with the numbers. Pure: no points, no scene.
 
-These warnings do not make a value null (those of :mod:`holecli.robust.hole_shape` do): the hole is
-measured, but its result deserves a look.
+These warnings do not make a value null: the hole is measured, but its result deserves a look. The
+other warnings, :data:`holecli.robust.hole_shape.WARNING_CODES`, say that the points below the edge
+contradict the hole's type; the reasons a value is null are notes, not warnings
+(:data:`holecli.robust.hole_shape.NOTE_CODES`).
 """
 
 from __future__ import annotations

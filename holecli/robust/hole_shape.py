@@ -28,9 +28,11 @@ out of the material: the side without the points below the surface):
 5. The axis: the cone's, else the bore's (free fit), else the floor's normal; the perpendicularity
    is its angle to ``n``.
 
-A value the points cannot support is None, and the hole's warnings say why (codes in
-:data:`WARNING_CODES`): fewer than ``shape_min_points`` points, or a coverage around the axis under
-``shape_min_arc_deg`` degrees.
+A value the points cannot support is None, and the hole's notes say why (codes in
+:data:`NOTE_CODES`): fewer than ``shape_min_points`` points, or a coverage around the axis under
+``shape_min_arc_deg`` degrees. Points that contradict the shape the hole was taken for (no cone, no
+cylinder, an implausible angle) make the value None too, but with a warning (:data:`WARNING_CODES`):
+the hole's type, and a countersink's edge, may be wrong.
 """
 
 from __future__ import annotations
@@ -44,20 +46,26 @@ import numpy as np
 from holecli.geometry.kernels import largest_angular_gap, robust_sigma
 from holecli.geometry.revolution import fit_cone, fit_cylinder, frame_about
 from holecli.results import (Bore, BoreUncertainty, Counterbore, CounterboreUncertainty, Countersink,
-                             CountersinkUncertainty, HoleWarning)
+                             CountersinkUncertainty, HoleNote, HoleWarning)
 from holecli.settings import DEFAULT_SETTINGS
 
-#: The warning codes this module gives, with what each means.
-WARNING_CODES = {
+#: The note codes this module gives, with what each means: the scan shows too little for a value (or
+#: the value asked for is not on the part), which is therefore None; nothing given is doubtful.
+NOTE_CODES = {
     "bore_not_seen": "too few points on the bore wall for a cylinder fit: no bore diameter",
     "bore_short_arc": "the bore wall is seen over too little of its circumference for a diameter",
     "cone_few_points": "too few points on the countersink's cone for a fit: no countersink values",
     "cone_short_arc": "the countersink's cone is seen over too little of its circumference",
+    "gauge_depth_outside_cone": "--gauge-depth is not within the countersink's depth: no diameter_at_depth",
+    "axis_not_measured": "no cone, bore wall or floor shows the hole's axis: no axis or perpendicularity",
+}
+
+#: The warning codes this module gives, with what each means: the points below the edge contradict the
+#: shape the hole was taken for, so its type (and a countersink's edge) may be wrong; the value is None.
+WARNING_CODES = {
     "cone_angle_implausible": "the fitted cone's angle is outside the plausible range: no countersink values",
     "cone_not_conical": "the points taken for the countersink do not lie on one cone: no countersink values",
     "bore_not_cylindrical": "the points taken for the bore wall do not lie on one cylinder: no bore diameter",
-    "gauge_depth_outside_cone": "--gauge-depth is not within the countersink's depth: no diameter_at_depth",
-    "axis_not_measured": "no cone, bore wall or floor shows the hole's axis: no axis or perpendicularity",
 }
 
 
@@ -71,8 +79,9 @@ class HoleShape:
     bore: Bore
     axis: Optional[tuple]
     perpendicularity_deg: Optional[float]
-    warnings: tuple
+    warnings: tuple  # of HoleWarning (WARNING_CODES)
     uncertainty: Optional[dict] = None  # countersink, counterbore, bore, axis_deg (see _uncertainty)
+    notes: tuple = ()  # of HoleNote (NOTE_CODES): why a value is None
 
 
 def _from_local_surface(d, height, rho, n, R, noise, spacing, settings):
@@ -104,6 +113,9 @@ def _from_local_surface(d, height, rho, n, R, noise, spacing, settings):
 
 
 def _warning(code, detail):
+    """A :class:`HoleNote` for a code of :data:`NOTE_CODES`, else a :class:`HoleWarning`."""
+    if code in NOTE_CODES:
+        return HoleNote(code=code, message=f"{NOTE_CODES[code]} ({detail})")
     return HoleWarning(code=code, message=f"{WARNING_CODES[code]} ({detail})")
 
 
@@ -250,7 +262,9 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
     uncertainty = _uncertainty(countersink, cone, counterbore, bore, cylinder if bore.diameter is not None else None,
                                c, n, axis, bore_axis, floor_rms if floor is not None else None)
     return HoleShape(type=kind, countersink=countersink, counterbore=counterbore, bore=bore, axis=axis,
-                     perpendicularity_deg=perpendicularity, warnings=tuple(warnings), uncertainty=uncertainty)
+                     perpendicularity_deg=perpendicularity,
+                     warnings=tuple(w for w in warnings if isinstance(w, HoleWarning)), uncertainty=uncertainty,
+                     notes=tuple(w for w in warnings if isinstance(w, HoleNote)))
 
 
 def _uncertainty(countersink, cone, counterbore, bore, cylinder, c, n, axis, bore_axis, floor_rms):

@@ -1097,7 +1097,7 @@ def _with_shape(scene, hole, measured, gauge_depth, settings):
     return Hole(**{**hole.__dict__, "type": shape.type, "countersink": shape.countersink,
                    "counterbore": shape.counterbore, "bore": shape.bore, "axis": shape.axis,
                    "perpendicularity_deg": shape.perpendicularity_deg, "warnings": shape.warnings + doubts,
-                   "uncertainty": _with_shape_uncertainty(hole.uncertainty, shape, scene.resolution)})
+                   "notes": shape.notes, "uncertainty": _with_shape_uncertainty(hole.uncertainty, shape, scene.resolution)})
 
 
 def _at_least(values, least):

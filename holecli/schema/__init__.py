@@ -37,7 +37,7 @@ def record_schema(kind=None) -> dict:
     --------
     >>> from holecli.schema import record_schema
     >>> record_schema()["$defs"]["detect_record"]["properties"]["schema_version"]["const"]
-    '2.0'
+    '2.2'
     """
     schema = json.loads(resources.files(__name__).joinpath(SCHEMA_FILE).read_text(encoding="utf-8"))
     if kind is None:

@@ -21,7 +21,7 @@ PLANE_KEYS = {"point", "normal", "rms", "inliers"}
 HOLE_KEYS = {
     "index", "center", "diameter", "normal", "rim_points", "fit_rms", "max_residual", "roundness",
     "bias_correction", "partial", "arc_deg", "scan_lines", "type", "countersink", "counterbore", "bore", "axis",
-    "perpendicularity_deg", "warnings", "uncertainty",
+    "perpendicularity_deg", "warnings", "notes", "uncertainty",
 }  # fmt: skip
 
 

@@ -206,11 +206,24 @@ def test_5_over_8_for_a_check_not_measured(run, scan, measured):
     assert hole["failed_checks"] == ["bore_diameter_not_measured"] and hole["undecided_checks"] == ["diameter"]
 
 
-def test_8_takes_precedence_over_7(run, scan, measured):
-    # the through hole has the warning bore_not_seen, which --fail-on-warning any selects
-    options = ("--nominal-diameter", measured, "--tolerance", "+0.1/-0", "--fail-on-warning", "any")
+def test_8_takes_precedence_over_7(run, tmp_path):
+    # reflections inside the hole: the warning points_inside, which --fail-on-warning any selects
+    scene = synth.SceneSpec(holes=(synth.HoleSpec(center=(0.0, 0.0), diameter=2.5, inside_points=100),),
+                            extent=(-2.8, 2.8, -2.8, 2.8), spacing=0.1, rotation_deg=(10.0, 5.0, 0.0),
+                            translation=(0.0, 2.0, 3.0))
+    scan = tmp_path / "reflections.ply"
+    save_points(scan, synth.make_scan(scene, 0).points)
+    [hole] = json.loads(run("detect", scan).stdout)["holes"]
+    assert "points_inside" in [warning["code"] for warning in hole["warnings"]]
+    options = ("--nominal-diameter", hole["diameter"], "--tolerance", "+0.1/-0", "--fail-on-warning", "any")
     assert run("detect", scan, *options).exit_code == EXIT_WARNING
     assert run("detect", scan, *options, "--decision-rule", "guarded").exit_code == EXIT_UNDECIDED
+
+
+def test_a_note_is_no_warning(run, scan, measured):
+    # the through hole's bore_not_seen and axis_not_measured are notes: --fail-on-warning any passes
+    options = ("--nominal-diameter", measured, "--tolerance", "+0.1/-0", "--fail-on-warning", "any")
+    assert run("detect", scan, *options).exit_code == cli.EXIT_OK
 
 
 @pytest.mark.parametrize("command", ["detect", "batch"])

@@ -129,7 +129,9 @@ def test_corrected_targets_match_the_truth():
 def test_without_uncertainties_the_covariance_comes_from_residuals():
     result = register(_measured(noise=0.001, sigma=None), _nominals(), measured_names=NAMES)
     assert not result.sigmas and result.fit.covariance_source == "residuals"
-    assert any(code == "no_uncertainty" for code, _ in result.warnings)
+    # a fact of the input, not a doubt: a note (issue 24)
+    assert any(code == "no_uncertainty" for code, _ in result.notes) and result.warnings == ()
+    assert [note["code"] for note in result.to_dict()["notes"]] == ["no_uncertainty"]
 
 
 def test_mixed_names_pair_the_rest_by_nearness():
@@ -274,3 +276,10 @@ def test_layout_symmetric_only_by_a_mirror_is_not_ambiguous():
         assert [hole.name for hole in result.holes] == [PLATE_NAMES[i] for i in ((0, 1, 2, 3) if scans is trapezoid
                                                                                 else (1, 0, 3, 2))]
         assert _rotation_error_deg(result.transform, TRUTH) < 1e-9
+
+
+def test_a_measured_hole_without_a_spec_hole_is_a_note():
+    # a scan that shows a hole the spec does not list: the fit is that of the others, nothing doubtful
+    result = register(_measured(5), _nominals(4), measured_names=NAMES[:4] + [None])
+    assert result.unmatched_measured == (4,)
+    assert [code for code, _ in result.notes] == ["unmatched_hole"] and result.warnings == ()

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from holecli.geometry.revolution import frame_about
-from holecli.robust.hole_shape import WARNING_CODES, measure_hole_shape
+from holecli.robust.hole_shape import NOTE_CODES, WARNING_CODES, measure_hole_shape
 from holecli.settings import RobustSettings
 
 PITCH = 0.05
@@ -73,6 +73,10 @@ def _codes(shape):
     return [warning.code for warning in shape.warnings]
 
 
+def _notes(shape):
+    return [note.code for note in shape.notes]
+
+
 @pytest.mark.parametrize("angle", [82.0, 90.0, 100.0, 110.0])
 @pytest.mark.parametrize("tilt", [0.0, 5.0])
 def test_a_countersink_gives_its_diameter_angle_depth_and_axis(angle, tilt):
@@ -93,7 +97,7 @@ def test_without_the_bore_wall_the_depth_comes_from_the_cone_inner_edge():
     shape = _measure(points, 3.5, cone_slope=slope)
     assert shape.countersink.depth_from == "cone_inner_edge"
     assert abs(shape.countersink.depth - depth) < 0.01
-    assert shape.bore.diameter is None and "bore_not_seen" in _codes(shape)
+    assert shape.bore.diameter is None and "bore_not_seen" in _notes(shape)
 
 
 def test_the_gauge_depth_reads_the_cone_and_is_refused_below_it():
@@ -102,7 +106,7 @@ def test_the_gauge_depth_reads_the_cone_and_is_refused_below_it():
     assert abs(shape.countersink.diameter_at_depth - (7.0 - 2 * 0.5 * np.tan(np.radians(45.0)))) < 1e-3
     deep = _measure(points, 3.5, cone_slope=slope, gauge_depth=depth + 0.1)
     assert deep.countersink.diameter_at_depth is None
-    assert "gauge_depth_outside_cone" in _codes(deep)
+    assert "gauge_depth_outside_cone" in _notes(deep)
 
 
 def test_the_normal_s_sign_does_not_matter():
@@ -120,7 +124,7 @@ def test_a_cone_seen_over_too_short_an_arc_gives_no_countersink_values():
     cone = np.column_stack([annulus, -(3.5 - np.hypot(*annulus.T)) / np.tan(half)])
     shape = _measure(np.vstack([_surface(3.5), cone]), 3.5, cone_slope=1 / np.tan(half))
     assert shape.type == "countersunk"
-    assert shape.countersink.angle_deg is None and "cone_short_arc" in _codes(shape)
+    assert shape.countersink.angle_deg is None and "cone_short_arc" in _notes(shape)
     wide = _polar(2.0, 3.5, angles=(0.0, 2 * np.pi / 3))
     cone = np.column_stack([wide, -(3.5 - np.hypot(*wide.T)) / np.tan(half)])
     assert _measure(np.vstack([_surface(3.5), cone]), 3.5, cone_slope=1 / np.tan(half)).countersink.angle_deg \
@@ -141,7 +145,7 @@ def test_too_few_cone_points_give_no_countersink_values():
     annulus = _polar(3.3, 3.5, angles=(0.0, 2 * np.pi))[::80]
     cone = np.column_stack([annulus, -(3.5 - np.hypot(*annulus.T))])
     shape = _measure(np.vstack([_surface(3.5), cone]), 3.5, cone_slope=1.0)
-    assert shape.countersink.diameter is None and "cone_few_points" in _codes(shape)
+    assert shape.countersink.diameter is None and "cone_few_points" in _notes(shape)
 
 
 @pytest.mark.parametrize("tilt", [0.0, 2.0, 5.0])
@@ -193,7 +197,7 @@ def test_a_wall_seen_over_less_than_a_quarter_turn_gives_no_diameter():
     wall = _wall(2.0, 0.1, 3.0, _axis(0.0), (0.0, np.radians(60.0)))
     shape = _measure(np.vstack([_surface(2.0), wall]), 2.0)
     assert shape.bore.diameter is None and shape.bore.arc_deg < 90.0
-    assert "bore_short_arc" in _codes(shape) and "axis_not_measured" in _codes(shape)
+    assert "bore_short_arc" in _notes(shape) and "axis_not_measured" in _notes(shape)
     assert shape.axis is None and shape.perpendicularity_deg is None
 
 
@@ -203,7 +207,7 @@ def test_a_short_wall_is_fitted_along_the_known_axis():
     wall = _wall(2.0, 0.1, 0.5, _axis(0.0), (0.0, 2 * np.pi))
     shape = _measure(np.vstack([_surface(2.0), wall]), 2.0)
     assert abs(shape.bore.diameter - 4.0) < 1e-3
-    assert shape.axis is None and "axis_not_measured" in _codes(shape)
+    assert shape.axis is None and "axis_not_measured" in _notes(shape)
     deeper = _measure(np.vstack([_surface(2.0), _wall(2.0, 0.1, 1.5, _axis(0.0), (0.0, 2 * np.pi))]), 2.0)
     assert deeper.axis is not None
 
@@ -211,8 +215,15 @@ def test_a_short_wall_is_fitted_along_the_known_axis():
 def test_nothing_below_the_edge_is_a_through_hole_with_its_reasons():
     shape = _measure(_surface(2.0), 2.0)
     assert shape.type == "through" and shape.bore.diameter is None and shape.bore.points == 0
-    assert _codes(shape) == ["bore_not_seen", "axis_not_measured"]
-    assert all(w.message.startswith(WARNING_CODES[w.code]) for w in shape.warnings)
+    # why the bore and the axis are null: notes, no warning (nothing given is doubtful)
+    assert _codes(shape) == [] and _notes(shape) == ["bore_not_seen", "axis_not_measured"]
+    assert all(note.message.startswith(NOTE_CODES[note.code]) for note in shape.notes)
+
+
+def test_notes_and_warnings_are_apart():
+    # a note says why a value is null; a warning that the points contradict the hole's shape
+    assert not set(NOTE_CODES) & set(WARNING_CODES)
+    assert set(WARNING_CODES) == {"cone_angle_implausible", "cone_not_conical", "bore_not_cylindrical"}
 
 
 def test_surface_noise_is_not_taken_for_points_below():
