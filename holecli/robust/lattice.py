@@ -57,7 +57,7 @@ def lattice_steps(xy, axes, spacing, *, settings=DEFAULT_SETTINGS):
     return steps
 
 
-def separating_circle(local_xy, rim_xy, steps, center, radius, *, settings=DEFAULT_SETTINGS):
+def separating_circle(local_xy, rim_xy, steps, center, radius, *, settings=DEFAULT_SETTINGS, radii=False):
     """Largest-margin circle through every bracket of present and missing lattice positions.
 
     A bracket is a rim point ``p`` whose line is regular behind it (``p - v`` present) and empty ahead
@@ -81,12 +81,22 @@ def separating_circle(local_xy, rim_xy, steps, center, radius, *, settings=DEFAU
     settings : RobustSettings
         Source of ``lattice_present_steps``, ``lattice_missing_steps``, ``lattice_min_brackets``,
         ``lattice_max_gap_deg`` and ``lattice_others_steps``.
+    radii : bool
+        Also return the range of radii the brackets allow: the smallest and the largest radius of
+        a circle that separates them all (margin zero, its center free). The points say nothing of
+        where in that range the edge lies: on a lattice aligned with the hole (its center on a
+        lattice position, as a scan centred on the hole's nominal position is) the positions at
+        one distance from the center come in fours or eights, the range is that much wider than on
+        a lattice of random phase, and a round radius on a round pitch puts a point exactly on the
+        edge: the truth is then at the range's outer end, half its width from the largest-margin
+        circle.
 
     Returns
     -------
     (center, radius, margin) or None
         None when fewer than ``lattice_min_brackets`` (8) brackets are found, they leave more than
         ``lattice_max_gap_deg`` (a quarter) of the circle without one, or no circle satisfies them all.
+        With ``radii``: ``(center, radius, margin, (low, high))``.
     """
     steps = [np.asarray(s) for s in steps if s is not None]
     if not steps:
@@ -143,7 +153,23 @@ def separating_circle(local_xy, rim_xy, steps, center, radius, *, settings=DEFAU
     radius_sq = cx * cx + cy * cy - k
     if radius_sq <= 0:
         return None
-    return center + unit * np.array([cx, cy]), unit * float(np.sqrt(radius_sq)), unit * float(margin)
+    found = center + unit * np.array([cx, cy]), unit * float(np.sqrt(radius_sq)), unit * float(margin)
+    if not radii:
+        return found
+    # The extreme radii at zero margin: r^2 = |c|^2 - k, linear about the largest-margin center c0
+    # (|c|^2 ~ |c0|^2 + 2 c0.(c - c0); the term left out, |c - c0|^2, is below 1e-4 of r^2 as long as
+    # the centers differ by under 1 % of the radius).
+    extremes = []
+    for sign in (1.0, -1.0):
+        extreme = linprog(c=sign * np.array([2.0 * cx, 2.0 * cy, -1.0, 0.0]), A_ub=np.vstack(rows), b_ub=bounds,
+                          bounds=[(-radius, radius), (-radius, radius), (None, None), (0.0, 0.0)], method="highs")
+        if extreme.status != 0:
+            extremes.append(found[1])
+            continue
+        ex, ey, ek, _ = extreme.x
+        extremes.append(unit * float(np.sqrt(max(ex * ex + ey * ey - ek, 0.0))))
+    low, high = min(extremes[0], found[1]), max(extremes[1], found[1])
+    return (*found, (low, high))
 
 
 def lattice_errors(xy, center, radius, offsets, scales, steps, *, settings=DEFAULT_SETTINGS, reflections=None):

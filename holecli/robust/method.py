@@ -124,6 +124,7 @@ class _Measured:
     synthetic: object = None      # SyntheticErrors of that estimator on synthetic holes (None: none measured)
     cone_covariance: object = None  # (3, 3) covariance of the cone edge's (cx, cy, R) (estimator cone)
     fringe: tuple = (0.0, 0.0, 0.0)  # the edge's fringe of mixed points: (width, shift, hidden) (_edge_fringe)
+    radius_range: object = None   # (low, high): the radii every lattice bracket allows (estimator lattice)
     surface_uncertainty: tuple = (None, None)  # of the local plane's height at the hole and of its normal (rad)
 
 
@@ -631,12 +632,13 @@ def _measure_void(scene, grid, void, settings):
         return _Measured(center=cone_center, radius=cone_radius, bias=radius - cone_radius, fit=fit,
                          rim_xy=rim_xy[used], partial=partial, arc_deg=arc, cone_slope=cone.slope,
                          estimator="cone", cone_covariance=covariance)
-    edge, estimator, synthetic = None, "rim_fit", None
+    edge, estimator, synthetic, radii = None, "rim_fit", None, None
     if scene.sampling.lattice_axes and not partial:
         steps = lattice_steps(local, scene.sampling.lattice_axes, scene.sampling.spacing, settings=settings)
-        edge = separating_circle(local, rim_xy[used], steps, center, radius, settings=settings)
+        edge = separating_circle(local, rim_xy[used], steps, center, radius, settings=settings, radii=True)
         if edge is not None:
             estimator = "lattice"
+            radii = edge[3]
             synthetic = _lattice_errors(scene, edge[0], edge[1], steps, settings, floor)
     # The largest empty circle on irregular sampling whose in-plane scatter is small: on a noisy
     # surface the noise carries points into the hole and the empty circle shrinks with it.
@@ -647,7 +649,7 @@ def _measure_void(scene, grid, void, settings):
             edge, synthetic = found[:3], found[3]
             estimator = "empty_circle"
     if edge is not None:
-        center, corrected, _ = edge
+        center, corrected = edge[0], edge[1]
         bias = radius - corrected
     else:
         bias, synthetic = _sampling_bias(scene, center, radius, settings, floor, partial)
@@ -658,7 +660,8 @@ def _measure_void(scene, grid, void, settings):
     fringe = _edge_fringe(scene, center, radius - bias, arc, settings)
     bias += fringe[1]
     return _Measured(center=center, radius=radius - bias, bias=bias, fit=fit, rim_xy=rim_xy[used],
-                     partial=partial, arc_deg=arc, estimator=estimator, synthetic=synthetic, fringe=fringe)
+                     partial=partial, arc_deg=arc, estimator=estimator, synthetic=synthetic, fringe=fringe,
+                     radius_range=radii)
 
 
 def _edge_fringe(scene, center, radius, arc_deg, settings):
@@ -879,7 +882,7 @@ def _uncertainty(scene, measured):
                                             fit.radius, float(scene.sampling.spacing), float(scene.height_noise),
                                             measured.cone_covariance, diameter_correction=2.0 * measured.bias,
                                             edge_fringe=measured.fringe[0],
-                                            resolution=scene.resolution)
+                                            resolution=scene.resolution, radius_range=measured.radius_range)
     if _bias_not_measured(measured):
         # The correction it would have had: the rim lies inside the edge by up to a gap (radius), so
         # the diameter is off by up to two gaps; uniform over +-2 g (warning bias_not_measured).

@@ -152,7 +152,7 @@ def circle_fit_covariance(rim_xy, center, radius):
 
 
 def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, height_noise, cone_covariance=None,
-                     diameter_correction=0.0, edge_fringe=0.0, resolution=0.0):
+                     diameter_correction=0.0, edge_fringe=0.0, resolution=0.0, radius_range=None):
     """Standard uncertainties of an edge's in-plane center (per coordinate) and of its diameter.
 
     Parameters
@@ -184,6 +184,14 @@ def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, heig
     resolution : float, optional
         The data's resolution: the center's uncertainty is at least
         :func:`resolution_uncertainty` of it, the diameter's twice that.
+    radius_range : (low, high), optional
+        For ``"lattice"``: the smallest and largest radius of a circle that separates every bracket
+        (:func:`holecli.robust.lattice.separating_circle`). The points do not say where in that range
+        the edge lies: rectangular over it (GUM 4.3.7), ``(high - low) / sqrt(12)`` on the radius,
+        which replaces the synthetic holes' spread when it is the larger. The synthetic holes sample
+        the ranges of other radii at the same center; this is the hole's own, the wider one on a
+        lattice aligned with the hole when a lattice position lies on the edge (a round radius on a
+        round pitch): the truth is then at the range's outer end, ``sqrt(3) u`` from the estimate.
 
     Returns
     -------
@@ -194,6 +202,8 @@ def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, heig
     u_center, u_radius = _sampled_uncertainty(estimator, synthetic, rim_xy, center, radius, cone_covariance)
     (ca, cb), (da, db) = METHOD_TERMS[estimator]["center"], METHOD_TERMS[estimator]["diameter"]
     correction = CORRECTION_SHARE.get(estimator, 0.0) * abs(float(diameter_correction))
+    if radius_range is not None:
+        u_radius = max(u_radius, abs(float(radius_range[1]) - float(radius_range[0])) / math.sqrt(12.0))
     least = resolution_uncertainty(resolution)
     return (max(math.hypot(u_center, ca * spacing, cb * height_noise), least),
             max(math.hypot(2.0 * u_radius, da * spacing, db * height_noise, correction,
