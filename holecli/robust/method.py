@@ -929,7 +929,8 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     plane = fit_plane_robust(points, rng=rng, sample=settings.ransac_sample,
                              hypotheses=settings.ransac_hypotheses, quantile=settings.ransac_quantile,
                              clip=settings.plane_clip, max_rounds=settings.plane_refine_rounds,
-                             refine_sample=settings.plane_refine_sample, max_faces=settings.plane_max_faces)
+                             refine_sample=settings.plane_refine_sample, max_faces=settings.plane_max_faces,
+                             view=view_dir)
     normal, origin = plane.normal, plane.point
     # In-plane axes from the surface points themselves (centroid, principal axes), so that the grid
     # and the windows below move with the cloud under any rigid motion.
