@@ -64,6 +64,16 @@ from holecli.cli.options import Decimal, FloatTuple, check_verbosity, read_small
                    "profiler.")
 @click.option("--mesh", "mesh_file", type=click.Path(dir_okay=False, path_type=str), default=None, metavar="PART",
               help="Scan the triangle mesh PART (.stl, .ply, .obj, .off) with the laser profiler.")
+@click.option("--cloud", type=click.Choice(["profiler", "vertices", "surface", "lattice"]), default="profiler",
+              show_default=True,
+              help="With --panel or --mesh: how the cloud is made: the laser profiler, or as engineers make one from "
+                   "a mesh: the mesh's own vertices (a CAD export's: points only along edges), even (area-weighted) "
+                   "surface sampling at a mean --spacing, or an exact square lattice of parallel rays along --view at "
+                   "pitch --spacing. --range-noise adds Gaussian noise along --view; the truth is written in the "
+                   "validation suite's format.")
+@click.option("--faces", type=click.Choice(["all", "no-walls", "seen"]), default="all", show_default=True,
+              help="--cloud vertices/surface: the faces used: all, all but the walls (bores, sides: faces within 10 deg "
+                   "of parallel to --view), or only those turned toward the sensor.")
 @click.option("--target", type=FloatTuple(3, "X,Y,Z"), default=None,
               help="Profiler: the point the sensor aims at [default: the middle of the part, on its side "
                    "facing the sensor].")
@@ -116,7 +126,7 @@ from holecli.cli.options import Decimal, FloatTuple, check_verbosity, read_small
 @click.pass_context
 def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pattern, line_pitch, scan_angle, rotation,
              translation, noise_z, noise_normal, inside_points, countersink, countersink_angle, bore_depth, bottom_depth, outliers, ragged,
-             nan_points, panel_file, mesh_file, target, standoff, view, line, line_length, scan_length, parallel_rays,
+             nan_points, panel_file, mesh_file, cloud, faces, target, standoff, view, line, line_length, scan_length, parallel_rays,
              triangulation_deg, max_incidence_deg, range_noise, range_quantum, dropout, jitter, line_width, keep_nan, metres,
              float64, cell_dir, cell_holes, displace, seed, truth_path, quiet, verbose):
     """Write a synthetic scan to OUTPUT (.ply, .pcd, .csv, .txt or .xyz) and its ground truth.
@@ -134,6 +144,8 @@ def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pat
           --hole 0,0,3 --hole 5,0,4 --extent -3,8,-3,3
       holecli simulate panel.ply --panel sample_clouds/panel.toml --spacing 0.1 --range-noise 0.005
       holecli simulate part.ply --mesh part.stl --view 0,-0.42,-0.91 --translation 1200,-300,800
+      holecli simulate plate.ply --mesh plate_holes.STL --cloud lattice --spacing 0.25 --float64
+      holecli simulate verts.ply --panel sample_clouds/panel.toml --cloud vertices
       holecli simulate table1.ply -q
       holecli simulate --cell cell --holes 4 --displace R2=0.2,0 --seed 1
     """
@@ -145,6 +157,10 @@ def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pat
         raise click.UsageError(f"{', '.join(_option_name(name) for name in cell_only)} need --cell")
     if output is None:
         raise click.UsageError("Missing argument 'OUTPUT'.")
+    if cloud != "profiler" and panel_file is None and mesh_file is None:
+        raise click.UsageError("--cloud needs --panel or --mesh")
+    if _given(ctx, "faces") and cloud not in ("vertices", "surface"):
+        raise click.UsageError("--faces needs --cloud vertices or surface")
     if panel_file is not None or mesh_file is not None:
         sys.exit(run_guarded(_simulate_part, ctx, output, panel_file, mesh_file, truth_path, seed, quiet, verbose))
     profiler_only = [name for name in _PROFILER_OPTIONS if _given(ctx, name)]
@@ -375,6 +391,8 @@ def _simulate_part(ctx, output, panel_file, mesh_file, truth_path, seed, quiet=F
     if Path(output).suffix.lower() not in WRITE_EXTENSIONS:
         raise Failure(f"{output}: unsupported extension (expected {', '.join(WRITE_EXTENSIONS)})", EXIT_INPUT)
     source = panel_file or mesh_file
+    if p["cloud"] != "profiler":
+        return _simulate_cad(ctx, output, panel_file, mesh_file, truth_path, seed, quiet, verbose)
     started = time.perf_counter()
     try:
         vertices, triangles, features, part = _load_part(panel_file, mesh_file, p["view"])
@@ -403,6 +421,70 @@ def _simulate_part(ctx, output, panel_file, mesh_file, truth_path, seed, quiet=F
     if not quiet:
         click.echo(f"wrote {len(points)} points ({finite} measured) to {output} and the ground truth "
                    f"({len(truth['holes'])} holes) to {target}", err=True)
+    return EXIT_OK
+
+
+# Profiler options that --cloud vertices/surface/lattice use (the others describe the sensor).
+_CAD_ACCEPTS = ("target", "view", "line", "line_length", "scan_length", "range_noise", "float64")
+
+
+def _simulate_cad(ctx, output, panel_file, mesh_file, truth_path, seed, quiet=False, verbose=False):
+    """``holecli simulate --panel/--mesh --cloud KIND``: a cloud made from the mesh as engineers make one, and its
+    truth in the validation suite's format (:mod:`holecli.simulation.cad_cloud`)."""
+    import json
+    from pathlib import Path
+
+    import numpy as np
+
+    from holecli.errors import SpecError
+    from holecli.io import save_points
+    from holecli.io.outfile import write_text
+    from holecli.simulation.cad_cloud import cad_cloud, cad_truth, cloud_pitch
+
+    p = ctx.params
+    refused = [name for name in _PROFILER_OPTIONS if _given(ctx, name) and name not in _CAD_ACCEPTS]
+    if refused:
+        raise click.UsageError(f"{', '.join(_option_name(name) for name in refused)} cannot be used with --cloud "
+                               f"{p['cloud']} (they describe the profiler)")
+    source = panel_file or mesh_file
+    started = time.perf_counter()
+    try:
+        vertices, triangles, features, part = _load_part(panel_file, mesh_file, p["view"])
+        frame = None
+        if p["rotation"] is not None or p["translation"] is not None:
+            from holecli.simulation.synth import rotation_matrix
+
+            frame = np.eye(4)
+            frame[:3, :3] = rotation_matrix(p["rotation"] or (0.0, 0.0, 0.0))
+            frame[:3, 3] = p["translation"] or (0.0, 0.0, 0.0)
+        region = dict(view=p["view"], line=p["line"], target=p["target"], line_length=p["line_length"],
+                      scan_length=p["scan_length"])
+        points = cad_cloud(vertices, triangles, p["cloud"], p["spacing"], faces=p["faces"], noise=p["range_noise"],
+                           rng=seed, **region)
+        pitch = cloud_pitch(points, p["cloud"], p["spacing"])
+        truth = cad_truth(vertices, triangles, pitch=pitch, faces=p["faces"], kind=p["cloud"], frame=frame,
+                          not_holes=[f for f in features if panel_file and not f.get("is_hole", True)], **region)
+    except (SpecError, ValueError) as error:
+        raise Failure(f"{source}: {error}", EXIT_INPUT) from None
+    if frame is not None:
+        points = points @ frame[:3, :3].T + frame[:3, 3]
+    if not p["float64"]:
+        points = points.astype(np.float32).astype(np.float64)
+    truth = dict(truth, part=part, seed=seed, file=Path(output).name, noise=float(p["range_noise"]))
+    target = truth_path or str(Path(output).with_suffix(".truth.json"))
+    generated = time.perf_counter()
+    try:
+        save_points(output, points, float32=not p["float64"])
+        write_text(target, json.dumps(truth, indent=2) + "\n")
+    except OSError as error:
+        raise Failure(f"{output}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
+    if verbose:
+        click.echo(f"holecli: cloud: {p['cloud']}, faces {p['faces']}, pitch {pitch:.4g}, noise {p['range_noise']:g}, "
+                   f"seed {seed}\nholecli: time: make {(generated - started) * 1e3:.1f} ms, write "
+                   f"{(time.perf_counter() - generated) * 1e3:.1f} ms", err=True)
+    if not quiet:
+        click.echo(f"wrote {len(points)} points to {output} and the ground truth ({len(truth['holes'])} holes) to "
+                   f"{target}", err=True)
     return EXIT_OK
 
 

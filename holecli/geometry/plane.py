@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from statistics import NormalDist
 
@@ -238,10 +239,38 @@ def _faces(sample, rng, hypotheses, quantile, clip, origin, max_faces):
     return faces
 
 
+# seen_face: a face is turned toward the sensor when its normal is within this angle (degrees) of the
+# view's line (the validation suite views faces up to 40 deg off their normal; a part's sides and a bore
+# wall are at ~90 deg).
+SEEN_FACE_MAX_DEG = 60.0
+# seen_face: of the faces turned toward the sensor, those holding at least this share of the largest
+# one's points may be the surface; the one nearest the sensor is taken (a sampled sheet's top and bottom
+# hold about the same number of points; a boss's top or a counterbore's floor holds far fewer).
+SEEN_FACE_SHARE = 0.8
+
+
+def _seen_face(faces, view):
+    """The face of ``faces`` ((count, normal, offset, sigma, step), offsets from a common origin) that a sensor
+    looking along ``view`` sees: among the faces turned toward it (normal within ``SEEN_FACE_MAX_DEG`` of
+    the view's line), of those holding at least ``SEEN_FACE_SHARE`` of the largest one's points, the one
+    nearest the sensor (where the view's line through the origin meets it first). No face turned toward
+    it: the largest face."""
+    view = np.asarray(view, dtype=np.float64) / np.linalg.norm(view)
+    cos_limit = math.cos(math.radians(SEEN_FACE_MAX_DEG))
+    turned = [face for face in faces if abs(float(face[1] @ view)) >= cos_limit]
+    if not turned:
+        return max(faces, key=lambda face: face[0])
+    most = max(face[0] for face in turned)
+    contenders = [face for face in turned if face[0] >= SEEN_FACE_SHARE * most]
+    # The view's line through the origin, origin + t view, meets the face n . x = offset at t = offset / (n . view).
+    return min(contenders, key=lambda face: face[2] / float(face[1] @ view))
+
+
 def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
                      hypotheses=DEFAULT_SETTINGS.ransac_hypotheses, quantile=DEFAULT_SETTINGS.ransac_quantile,
                      clip=DEFAULT_SETTINGS.plane_clip, max_rounds=DEFAULT_SETTINGS.plane_refine_rounds,
-                     refine_sample=DEFAULT_SETTINGS.plane_refine_sample, max_faces=DEFAULT_SETTINGS.plane_max_faces):
+                     refine_sample=DEFAULT_SETTINGS.plane_refine_sample, max_faces=DEFAULT_SETTINGS.plane_max_faces,
+                     view=None):
     """Plane of the dominant surface, ignoring bore-wall, countersink, inside-hole and outlier points.
 
     RANSAC hypotheses from point triples are scored by the ``quantile`` of their absolute residuals
@@ -281,6 +310,10 @@ def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
         Size of the subsample refitted (``plane_refine_sample``).
     max_faces : int
         Most faces taken from the RANSAC sample (``plane_max_faces``).
+    view : (3,) float, optional
+        The sensor's viewing direction (into the part). Given, the face is the one the sensor sees
+        rather than the one holding the most points (see :func:`_seen_face`): a cloud sampled from a
+        whole CAD mesh holds the bottom face, the sides and the bore walls as well as the top.
 
     Returns
     -------
@@ -304,8 +337,10 @@ def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
     faces = _faces(subset, rng, hypotheses, quantile, clip, origin, max_faces)
     if not faces:
         raise PointsError("the points are collinear (or coincide): no plane is defined")
-    # The dominant face is the one that holds the most points, whatever its noise.
-    _, normal, offset, sigma, face_step = max(faces, key=lambda face: face[0])
+    # The dominant face is the one that holds the most points, whatever its noise; with a view, the
+    # one the sensor sees (see _seen_face).
+    _, normal, offset, sigma, face_step = (max(faces, key=lambda face: face[0]) if view is None
+                                           else _seen_face(faces, view))
     # Iterate on a subsample (a million points need not be refitted ten times), then settle the
     # inlier set on every point: the result depends on the subsample only through points exactly at
     # the band's edge.

@@ -1005,7 +1005,8 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     plane = fit_plane_robust(points, rng=rng, sample=settings.ransac_sample,
                              hypotheses=settings.ransac_hypotheses, quantile=settings.ransac_quantile,
                              clip=settings.plane_clip, max_rounds=settings.plane_refine_rounds,
-                             refine_sample=settings.plane_refine_sample, max_faces=settings.plane_max_faces)
+                             refine_sample=settings.plane_refine_sample, max_faces=settings.plane_max_faces,
+                             view=view_dir)
     frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
     # The heights are read along the normal toward the sensor (holecli.robust.facing): from
     # --view-dir, else from the points seen through the surface, else the z-positive normal. A flat
