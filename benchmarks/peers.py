@@ -385,7 +385,6 @@ def peer_open3d(points, seed=0):
     import open3d as o3d
 
     o3d.utility.random.seed(seed)
-    rng = np.random.default_rng(seed)
     shift = points.mean(axis=0)
     pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points - shift))
     h = float(np.median(np.asarray(pcd.compute_nearest_neighbor_distance())))
@@ -410,8 +409,13 @@ def peer_open3d(points, seed=0):
             uv = plane.uv[edge[labels == label]]
             if len(uv) < MIN_CLUSTER or plane.hull_distance(uv).min() < BORDER_R * plane.R:
                 continue
-            center, r, inl = _ransac_circle(uv, plane.ha, rng)
-            if center is None or inl.sum() < max(MIN_CLUSTER, 0.7 * len(uv)):
+            # a fresh generator per cluster: DBSCAN's labels come in no fixed order (it runs in threads)
+            center, r, inl = _ransac_circle(uv, plane.ha, np.random.default_rng(seed))
+            if center is None:
+                continue
+            center, r = lsq_circle(uv[inl], center, r)  # refine, take the inliers again, refine
+            inl = np.abs(np.linalg.norm(uv - center, axis=1) - r) <= plane.ha
+            if inl.sum() < max(MIN_CLUSTER, 0.7 * len(uv)):
                 continue
             center, r = lsq_circle(uv[inl], center, r)
             if believe_hole(plane, uv[inl], center, r) is None:
