@@ -266,6 +266,25 @@ def _seen_face(faces, view):
     return min(contenders, key=lambda face: face[2] / float(face[1] @ view))
 
 
+# Without a view, the side a sensor is assumed on when the data do not tell (the file's +z, as the sign
+# convention of normals: holecli.geometry.frame.orient_normal).
+ASSUMED_VIEW = (0.0, 0.0, -1.0)
+
+
+def _dominant_face(faces):
+    """The face of ``faces`` a scan is of when no view is given: the one holding the most points, unless
+    other faces hold nearly as many (``SEEN_FACE_SHARE`` of it: the top and bottom of a sheet sampled
+    whole, from CAD), when the sensor is taken to be above the file's +z (:data:`ASSUMED_VIEW`,
+    :func:`_seen_face` among those faces). A scan's own surface holds far more points than any other
+    face it shows (a floor, a boss's top, a bore wall), so only clouds sampled from every side meet the
+    tie; those whose faces all stand across +z keep the largest."""
+    most = max(face[0] for face in faces)
+    contenders = [face for face in faces if face[0] >= SEEN_FACE_SHARE * most]
+    if len(contenders) == 1:
+        return contenders[0]
+    return _seen_face(contenders, ASSUMED_VIEW)
+
+
 def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
                      hypotheses=DEFAULT_SETTINGS.ransac_hypotheses, quantile=DEFAULT_SETTINGS.ransac_quantile,
                      clip=DEFAULT_SETTINGS.plane_clip, max_rounds=DEFAULT_SETTINGS.plane_refine_rounds,
@@ -314,6 +333,8 @@ def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
         The sensor's viewing direction (into the part). Given, the face is the one the sensor sees
         rather than the one holding the most points (see :func:`_seen_face`): a cloud sampled from a
         whole CAD mesh holds the bottom face, the sides and the bore walls as well as the top.
+        Without it, faces holding alike many points are told apart as if the sensor were above the
+        file's +z (:func:`_dominant_face`).
 
     Returns
     -------
@@ -338,9 +359,9 @@ def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
     if not faces:
         raise PointsError("the points are collinear (or coincide): no plane is defined")
     # The dominant face is the one that holds the most points, whatever its noise; with a view, the
-    # one the sensor sees (see _seen_face).
-    _, normal, offset, sigma, face_step = (max(faces, key=lambda face: face[0]) if view is None
-                                           else _seen_face(faces, view))
+    # one the sensor sees (see _seen_face); without one, of faces holding alike many points, the one a
+    # sensor above the file's +z would see (_dominant_face).
+    _, normal, offset, sigma, face_step = _dominant_face(faces) if view is None else _seen_face(faces, view)
     # Iterate on a subsample (a million points need not be refitted ten times), then settle the
     # inlier set on every point: the result depends on the subsample only through points exactly at
     # the band's edge.

@@ -3,7 +3,7 @@ clouds: a sampled mesh holds its bottom, sides and bore walls as well as its top
 
 import numpy as np
 
-from holecli.geometry.plane import _seen_face, fit_plane_robust
+from holecli.geometry.plane import _dominant_face, _seen_face, fit_plane_robust
 
 DOWN = np.array([0.0, 0.0, -1.0])
 TOP = (900, np.array([0.0, 0.0, 1.0]), 0.0, 1e-3)
@@ -32,6 +32,17 @@ def test_two_sided_sheet():
     top = np.column_stack([rng.uniform(-20, 20, (4000, 2)), np.zeros(4000)])
     bottom = np.column_stack([rng.uniform(-20, 20, (4400, 2)), np.full(4400, -3.0)])
     points = np.vstack([top, bottom])
-    assert abs(float(fit_plane_robust(points).point[2]) + 3.0) < 1e-9  # the most points: the bottom
+    # without a view, faces holding alike many points: the one a sensor above +z sees (_dominant_face)
+    assert abs(float(fit_plane_robust(points).point[2])) < 1e-9
     assert abs(float(fit_plane_robust(points, view=DOWN).point[2])) < 1e-9
     assert abs(float(fit_plane_robust(points, view=-DOWN).point[2]) + 3.0) < 1e-9
+
+
+def test_without_a_view_the_largest_face_unless_another_holds_nearly_as_many():
+    """_dominant_face: a scan's own surface holds far more points than any other face it shows, and stays
+    the surface whichever way it faces (a robot's frame may put it across +z); of two faces holding alike
+    many points (a sheet sampled on both sides) the one toward +z is taken."""
+    floor = (300, np.array([0.0, 0.0, 1.0]), 8.0, 1e-3)  # a small face nearer +z: a boss's top
+    assert _dominant_face([SIDE, floor]) is SIDE
+    assert _dominant_face([BOTTOM, TOP]) is TOP
+    assert _dominant_face([BOTTOM, (500, TOP[1], TOP[2], TOP[3])]) is BOTTOM

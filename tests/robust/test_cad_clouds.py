@@ -113,10 +113,12 @@ CLASSES = {
     # every face sampled (top, bottom, sides, walls), the view given: the face the sensor sees
     "surface, view given": [(k, "surface", f, 0.1, 0.0, s, True) for k in ("plain", "cbore")
                             for f in ("all", "no-walls") for s in SEEDS[:2]],
+    # the same without the view: of the top and the bottom, which hold alike many points, the face a
+    # sensor above +z sees (it was the face holding the most points, often the bottom)
+    "surface, no view": [(k, "surface", f, 0.1, 0.0, s, False) for k in ("plain", "cbore")
+                         for f in ("all", "no-walls") for s in SEEDS],
 }
 FAILING = {
-    # the same without the view: the plane is the face holding the most points, often the bottom
-    "surface, no view": [(k, "surface", "no-walls", 0.1, 0.0, s, False) for k in ("plain", "cbore") for s in SEEDS],
     # noisy surface samples of countersinks: the edge circle reads 40-60 um small
     "surface countersink, noise": [("csk", "surface", "all", 0.1, 0.005, s, True) for s in SEEDS],
     # a CAD export's vertices: no point inside a face, the sampling estimate takes the faces for gaps
@@ -138,13 +140,24 @@ def test_cad_clouds_not_yet(name):
     assert not failures, failures
 
 
-def test_upside_down_part_not_yet():
-    """A countersunk panel turned upside down (its top faces -z, the sensor looks along +z): the plain hole
-    is measured, the countersink is not found (the normal is oriented +z, into the part) even with the view."""
-    frame = np.eye(4)
-    frame[1, 1] = frame[2, 2] = -1.0  # 180 deg about x
-    fails, _ = _run("csk", "lattice", "all", 0.1, 0.0, 0, True, frame=frame)
-    assert fails and all("not found" in f for f in fails), fails
+UPSIDE_DOWN = np.diag([1.0, -1.0, -1.0, 1.0])  # 180 deg about x: the top faces -z, the sensor looks along +z
+
+
+@pytest.mark.parametrize("kind", ["csk", "cbore", "plain"])
+def test_upside_down_part_with_the_view(kind):
+    """A panel turned upside down, its view given: measured as one facing +z (countersinks and counterbores
+    too: what lies below the surface is read away from the sensor)."""
+    for seed in SEEDS:
+        fails, _ = _run(kind, "lattice", "all", 0.1, 0.0, seed, True, frame=UPSIDE_DOWN)
+        assert not fails, (seed, fails)
+
+
+@pytest.mark.xfail(strict=True, reason="issue 24 item 2: without a view, a straight-down lattice of a part "
+                                       "facing -z does not show its side; +z is assumed and what lies below "
+                                       "the surface is read as above it")
+def test_upside_down_countersink_without_the_view_not_yet():
+    fails, _ = _run("csk", "lattice", "all", 0.1, 0.0, 0, False, frame=UPSIDE_DOWN)
+    assert not fails, fails
 
 
 def _boss_panel_lattice():
