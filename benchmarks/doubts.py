@@ -50,6 +50,7 @@ def _ratios(d):
         "bias_spacings": float("nan") if d.bias_correction is None else abs(d.bias_correction) / d.spacing,
         "bias_diam": float("nan") if d.bias_correction is None else abs(d.bias_correction) / (2 * d.radius),
         "rms_gaps": d.fit_rms / d.gap,
+        "fringe_gaps": d.hidden_fringe / d.gap,
     }
 
 

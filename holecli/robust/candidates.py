@@ -239,6 +239,21 @@ def distance_to_outside(grid):
     return ndimage.distance_transform_edt(labels != outside) * grid.cell
 
 
+def scanned_hull(grid):
+    """The cells of ``grid`` inside the convex hull of its material: the scan's extent, holes and bays
+    (what :func:`find_voids` measures bays in) included, what lies beyond the scan's border not.
+
+    Parameters
+    ----------
+    grid : Grid
+
+    Returns
+    -------
+    (nx, ny) bool ndarray
+    """
+    return _hull_mask(grid.material)
+
+
 def _empty_regions(grid):
     """The connected regions of the grid's empty cells (4-connected), their count and the label of
     the outside (the region of the padding corner)."""

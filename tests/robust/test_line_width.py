@@ -8,6 +8,7 @@ diameter's u (``holecli.robust.method._edge_fringe``) or, when the band hides it
 (``blurred_edge``).
 """
 
+import functools
 import math
 
 import numpy as np
@@ -97,3 +98,93 @@ def test_wide_lines_over_many_scans_plain_holes_stay_plain_and_u_covers():
     honest = np.mean([c or w for c, w, *_ in rows])
     print(f"diameter +- 2u covers {covered:.1%} of {len(rows)}, covered or warned {honest:.1%}")
     assert honest >= 0.9, rows
+
+
+# --- wide lines and noise: the fringe in u, blurred_edge, and what neither catches -----------------
+
+
+def _plain_scene(seed, widths, noises):
+    """A plain through hole (3-6 mm) in a 3 mm panel, scanned at pitch 0.04-0.1 mm (line pitch 1-2x),
+    0-25 deg off the normal, fan or parallel rays, float32 output, the line's width and the range
+    noise drawn uniformly from ``widths`` and ``noises`` (mm). Returns (points, truth)."""
+    rng = np.random.default_rng([7, seed])
+    diameter = float(rng.uniform(3.0, 6.0))
+    pitch = float(rng.uniform(0.04, 0.1))
+    line_pitch = pitch * float(rng.choice([1.0, 1.5, 2.0]))
+    width = float(rng.uniform(*widths))
+    noise = float(rng.uniform(*noises))
+    tilt = math.radians(float(rng.uniform(0.0, 25.0)))
+    feature = FeatureSpec(kind="through", center=(0.0, 0.0), diameter=diameter)
+    panel = build_panel(PanelSpec(width=6.0 * diameter, height=6.0 * diameter, thickness=3.0, features=(feature,),
+                                  chord_error=1e-4))
+    reach = 2.5 * diameter
+    spec = ProfilerSpec(target=(0.0, 0.0, 0.0), standoff=100.0, view=(0.0, math.sin(tilt), -math.cos(tilt)),
+                        line=(1.0, 0.0, 0.0), line_length=reach, scan_length=reach, point_pitch=pitch,
+                        line_pitch=line_pitch, fan=bool(rng.integers(2)), triangulation_deg=25.0,
+                        max_incidence_deg=80.0, range_noise=noise, float32=True, line_width=width)
+    scanned = scan_part(panel.vertices, panel.triangles, panel_truth(panel)["features"], spec, rng=seed)
+    points = scanned.scan.points
+    return points[np.isfinite(points).all(axis=1)], next(h for h in scanned.truth["holes"] if h["inside_scan"])
+
+
+@functools.lru_cache(maxsize=None)
+def _plain_sweep(seeds, widths, noises):
+    """Per scene of :func:`_plain_scene`: (|error| <= 2u, warned blurred_edge, error, u) of its hole."""
+    rows = []
+    for seed in seeds:
+        points, truth = _plain_scene(seed, widths, noises)
+        holes = detect(points).holes
+        hole = min(holes, key=lambda h: np.linalg.norm(np.subtract(h.center, truth["center"])))
+        assert np.linalg.norm(np.subtract(hole.center, truth["center"])) < 0.1, seed
+        error, u = hole.diameter - truth["diameter"], hole.uncertainty.diameter
+        rows.append((abs(error) <= 2.0 * u, any(w.code == "blurred_edge" for w in hole.warnings), error, u))
+    return tuple(rows)
+
+
+_WIDE, _LOW_NOISE, _HIGH_NOISE = (0.04, 0.06), (0.0, 0.008), (0.01, 0.03)
+
+
+@pytest.mark.slow
+def test_the_edge_fringe_of_a_wide_line_enters_u():
+    """Lines 40-60 um wide, noise 0-8 um: the fringe stands out of the band and its middle is taken as
+    the edge; the model's own uncertainty, F / sqrt(12) on the diameter (F its width: 12-50 um here),
+    is what makes +-2u hold the truth. Measured over these 24 scans: 24 covered (errors -12 to +14 um,
+    u 5-21 um); without the term 21 (errors of +12, +6, -8 um with u of 2.8, 3.0, 3.1 um: seeds
+    114, 120, 121), none of them warned."""
+    rows = _plain_sweep(tuple(range(100, 124)), _WIDE, _LOW_NOISE)
+    honest = sum(covered or warned for covered, warned, *_ in rows)
+    assert honest >= 23, [(seed, round(e * 1e3, 1), round(u * 1e3, 1)) for seed, (c, w, e, u)
+                           in zip(range(100, 124), rows) if not (c or w)]
+
+
+@pytest.mark.slow
+def test_blurred_edge_never_fires_on_clean_scans():
+    """An ideal line (width 0) and noise 0-30 um: no mixed points, so the hidden fringe measures exactly
+    0 on every hole (also on every scene of benchmarks/doubts.py, whose fringe_gaps column prints it),
+    and blurred_edge never fires."""
+    rows = _plain_sweep(tuple(range(24)), (0.0, 0.0), (0.0, 0.03))
+    assert not any(warned for _, warned, *_ in rows)
+
+
+_HIGH_NOISE_SEEDS = tuple(range(64))
+
+
+@pytest.mark.slow
+def test_wide_lines_under_noise_blurred_edge_holds_what_u_misses():
+    """Lines 40-60 um wide, noise 10-30 um: the band (its half-width several sigma) hides most of the
+    fringe, the hole comes out small (median -19 um over 100 scans; -1 um with an ideal line) and u
+    holds no fringe term. Where the part of the fringe seen off the band exceeds
+    doubt_max_hidden_fringe_gaps the hole warns blurred_edge: over these 64 scans 46 are covered, 49
+    covered or warned. The warning is needed by seeds 37 and 59 (0.0186 and 0.0245 gaps of fringe seen,
+    +-2u missing the truth); clean scans give exactly 0 (test above): the threshold, 0.01 gaps, lies
+    between them (seeds 1 and 42, 0.0078 and 0.0099 gaps, are covered without it)."""
+    rows = _plain_sweep(_HIGH_NOISE_SEEDS, _WIDE, _HIGH_NOISE)
+    assert sum(covered or warned for covered, warned, *_ in rows) >= 49
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="a fringe wholly inside a noise-widened band is neither measured nor "
+                                       "warned: 15 of these 64 holes (22 of 100) miss the truth by 2u, silent")
+def test_wide_lines_under_noise_every_hole_is_covered_or_warned():
+    rows = _plain_sweep(_HIGH_NOISE_SEEDS, _WIDE, _HIGH_NOISE)
+    assert all(covered or warned for covered, warned, *_ in rows)
