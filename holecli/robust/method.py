@@ -37,7 +37,7 @@ from holecli.robust.countersink import MIN_SLOPE as MIN_CONE_SLOPE
 from holecli.robust.countersink import Cone, fit_cone_edge, points_on_hinge
 from holecli.robust.doubts import Doubts, doubt_warnings
 from holecli.robust.edge import fit_edge
-from holecli.robust.facing import decide, seen_through
+from holecli.robust.facing import decide, fan_side, fan_spacing, MIN_POINTS as SEEN_MIN_POINTS, seen_through
 from holecli.robust.empty_circle import empty_circle_errors, largest_empty_circle
 from holecli.robust.hole_shape import measure_hole_shape
 from holecli.robust.lattice import lattice_errors, lattice_steps, separating_circle
@@ -1034,7 +1034,12 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     # crop's frame has the sensor on +z (_on_curved_surface).
     below, above = seen_through(frame.heights, frame.xy, plane.inliers, frame.grid, frame.band,
                                 frame.sampling.spacing)
-    facing = decide(plane.normal, (0.0, 0.0, -1.0) if flat_crop else view_dir, below, above)
+    fan = None
+    if view_dir is None and not flat_crop and max(below, above) < SEEN_MIN_POINTS:
+        # Not seen through: the second cue, a fan's spacing growing with the range.
+        fan = fan_side(fan_spacing(frame.xy, frame.heights, plane.inliers, frame.band, frame.sampling.spacing,
+                                   frame.grid.cell))
+    facing = decide(plane.normal, (0.0, 0.0, -1.0) if flat_crop else view_dir, below, above, fan=fan)
     if facing.sign < 0:
         # The frame again about the flipped normal (not a mirror of the first one), so that a scan
         # and its rigid motions are measured in the same frame of the part.
