@@ -23,10 +23,12 @@ import fnmatch
 import importlib
 import io
 import json
+import math
 import os
 import re
 import signal
 import stat
+import time
 from collections import deque
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -577,7 +579,6 @@ def _time_limit(seconds):
     if not seconds:
         yield
         return
-    import math
     import resource
 
     def expired(number, frame):
@@ -653,6 +654,7 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
     waiting = deque(paths)
     suspects = deque()  # files in flight when a worker died: each is run alone to find the culprit
     alone = set()
+    submitted = {}  # path: when it was last given to a worker (time.monotonic)
     context = _pool_context()
     input_format = options.get("input_format")
     preload = ("open3d",) if any(_is_compressed_pcd(path, input_format) for path in paths) else ()
@@ -672,6 +674,7 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
                 while len(in_flight) < limit and (suspects or waiting):
                     path = suspects.popleft() if suspects else waiting.popleft()
                     in_flight[executor.submit(_measure_in_worker, path)] = path
+                    submitted[path] = time.monotonic()
                 done, _ = wait(in_flight, timeout=poll_seconds, return_when=FIRST_COMPLETED)
                 records, broken = [], []
                 for future in done:
@@ -697,7 +700,11 @@ def measure_all(paths, options, spec=None, *, jobs=1, should_stop=None, poll_sec
                     in_flight.clear()
                     out_of_time = _a_worker_ran_out_of_cpu_time(executor)
                     for path in sorted(broken):
-                        if path in alone and out_of_time and file_timeout:
+                        # Killed alone by its CPU limit: the exit status says so when the pool still
+                        # holds the dead worker; the pool may have dropped it already (a loaded machine),
+                        # and a worker alone that died after the time limit ran out was killed by it.
+                        overran = file_timeout and time.monotonic() - submitted.get(path, math.inf) >= file_timeout
+                        if path in alone and file_timeout and (out_of_time or overran):
                             yield error_record(path, timeout_message(path, file_timeout))
                         elif path in alone:
                             yield error_record(path, f"{path}: the worker process measuring this file died twice, "

@@ -269,19 +269,25 @@ def _seen_face(faces, view):
 # Without a view, the side a sensor is assumed on when the data do not tell (the file's +z, as the sign
 # convention of normals: holecli.geometry.frame.orient_normal).
 ASSUMED_VIEW = (0.0, 0.0, -1.0)
+# _dominant_face: faces within this angle of the largest are the sides of one sheet; a face across it
+# (the other flange of an angle, a wall) is another surface, and the larger one stays the scan's.
+SHEET_SIDES_MAX_DEG = 10.0
 
 
 def _dominant_face(faces):
     """The face of ``faces`` a scan is of when no view is given: the one holding the most points, unless
-    other faces hold nearly as many (``SEEN_FACE_SHARE`` of it: the top and bottom of a sheet sampled
-    whole, from CAD), when the sensor is taken to be above the file's +z (:data:`ASSUMED_VIEW`,
-    :func:`_seen_face` among those faces). A scan's own surface holds far more points than any other
+    other faces parallel to it (within :data:`SHEET_SIDES_MAX_DEG`) hold nearly as many
+    (``SEEN_FACE_SHARE`` of it: the top and bottom of a sheet sampled whole, from CAD), when the
+    sensor is taken to be above the file's +z (:data:`ASSUMED_VIEW`, :func:`_seen_face` among those
+    faces). A scan's own surface holds far more points than any other
     face it shows (a floor, a boss's top, a bore wall), so only clouds sampled from every side meet the
     tie; those whose faces all stand across +z keep the largest."""
-    most = max(face[0] for face in faces)
-    contenders = [face for face in faces if face[0] >= SEEN_FACE_SHARE * most]
+    largest = max(faces, key=lambda face: face[0])
+    cos_limit = math.cos(math.radians(SHEET_SIDES_MAX_DEG))
+    contenders = [face for face in faces if face[0] >= SEEN_FACE_SHARE * largest[0]
+                  and abs(float(face[1] @ largest[1])) >= cos_limit]
     if len(contenders) == 1:
-        return contenders[0]
+        return largest
     return _seen_face(contenders, ASSUMED_VIEW)
 
 

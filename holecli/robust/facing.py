@@ -31,6 +31,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import math
+
 import numpy as np
 
 # A point counts as over the surface's material when the surface points within one grid cell of it
@@ -67,6 +69,12 @@ FAN_RING_SPACINGS = 10.0
 # angle part, the second face of the angle; the smallest real vote there: 6.2 %, a counterbore's
 # floor 6 mm down); a boss 1-3 mm in front (1-3 %) does not vote: undecided, the convention stands.
 FAN_RATIO = 1.04
+# The cue reads a spacing that the scanner's geometry sets, so it needs a regular sampling: a lattice
+# (a profiler's lines and points, noisy or not) has nearest-neighbour distances that hardly spread
+# (robust coefficient of variation near 0), random sampling (a CAD mesh sampled evenly, synthetic
+# random clouds) spreads them by about half their median (a Poisson pattern: 0.5), and two random
+# clusters' medians then differ by chance. A cluster or ring spread more than this does not vote.
+FAN_MAX_SPREAD = 0.2
 
 
 @dataclass(frozen=True)
@@ -225,6 +233,8 @@ def fan_spacing(xy, heights, surface, band, spacing, reach):
         cluster_tree = cKDTree(cluster_xy)
         distances, _ = cluster_tree.query(cluster_xy, 2)
         inner = float(np.median(distances[:, 1]))
+        if _spread(distances[:, 1]) > FAN_MAX_SPREAD:
+            continue
         box = np.all((surface_xy >= cluster_xy.min(axis=0) - ring_reach)
                      & (surface_xy <= cluster_xy.max(axis=0) + ring_reach), axis=1)
         candidates = np.flatnonzero(box)
@@ -235,9 +245,19 @@ def fan_spacing(xy, heights, surface, band, spacing, reach):
         ring_xy = surface_xy[ring]
         distances, _ = surface_tree.query(ring_xy, 2)
         outer = float(np.median(distances[:, 1]))
+        if _spread(distances[:, 1]) > FAN_MAX_SPREAD:
+            continue
         side = float(np.median(heights[index[members]]))
         out.append((inner / outer, side, len(members), len(ring)))
     return out
+
+
+def _spread(distances):
+    """Robust coefficient of variation of nearest-neighbour distances (1.4826 MAD / median)."""
+    median = float(np.median(distances))
+    if not median > 0:
+        return math.inf
+    return 1.4826 * float(np.median(np.abs(distances - median))) / median
 
 
 def fan_side(clusters):

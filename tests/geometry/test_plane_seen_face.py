@@ -46,3 +46,6 @@ def test_without_a_view_the_largest_face_unless_another_holds_nearly_as_many():
     assert _dominant_face([SIDE, floor]) is SIDE
     assert _dominant_face([BOTTOM, TOP]) is TOP
     assert _dominant_face([BOTTOM, (500, TOP[1], TOP[2], TOP[3])]) is BOTTOM
+    # SHEET_SIDES_MAX_DEG: a face across the largest (an angle's other flange) is another surface
+    across = (900, np.array([0.0, 1.0, 0.0]), 0.0, 1e-3)
+    assert _dominant_face([BOTTOM, across]) is BOTTOM
