@@ -170,6 +170,7 @@ SUITES = ("synth", "scan", "validation", "cad")
 VALIDATION = Path(__file__).resolve().parents[2] / "shared" / "validation" / "realistic"
 if not VALIDATION.exists():
     VALIDATION = Path("/work/shared/validation/realistic")
+CAD_SEGMENTS = 1024  # the panels' circles of the CAD suite made here: round within 0.05 um
 ROUND_MM = 0.002  # a CAD edge round within 2 um has one diameter (the validation scorer's limit)
 
 
@@ -263,14 +264,22 @@ def _file_class(suite_name, name, case, truth_hole):
 
 
 def run_task(task):
-    """One task of any suite: ("synth_grid", seed) or (suite, path, case, truth) -> (rows, missed)."""
+    """One task of any suite: ("synth_grid", seed) or (suite, path, case, truth) -> (rows, missed, error).
+
+    A file holecli cannot measure (it raises) has all its full holes missed, and the error is returned."""
     if len(task) == 2:
         row = measure(task)
         if row is None:
-            return [], 1
+            return [], 1, None
         row.update(suite=task[0].split("_")[0], round=True)
-        return [row], 0
-    return measure_file(task, view_dir=RUN_OPTIONS.get("view_dir", False), scorer=RUN_OPTIONS.get("scorer"))
+        return [row], 0, None
+    try:
+        return (*measure_file(task, view_dir=task[0] in RUN_OPTIONS.get("view_dir", ()), scorer=RUN_OPTIONS.get("scorer")),
+                None)
+    except Exception as exc:  # noqa: BLE001  (holecli's refusal of a file is a result here, not a crash)
+        full = sum(h.get("status", "full") == "full" for h in task[3]["holes"])
+        return [], full, f"{Path(task[1]).name}: {type(exc).__name__}: {exc}"
+
 
 
 RUN_OPTIONS = {}
@@ -330,7 +339,9 @@ def main(argv=None):
     parser.add_argument("--cad-suite", default=None,
                         help="a folder made by scripts/make_cad_suite.py (default: made now in a temporary folder)")
     parser.add_argument("--limit", type=int, default=None, help="first N files of each file suite (a quick look)")
-    parser.add_argument("--view-dir", action="store_true", help="pass each file's viewing direction (cases.json)")
+    parser.add_argument("--view-dir", default="cad",
+                        help="file suites whose files are measured with their viewing direction (cases.json), "
+                             "comma-separated, or 'none' (default cad: a CAD cloud's bulk may lie on other faces)")
     parser.add_argument("--jobs", type=int, default=2, help="processes (default 2)")
     parser.add_argument("--json", default=None, help="write the table and every hole's errors and u to this file")
     parser.add_argument("--dump", default=None, help=argparse.SUPPRESS)
@@ -358,9 +369,9 @@ def main(argv=None):
             tmp = tempfile.TemporaryDirectory(prefix="holecli_cad_")
             folder = tmp.name
             subprocess.run([sys.executable, str(Path(__file__).resolve().parents[1] / "scripts" / "make_cad_suite.py"),
-                            folder], check=True, stdout=subprocess.DEVNULL)
+                            folder, "--segments", str(CAD_SEGMENTS)], check=True, stdout=subprocess.DEVNULL)
         tasks += suite_tasks("cad", folder, args.limit)
-    options = {"view_dir": args.view_dir, "scorer_path": scorer_path}
+    options = {"view_dir": args.view_dir.split(","), "scorer_path": scorer_path}
     if args.jobs > 1:
         from multiprocessing import Pool
 
@@ -371,9 +382,10 @@ def main(argv=None):
         results = [run_task(task) for task in tasks]
     if tmp is not None:
         tmp.cleanup()
-    rows = [r for rs, _ in results for r in rs]
+    rows = [r for rs, _, _ in results for r in rs]
+    notes += [f"not measured: {error}" for _, _, error in results if error]
     counts = {}
-    for task, (_, missed) in zip(tasks, results):
+    for task, (_, missed, _) in zip(tasks, results):
         suite = task[0].split("_")[0] if len(task) == 2 else task[0]
         counts[suite] = counts.get(suite, 0) + missed
     table = suite_table(rows, counts, args.first_seed)
