@@ -438,6 +438,9 @@ def main(argv=None):
         print("note: " + note)
     missed = [f"{t['suite']} {label} {t[label]:.1%}" for t in table for label in ("center", "diameter")
               if not BAND[0] <= t[label] <= BAND[1]]
+    if not table:
+        print("no suite measured")
+        return 1
     print(f"targets (center and diameter coverage in [{BAND[0]:.0%}, {BAND[1]:.0%}] per suite): "
           + ("met" if not missed else "MISSED: " + "; ".join(missed)))
     return 1 if missed else 0
