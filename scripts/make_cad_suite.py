@@ -12,11 +12,14 @@ folder gets the scans (binary PLY, float64), a NAME.truth.json beside each in th
     python ../shared/validation/score.py OUT_DIR [--view-dir]
 
 --seeds N repeats every noisy or random case with N seeds (each seed also moves the lattice by a random
-fraction of its pitch); --only keeps the cases whose name contains TEXT; --list prints the names only.
+fraction of its pitch); --only keeps the cases whose name contains TEXT; --list prints the names only;
+--segments N tessellates the panels' circles with N segments instead of 64 (benchmarks/uncertainty.py
+uses 1024: edges round within 0.05 um, so that each hole has one diameter to cover).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import sys
@@ -101,13 +104,15 @@ def _cases(seeds):
     return out
 
 
-def _part(part):
+def _part(part, segments=None):
     if part == "plate":
         from holecli.simulation.profiler import load_mesh
 
         vertices, triangles = load_mesh(PLATE)
         return vertices, triangles, [], None, None
     spec, _, region, rotation = PARTS[part]
+    if segments is not None:
+        spec = dataclasses.replace(spec, segments=segments)
     panel = build_panel(spec)
     not_holes = [f for f in panel_truth(panel)["features"] if not f["is_hole"]]
     return panel.vertices, panel.triangles, not_holes, region, None if rotation is None else _rotation(rotation)
@@ -120,6 +125,7 @@ def main(argv):
     out = Path(argv[0])
     seeds = int(argv[argv.index("--seeds") + 1]) if "--seeds" in argv else 1
     only = argv[argv.index("--only") + 1] if "--only" in argv else None
+    segments = int(argv[argv.index("--segments") + 1]) if "--segments" in argv else None
     cases = [c for c in _cases(seeds) if only is None or only in c[0]]
     if "--list" in argv:
         print("\n".join(c[0] for c in cases))
@@ -128,7 +134,7 @@ def main(argv):
     index, meshes = [], {}
     for name, part, cloud, faces, spacing, noise, seed in cases:
         if part not in meshes:
-            meshes[part] = _part(part)
+            meshes[part] = _part(part, segments)
         vertices, triangles, not_holes, region, frame = meshes[part]
         rng = np.random.default_rng(seed)
         view, line = np.array([0.0, 0.0, -1.0]), np.array([1.0, 0.0, 0.0])

@@ -903,7 +903,8 @@ def _uncertainty(scene, measured):
                                             fit.radius, float(scene.sampling.spacing), float(scene.height_noise),
                                             measured.cone_covariance, diameter_correction=2.0 * measured.bias,
                                             edge_fringe=measured.fringe[0],
-                                            resolution=scene.resolution, radius_range=measured.radius_range)
+                                            resolution=scene.resolution, radius_range=measured.radius_range,
+                                            density=float(scene.surface_density))
     if _bias_not_measured(measured):
         # The correction it would have had: the rim lies inside the edge by up to a gap (radius), so
         # the diameter is off by up to two gaps; uniform over +-2 g (warning bias_not_measured).

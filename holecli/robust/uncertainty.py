@@ -77,6 +77,13 @@ METHOD_TERMS = {
 # distribution, GUM 4.3.7): a standard uncertainty of |correction| / sqrt(3) on the diameter.
 CORRECTION_SHARE = {"empty_circle": 1.0 / math.sqrt(3.0)}
 
+# The largest empty circle's center on random sampling of density rho around an edge of radius R: a few
+# closest points pin it, and its error per coordinate has a standard deviation of about 0.46 / (rho R)
+# (simulated: Poisson points of 16-400 per unit area, R = 1.25-4, 150 draws each, 0.41-0.50), with tails
+# that a handful of synthetic holes rarely sample (1 in 50 beyond 4 times it). Rounded up to 0.5, a floor
+# of the empty circle's center uncertainty (random sampling is the one it is used on).
+EMPTY_CIRCLE_CENTER = 0.5
+
 # Student's t at 97.5 % over the normal's 1.96, for a spread estimated from k - 1 degrees of
 # freedom: widens a few-sample spread so that +-2u keeps a 95 % coverage (index: degrees of freedom).
 _T_975 = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262,
@@ -152,7 +159,7 @@ def circle_fit_covariance(rim_xy, center, radius):
 
 
 def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, height_noise, cone_covariance=None,
-                     diameter_correction=0.0, edge_fringe=0.0, resolution=0.0, radius_range=None):
+                     diameter_correction=0.0, edge_fringe=0.0, resolution=0.0, radius_range=None, density=None):
     """Standard uncertainties of an edge's in-plane center (per coordinate) and of its diameter.
 
     Parameters
@@ -192,6 +199,10 @@ def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, heig
         the ranges of other radii at the same center; this is the hole's own, the wider one on a
         lattice aligned with the hole when a lattice position lies on the edge (a round radius on a
         round pitch): the truth is then at the range's outer end, ``sqrt(3) u`` from the estimate.
+    density : float, optional
+        For ``"empty_circle"``: the surface's points per unit area ``rho``; the center's uncertainty
+        is at least :data:`EMPTY_CIRCLE_CENTER` ``/ (rho R)``, that of a largest empty circle on random
+        sampling, whose heavy tails the synthetic holes rarely sample.
 
     Returns
     -------
@@ -204,6 +215,8 @@ def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, heig
     correction = CORRECTION_SHARE.get(estimator, 0.0) * abs(float(diameter_correction))
     if radius_range is not None:
         u_radius = max(u_radius, abs(float(radius_range[1]) - float(radius_range[0])) / math.sqrt(12.0))
+    if estimator == "empty_circle" and density and radius > 0:
+        u_center = max(u_center, EMPTY_CIRCLE_CENTER / (float(density) * float(radius)))
     least = resolution_uncertainty(resolution)
     return (max(math.hypot(u_center, ca * spacing, cb * height_noise), least),
             max(math.hypot(2.0 * u_radius, da * spacing, db * height_noise, correction,
