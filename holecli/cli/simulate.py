@@ -372,14 +372,12 @@ def _targets_csv(cell):
 
 def _simulate_part(ctx, output, panel_file, mesh_file, truth_path, seed, quiet=False, verbose=False):
     """``holecli simulate --panel/--mesh``: the profiler's scan of a part, and its truth."""
-    import json
     from pathlib import Path
 
     import numpy as np
 
     from holecli.errors import SpecError
-    from holecli.io import WRITE_EXTENSIONS, save_points
-    from holecli.io.outfile import write_text
+    from holecli.io import WRITE_EXTENSIONS
 
     p = ctx.params
     if panel_file is not None and mesh_file is not None:
@@ -404,14 +402,9 @@ def _simulate_part(ctx, output, panel_file, mesh_file, truth_path, seed, quiet=F
         raise Failure(f"{source}: {error}", EXIT_INPUT) from None
     truth = dict(scanned.truth, part=part, seed=seed, file=Path(output).name,
                  units="m" if p["metres"] else "mm")
-    target = truth_path or str(Path(output).with_suffix(".truth.json"))
     points = scanned.scan.points
     generated = time.perf_counter()
-    try:
-        save_points(output, points, float32=not p["float64"])
-        write_text(target, json.dumps(truth, indent=2) + "\n")
-    except OSError as error:
-        raise Failure(f"{output}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
+    target = _write_scan(output, points, truth, truth_path, p["float64"])
     finite = int(np.isfinite(points).all(axis=1).sum())
     if verbose:
         click.echo(f"holecli: profiler: point pitch {spec.point_pitch:g}, line pitch {spec.line_pitch:g}, "
@@ -431,14 +424,11 @@ _CAD_ACCEPTS = ("target", "view", "line", "line_length", "scan_length", "range_n
 def _simulate_cad(ctx, output, panel_file, mesh_file, truth_path, seed, quiet=False, verbose=False):
     """``holecli simulate --panel/--mesh --cloud KIND``: a cloud made from the mesh as engineers make one, and its
     truth in the validation suite's format (:mod:`holecli.simulation.cad_cloud`)."""
-    import json
     from pathlib import Path
 
     import numpy as np
 
     from holecli.errors import SpecError
-    from holecli.io import save_points
-    from holecli.io.outfile import write_text
     from holecli.simulation.cad_cloud import cad_cloud, cad_truth, cloud_pitch
 
     p = ctx.params
@@ -471,13 +461,8 @@ def _simulate_cad(ctx, output, panel_file, mesh_file, truth_path, seed, quiet=Fa
     if not p["float64"]:
         points = points.astype(np.float32).astype(np.float64)
     truth = dict(truth, part=part, seed=seed, file=Path(output).name, noise=float(p["range_noise"]))
-    target = truth_path or str(Path(output).with_suffix(".truth.json"))
     generated = time.perf_counter()
-    try:
-        save_points(output, points, float32=not p["float64"])
-        write_text(target, json.dumps(truth, indent=2) + "\n")
-    except OSError as error:
-        raise Failure(f"{output}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
+    target = _write_scan(output, points, truth, truth_path, p["float64"])
     if verbose:
         click.echo(f"holecli: cloud: {p['cloud']}, faces {p['faces']}, pitch {pitch:.4g}, noise {p['range_noise']:g}, "
                    f"seed {seed}\nholecli: time: make {(generated - started) * 1e3:.1f} ms, write "
@@ -550,3 +535,21 @@ def _profiler_spec(p, vertices):
                         range_noise=p["range_noise"], range_quantum=p["range_quantum"], dropout=p["dropout"],
                         jitter=p["jitter"], line_width=p["line_width"], keep_nan=p["keep_nan"], frame=frame,
                         unit_scale=1e-3 if p["metres"] else 1.0, float32=not p["float64"])
+
+
+def _write_scan(output, points, truth, truth_path, float64):
+    """Write a simulated cloud and its truth (``truth_path``, else OUTPUT with ``.truth.json``) and return
+    the truth's path; a file that cannot be written is an input/output failure naming it."""
+    import json
+    from pathlib import Path
+
+    from holecli.io import save_points
+    from holecli.io.outfile import write_text
+
+    target = truth_path or str(Path(output).with_suffix(".truth.json"))
+    try:
+        save_points(output, points, float32=not float64)
+        write_text(target, json.dumps(truth, indent=2) + "\n")
+    except OSError as error:
+        raise Failure(f"{output}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
+    return target
