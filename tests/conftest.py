@@ -128,3 +128,40 @@ def modules_imported_by(repo_root):
         return result.stderr.strip().splitlines()[-1]
 
     return imported
+
+
+@pytest.fixture
+def fifo_reader():
+    """``fifo_reader(path)`` starts a reader of the FIFO ``path``: its read end opened at once (without
+    waiting for a writer: a FIFO without a reader is refused, issue 23), read in a thread until the
+    writer closes it; it returns ``finish()``, which returns the bytes read."""
+    import os
+    import select
+    import threading
+
+    def start(path):
+        descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+        chunks = []
+
+        def read():
+            # select reports nothing on a FIFO no writer has opened yet; then data, then the writer's close
+            while select.select([descriptor], [], [], 60)[0]:
+                try:
+                    chunk = os.read(descriptor, 1 << 16)
+                except BlockingIOError:
+                    continue
+                if not chunk:
+                    return
+                chunks.append(chunk)
+
+        thread = threading.Thread(target=read, daemon=True)
+        thread.start()
+
+        def finish():
+            thread.join(30)
+            os.close(descriptor)
+            return b"".join(chunks)
+
+        return finish
+
+    return start

@@ -399,34 +399,12 @@ def test_detect_output_through_a_symlink_replaces_the_target_and_keeps_the_link(
     assert json.loads(target.read_text())["holes"][0]["diameter"] == pytest.approx(3.0, abs=0.01)
 
 
-def test_detect_output_to_a_fifo_writes_through_it(run, table1_files, tmp_path):
-    import threading
-
+def test_detect_output_to_a_fifo_writes_through_it(run, table1_files, tmp_path, fifo_reader):
     fifo = tmp_path / "results.fifo"
     os.mkfifo(fifo)
-    # its read end opened before the run (a FIFO without a reader is refused, issue 23 item 7)
-    descriptor = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)
-    received = []
-
-    def read():
-        import select
-
-        data = b""
-        while select.select([descriptor], [], [], 60)[0]:  # nothing until a writer has opened it
-            try:
-                chunk = os.read(descriptor, 1 << 16)
-            except BlockingIOError:
-                continue
-            if not chunk:
-                break
-            data += chunk
-        received.append(data.decode())
-
-    reader = threading.Thread(target=read, daemon=True)
-    reader.start()
+    finish = fifo_reader(fifo)  # its read end opened before the run (a FIFO without a reader is refused)
     result = run("detect", table1_files[".ply"], "-o", fifo)
-    reader.join(10)
-    os.close(descriptor)
+    received = [finish().decode()]
     assert result.exit_code == 0, result.stderr
     assert json.loads(received[0])["holes"][0]["diameter"] == pytest.approx(3.0, abs=0.01)
     assert stat.S_ISFIFO(os.lstat(fifo).st_mode)

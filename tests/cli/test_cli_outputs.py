@@ -12,7 +12,6 @@
 import os
 import shutil
 import stat
-import threading
 
 import pytest
 
@@ -169,42 +168,11 @@ def test_detect_into_a_fifo_without_a_reader_is_refused_not_waited_for(holecli_p
     assert previous.read_text() == OLD
 
 
-def _read_fifo_in_background(path):
-    """A reader of the FIFO from now on: its read end opened at once (without waiting for a writer:
-    a FIFO without a reader is refused), read in a thread until the writer closes it; ``finish()``
-    returns what was read."""
-    import select
-    
-    descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
-    chunks = []
-
-    def read():
-        # poll reports nothing on a FIFO no writer has opened yet; then data, then the writer's close
-        while select.select([descriptor], [], [], 60)[0]:
-            try:
-                chunk = os.read(descriptor, 1 << 16)
-            except BlockingIOError:
-                continue
-            if not chunk:
-                return
-            chunks.append(chunk)
-
-    thread = threading.Thread(target=read, daemon=True)
-    thread.start()
-
-    def finish():
-        thread.join(30)
-        os.close(descriptor)
-        return b"".join(chunks)
-
-    return finish
-
-
-def test_detect_plot_into_a_fifo_with_a_reader_writes_through_it(run, scan, tmp_path):
+def test_detect_plot_into_a_fifo_with_a_reader_writes_through_it(run, scan, tmp_path, fifo_reader):
     pytest.importorskip("matplotlib")
     fifo = tmp_path / "viewer"
     os.mkfifo(fifo)
-    finish = _read_fifo_in_background(fifo)
+    finish = fifo_reader(fifo)
     result = run("detect", scan, "--plot", fifo)
     received = finish()
     assert result.exit_code == cli.EXIT_OK, result.stderr

@@ -133,42 +133,10 @@ def test_write_bytes_atomic_writes_the_bytes(tmp_path):
 # --- write_bytes: what is at the path decides (issue 8, item 1), stale temporaries (item 15) -------
 
 
-def _read_fifo_in_background(path):
-    """A reader of the FIFO from now on: its read end opened at once (without waiting for a writer:
-    a FIFO without a reader is refused), read in a thread until the writer closes it; ``finish()``
-    returns what was read."""
-    import select
-    import threading
-
-    descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
-    chunks = []
-
-    def read():
-        # poll reports nothing on a FIFO no writer has opened yet; then data, then the writer's close
-        while select.select([descriptor], [], [], 60)[0]:
-            try:
-                chunk = os.read(descriptor, 1 << 16)
-            except BlockingIOError:
-                continue
-            if not chunk:
-                return
-            chunks.append(chunk)
-
-    thread = threading.Thread(target=read, daemon=True)
-    thread.start()
-
-    def finish():
-        thread.join(30)
-        os.close(descriptor)
-        return b"".join(chunks)
-
-    return finish
-
-
-def test_write_bytes_to_a_fifo_writes_through_it_and_keeps_it(tmp_path):
+def test_write_bytes_to_a_fifo_writes_through_it_and_keeps_it(tmp_path, fifo_reader):
     fifo = tmp_path / "pipe"
     os.mkfifo(fifo)
-    finish = _read_fifo_in_background(fifo)
+    finish = fifo_reader(fifo)
     outfile.write_bytes(fifo, b"record\n")
     assert finish() == b"record\n"
     assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
