@@ -16,18 +16,9 @@ import stat
 import pytest
 
 from holecli import cli
+from test_cli_register import _assert_one_line_error
 
 OLD = '{"earlier": "result"}\n'
-
-
-def _assert_one_line_error(result, *texts, code=cli.EXIT_INPUT):
-    assert result.exit_code == code, (result.exit_code, result.stderr, result.exception)
-    assert result.stdout == ""
-    lines = result.stderr.splitlines()
-    assert len(lines) == 1 and lines[0].startswith("Error: "), result.stderr
-    for text in texts:
-        assert str(text) in lines[0], lines[0]
-    assert "Traceback" not in result.stderr
 
 
 def _assert_process_one_line_error(result, *texts, code=cli.EXIT_INPUT):

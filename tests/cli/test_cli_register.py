@@ -92,7 +92,7 @@ def _assert_one_line_error(result, *texts, code=cli.EXIT_INPUT):
     lines = result.stderr.splitlines()
     assert len(lines) == 1 and lines[0].startswith("Error: "), result.stderr
     for text in texts:
-        assert str(text) in lines[0]
+        assert str(text) in lines[0], lines[0]
     assert "Traceback" not in result.stderr
 
 
