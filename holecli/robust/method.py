@@ -375,7 +375,6 @@ def _cone_in_the_plane(scene, center, cone, settings):
 
     width = 2.0 * scene.alpha
     around_xy, around_depth = _points_around_edge(scene, center, cone.radius, width, settings)
-    scale = max(scene.height_noise, 1e-12 * cone.radius)
     start = np.array([center[0], center[1], cone.radius, cone.slope])
     for _ in range(2):
         # Only the points on the cone: a bore wall seen on one side of a tilted scan would pull the
@@ -383,8 +382,17 @@ def _cone_in_the_plane(scene, center, cone, settings):
         # chosen about the accepted cone, then again about the fitted one: about the rim's center,
         # which is off on a tilted scan, good points of one side of the cone miss the first choice.
         cx, cy, edge, slope = start
-        kept = points_on_hinge(np.hypot(around_xy[:, 0] - cx, around_xy[:, 1] - cy), around_depth, edge, slope,
-                               scene.height_noise, 1e-12 * cone.radius, settings.cone_trim_sigmas)
+        rho = np.hypot(around_xy[:, 0] - cx, around_xy[:, 1] - cy)
+        inside = rho < edge
+        among = inside if np.count_nonzero(inside) >= settings.cone_min_points_below else None
+        kept = points_on_hinge(rho, around_depth, edge, slope, scene.height_noise, 1e-12 * cone.radius,
+                               settings.cone_trim_sigmas, among=among)
+        # The loss's scale is the cone points' own scatter about the hinge, not the surface's noise: a
+        # CAD countersink's facets lie up to a sagitta off the cone, and at the noise's scale soft_l1
+        # weighs them as outliers and the edge falls toward the facets' apothem (a 24-gon: -18 um).
+        misfit = around_depth - slope * np.maximum(edge - rho, 0.0)
+        scale = max(robust_sigma(misfit if among is None else misfit[among]), scene.height_noise,
+                    1e-12 * cone.radius)
         xy, depth = around_xy[kept], around_depth[kept]
         if len(xy) < settings.cone_min_points_below:
             return center, cone.radius, None
