@@ -52,6 +52,9 @@ class PlaneFit:
         The smallest height difference the data resolve about the plane (:func:`fit_plane_robust`):
         the step between the discrete levels its inliers' heights sit on (a quantised range, float32
         storage), else the round-off floor; 0 when the fit did not compute it.
+    hidden : tuple of (normal, offset, half_width)
+        The faces :func:`fit_plane_robust` found hidden behind this one along its view (``n . x =
+        offset``, points within ``half_width`` of it); empty without a view.
     """
 
     point: np.ndarray
@@ -60,6 +63,8 @@ class PlaneFit:
     inliers: np.ndarray | None = None
     major: np.ndarray | None = None  # (3,) in-plane direction of largest spread of the fitted points
     resolution: float = 0.0
+    # (normal, offset, half-width) of each face hidden behind the plane along the view (fit_plane_robust)
+    hidden: tuple = ()
 
     @property
     def inlier_count(self) -> int:
@@ -234,7 +239,7 @@ def _faces(sample, rng, hypotheses, quantile, clip, origin, max_faces):
         step = level_step(remaining @ normals[best] - offsets[best], floor, LEVEL_LIMIT * _extent(remaining))
         sigma = max(sigma, step)
         members = residuals[best] <= clip * sigma
-        faces.append((int(members.sum()), normals[best], float(offsets[best]), sigma, step))
+        faces.append((int(members.sum()), normals[best], float(offsets[best]), sigma, step, remaining[members]))
         remaining = remaining[~members]
     return faces
 
@@ -247,19 +252,83 @@ SEEN_FACE_MAX_DEG = 60.0
 # one's points may be the surface; the one nearest the sensor is taken (a sampled sheet's top and bottom
 # hold about the same number of points; a boss's top or a counterbore's floor holds far fewer).
 SEEN_FACE_SHARE = 0.8
+# seen_face: a face is hidden behind a nearer one when at least this share of its points lie under that
+# face's points along the view (within HIDDEN_SPACINGS of the nearer face's own median spacing, across
+# the view). A sensor never records a face it cannot see, so only clouds sampled from a whole mesh hold
+# one (a sheet's bottom under its top); a floor seen around or through a part lies mostly clear of it.
+HIDDEN_SHARE = 0.5
+HIDDEN_SPACINGS = 2.0
+# hidden_faces: a hidden face's band (clip sigma) is at most this share of its distance behind the
+# surface; a wider one is the sample's leftovers (walls, cones), not a face, and its points are kept.
+HIDDEN_BAND_SHARE = 0.5
+
+
+def _hidden(face, nearer, view):
+    """Whether ``face``'s member points lie mostly under ``nearer``'s along ``view`` (nearer the sensor)."""
+    from scipy.spatial import cKDTree
+
+    behind, front = face[5], nearer[5]
+    if len(behind) == 0 or len(front) < 3:
+        return False
+    across = np.linalg.svd(view[None, :])[2][1:]  # two unit vectors across the view
+    front_xy, behind_xy = front @ across.T, behind @ across.T
+    tree = cKDTree(front_xy)
+    spacing = float(np.median(tree.query(front_xy, k=2)[0][:, 1]))
+    distance, index = tree.query(behind_xy, distance_upper_bound=HIDDEN_SPACINGS * spacing)
+    under = np.isfinite(distance)
+    under[under] = (front[index[under]] - behind[under]) @ view < 0  # the front point is met first
+    return float(np.mean(under)) >= HIDDEN_SHARE
+
+
+def _hidden_faces(faces, chosen, view, clip, origin):
+    """(normal, offset, half_width) of the faces turned toward the sensor hidden behind ``chosen``
+    (:func:`_hidden`), the offsets from the coordinates' own origin."""
+    view = np.asarray(view, dtype=np.float64) / np.linalg.norm(view)
+    cos_limit = math.cos(math.radians(SEEN_FACE_MAX_DEG))
+
+    def thin(face):
+        # A face, not the leftovers of the sample (walls and cones, whose quantile makes a band of
+        # millimetres): its band lies behind the surface's, clear of everything between.
+        behind = np.median((face[5] - np.mean(chosen[5], axis=0)) @ view) if len(face[5]) else 0.0
+        return clip * face[3] < HIDDEN_BAND_SHARE * behind
+
+    return tuple((face[1], face[2] + float(face[1] @ origin), clip * face[3]) for face in faces
+                 if face is not chosen and len(face) > 5 and len(chosen) > 5
+                 and abs(float(face[1] @ view)) >= cos_limit and _hidden(face, chosen, view) and thin(face))
+
+
+def hidden_points(points, plane, view):
+    """Which ``points`` lie on a face hidden behind ``plane`` along ``view`` (``plane.hidden``) and behind
+    the plane: points a sensor looking along ``view`` cannot have recorded (a sampled sheet's bottom
+    under its top), which only a cloud sampled from a whole mesh holds."""
+    points = np.asarray(points, dtype=np.float64)
+    hidden = np.zeros(len(points), dtype=bool)
+    if not plane.hidden:
+        return hidden
+    view = np.asarray(view, dtype=np.float64) / np.linalg.norm(view)
+    behind = (points - plane.point) @ view > 0  # farther along the view than the plane
+    for normal, offset, half_width in plane.hidden:
+        hidden |= np.abs(points @ normal - offset) <= half_width
+    return hidden & behind if plane.inliers is None else hidden & behind & ~plane.inliers
 
 
 def _seen_face(faces, view):
-    """The face of ``faces`` ((count, normal, offset, sigma, step), offsets from a common origin) that a sensor
-    looking along ``view`` sees: among the faces turned toward it (normal within ``SEEN_FACE_MAX_DEG`` of
-    the view's line), of those holding at least ``SEEN_FACE_SHARE`` of the largest one's points, the one
-    nearest the sensor (where the view's line through the origin meets it first). No face turned toward
-    it: the largest face."""
+    """The face of ``faces`` ((count, normal, offset, sigma, step[, members]), offsets from a common origin)
+    that a sensor looking along ``view`` sees: among the faces turned toward it (normal within
+    ``SEEN_FACE_MAX_DEG`` of the view's line) and, where the faces carry their member points, not hidden
+    behind another turned face (:func:`_hidden`: a sampled sheet's bottom under its top, whose share of
+    the points is no guide when the top has large holes), of those holding at least ``SEEN_FACE_SHARE``
+    of the largest one's points, the one nearest the sensor (where the view's line through the origin
+    meets it first). No face turned toward it: the largest face."""
     view = np.asarray(view, dtype=np.float64) / np.linalg.norm(view)
     cos_limit = math.cos(math.radians(SEEN_FACE_MAX_DEG))
     turned = [face for face in faces if abs(float(face[1] @ view)) >= cos_limit]
     if not turned:
         return max(faces, key=lambda face: face[0])
+    if all(len(face) > 5 for face in turned):
+        seen = [face for face in turned
+                if not any(other is not face and _hidden(face, other, view) for other in turned)]
+        turned = seen or turned
     most = max(face[0] for face in turned)
     contenders = [face for face in turned if face[0] >= SEEN_FACE_SHARE * most]
     # The view's line through the origin, origin + t view, meets the face n . x = offset at t = offset / (n . view).
@@ -367,7 +436,9 @@ def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
     # The dominant face is the one that holds the most points, whatever its noise; with a view, the
     # one the sensor sees (see _seen_face); without one, of faces holding alike many points, the one a
     # sensor above the file's +z would see (_dominant_face).
-    _, normal, offset, sigma, face_step = _dominant_face(faces) if view is None else _seen_face(faces, view)
+    chosen = _dominant_face(faces) if view is None else _seen_face(faces, view)
+    _, normal, offset, sigma, face_step = chosen[:5]
+    hidden = () if view is None else _hidden_faces(faces, chosen, view, clip, origin)
     # Iterate on a subsample (a million points need not be refitted ten times), then settle the
     # inlier set on every point: the result depends on the subsample only through points exactly at
     # the band's edge.
@@ -397,4 +468,4 @@ def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
         raise PointsError("no plane holds enough of the points")
     fit = fit_plane_scatter(points[inliers])
     return PlaneFit(point=fit.point, normal=fit.normal, rms=fit.rms, inliers=inliers, major=fit.major,
-                    resolution=floor)
+                    resolution=floor, hidden=hidden)

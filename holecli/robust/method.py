@@ -28,7 +28,7 @@ from scipy import ndimage
 from holecli.errors import PointsError
 from holecli.geometry.frame import canonical_rotation, from_plane_frame, slide_in_plane_frame
 from holecli.geometry.kernels import CellIndex, box_indices, largest_angular_gap, orient_normal, robust_sigma
-from holecli.geometry.plane import PlaneFit, fit_plane_robust, fit_plane_scatter
+from holecli.geometry.plane import PlaneFit, fit_plane_robust, fit_plane_scatter, hidden_points
 from holecli.results import Hole, Plane, Rejection, Scales, Uncertainty
 from holecli.robust.bias import RimScales, sampling_errors
 from holecli.robust.boundary import hole_rim, near_box_edge
@@ -1037,6 +1037,11 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
                              clip=settings.plane_clip, max_rounds=settings.plane_refine_rounds,
                              refine_sample=settings.plane_refine_sample, max_faces=settings.plane_max_faces,
                              view=view_dir)
+    if plane.hidden:
+        # A face hidden behind the surface along the view (a whole mesh sampled, its bottom under its
+        # top): a sensor never recorded it, and seen through a countersink it reads as a counterbore's floor.
+        seen = ~hidden_points(points, plane, view_dir)
+        points, plane = points[seen], replace(plane, inliers=plane.inliers[seen], hidden=())
     frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
     # The heights are read along the normal toward the sensor (holecli.robust.facing): from
     # --view-dir, else from the points seen through the surface, else the z-positive normal. A flat

@@ -49,3 +49,45 @@ def test_without_a_view_the_largest_face_unless_another_holds_nearly_as_many():
     # SHEET_SIDES_MAX_DEG: a face across the largest (an angle's other flange) is another surface
     across = (900, np.array([0.0, 1.0, 0.0]), 0.0, 1e-3)
     assert _dominant_face([BOTTOM, across]) is BOTTOM
+
+
+def _sheet_with_large_holes(rng, holes=((-8.0, 0.0), (8.0, 0.0)), radius=6.0):
+    """A 3 mm sheet sampled on both sides, its top with two large holes (the top holds under 80 % of the
+    bottom's points), the bottom whole, as a cloud sampled from every face of a mesh holds them."""
+    top = rng.uniform(-20, 20, (4800, 2))  # sampled at 0.8 of the bottom's density
+    for center in holes:
+        top = top[np.hypot(*(top - center).T) > radius]
+    bottom = rng.uniform(-20, 20, (6000, 2))
+    return np.column_stack([top, np.zeros(len(top))]), np.column_stack([bottom, np.full(len(bottom), -3.0)])
+
+
+def test_a_face_hidden_behind_the_surface_is_not_seen():
+    """_hidden / HIDDEN_SHARE: the bottom of a sampled sheet lies under its top along the view; whatever
+    its share of the points (here it holds under 0.7 of the bottom's), the sensor sees
+    the top, and the bottom's points are the ones a sensor cannot have recorded (hidden_points)."""
+    from holecli.geometry.plane import hidden_points
+
+    top, bottom = _sheet_with_large_holes(np.random.default_rng(1))
+    assert len(top) < 0.7 * len(bottom)
+    points = np.vstack([top, bottom])
+    plane = fit_plane_robust(points, view=DOWN)
+    assert abs(float(plane.point[2])) < 1e-9
+    hidden = hidden_points(points, plane, DOWN)
+    assert hidden[len(top):].all() and not hidden[:len(top)].any()
+    # from below, the bottom is seen and the top is hidden behind it
+    plane = fit_plane_robust(points, view=-DOWN)
+    assert abs(float(plane.point[2]) + 3.0) < 1e-9
+    assert hidden_points(points, plane, -DOWN)[:len(top)].all()
+
+
+def test_a_floor_seen_around_a_part_is_not_hidden():
+    """A scan's fixture floor, seen around the part and through its holes, lies mostly clear of the part
+    along the view: nothing is dropped (a sensor recorded it, so it was seen)."""
+    rng = np.random.default_rng(2)
+    top, _ = _sheet_with_large_holes(rng, holes=((0.0, 0.0),), radius=3.0)
+    top = top[(np.abs(top[:, 0]) < 10) & (np.abs(top[:, 1]) < 10)]
+    floor = rng.uniform(-30, 30, (3000, 2))
+    floor = floor[(np.abs(floor[:, 0]) > 10) | (np.abs(floor[:, 1]) > 10) | (np.hypot(*floor.T) < 3.0)]
+    points = np.vstack([top, np.column_stack([floor, np.full(len(floor), -5.0)])])
+    plane = fit_plane_robust(points, view=DOWN)
+    assert plane.hidden == ()
