@@ -113,9 +113,10 @@ def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_hol
         countersink points and ragged borders, with the sampling bias removed. ``"paper"`` reproduces
         the published method (one hole, clean data) and takes none of the options below.
     view_dir : (3,) float, optional
-        The sensor's viewing direction (its sign does not matter). Points are slid along it onto the
-        plane instead of being projected orthogonally, which keeps range noise out of the in-plane
-        coordinates.
+        The sensor's viewing direction, from the sensor toward the part (``(0, 0, -1)``: a sensor
+        above). It tells which side of the surface the sensor saw, which face of a cloud holding
+        several is the surface, and which faces lie hidden behind it (left out); every point is still
+        projected orthogonally onto the plane.
     min_diameter : float, optional
         Smallest diameter reported, file units; by default six times the sampling's gap scale.
     max_holes : int, optional

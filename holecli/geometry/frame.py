@@ -109,41 +109,29 @@ def from_plane_frame(local, origin, rotation):
     return np.asarray(local, dtype=np.float64) @ rotation + origin
 
 
-def slide_in_plane_frame(local, direction, min_sine=DEFAULT_SETTINGS.view_min_sine):
-    """Move each point along ``direction`` until it lies on the plane, in plane-frame coordinates.
-
-    A laser triangulation sensor's range noise lies along its viewing ray; sliding along that ray,
-    rather than projecting orthogonally, keeps the noise out of the in-plane coordinates.
+def check_view_angle(direction, min_sine=DEFAULT_SETTINGS.view_min_sine):
+    """Refuse a viewing direction that grazes the plane: a sensor looking along it cannot have seen
+    the surface found (most likely a wall or a side, not the face it scanned).
 
     Parameters
     ----------
-    local : (n, 3) float
-        Plane-frame coordinates (x, y in the plane, z the height above it); x and y are updated in
-        place, z is left as it is.
     direction : (3,) float
-        The slide direction in the plane frame; need not be unit length.
+        The view in the plane frame (the plane's normal is z); need not be unit length.
     min_sine : float
         Smallest sine of the angle between ``direction`` and the plane (RobustSettings.view_min_sine).
-
-    Returns
-    -------
-    None
-        ``local`` is changed in place.
 
     Raises
     ------
     PointsError
-        When ``direction`` is zero or (nearly) parallel to the plane.
+        When ``direction`` is zero or within ``asin(min_sine)`` of the plane.
     """
     direction = _unit(direction, "view direction")
     if abs(direction[2]) < min_sine:
         raise PointsError(
             f"view direction {np.round(direction, 4).tolist()} is within "
-            f"{np.degrees(np.arcsin(min(min_sine, 1.0))):.0f} degrees of the surface plane; "
-            "points cannot be slid onto it"
+            f"{np.degrees(np.arcsin(min(min_sine, 1.0))):.0f} degrees of the surface plane found; "
+            "a sensor looking along it cannot have seen that surface"
         )
-    local[:, 0] -= local[:, 2] * (direction[0] / direction[2])
-    local[:, 1] -= local[:, 2] * (direction[1] / direction[2])
 
 
 def canonical_rotation(points, plane):

@@ -3,8 +3,7 @@
 Steps (each its own module):
 
 1. plane of the dominant surface by RANSAC and iterated least squares (:func:`holecli.geometry.plane.fit_plane_robust`);
-2. rotation into the plane frame, with an orthogonal projection or a slide along the sensor's view
-   direction (:mod:`holecli.geometry.frame`);
+2. rotation into the plane frame and an orthogonal projection (:mod:`holecli.geometry.frame`);
 3. the sampling's spacing and gap scale (:mod:`holecli.robust.sampling`): every threshold below is a multiple;
 4. hole candidates as voids of an occupancy grid, linear in the point count (:mod:`holecli.robust.candidates`);
 5. per candidate, a local Delaunay triangulation and its alpha-shape rim (:mod:`holecli.robust.boundary`);
@@ -26,7 +25,7 @@ import numpy as np
 from scipy import ndimage
 
 from holecli.errors import PointsError
-from holecli.geometry.frame import canonical_rotation, from_plane_frame, slide_in_plane_frame
+from holecli.geometry.frame import canonical_rotation, check_view_angle, from_plane_frame
 from holecli.geometry.kernels import CellIndex, box_indices, largest_angular_gap, orient_normal, robust_sigma
 from holecli.geometry.plane import PlaneFit, fit_plane_robust, fit_plane_scatter, hidden_points
 from holecli.results import Hole, Plane, Rejection, Scales, Uncertainty
@@ -52,7 +51,7 @@ from holecli.stages import StageClock
 class _Scene:
     """What every candidate's measurement needs to know of the whole scan."""
 
-    xy: np.ndarray           # (n, 2) all points in the plane frame (projected or slid)
+    xy: np.ndarray           # (n, 2) all points in the plane frame (projected orthogonally)
     surface_xy: np.ndarray   # (m, 2) the plane inliers' rows of xy
     material_xy: np.ndarray  # surface_xy in material cells of the grid (specks inside holes removed)
     above_xy: np.ndarray     # (k, 2) points standing above the surface band (a boss, outliers)
@@ -972,8 +971,9 @@ class _Frame(NamedTuple):
 
 def _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock):
     """Steps 2-4 of the module docstring up to the grid, about ``plane`` with its normal's sign as
-    given: the rotation into its frame, the plane-frame xy (surface points slid along ``view_dir``
-    when given) and heights, the band, the sampling and the occupancy grid of the surface."""
+    given: the rotation into its frame, the plane-frame xy (orthogonal projection) and heights, the
+    band, the sampling and the occupancy grid of the surface (a ``view_dir`` grazing the plane is
+    refused)."""
     normal, origin = plane.normal, plane.point
     # In-plane axes from the surface points themselves (centroid, principal axes), so that the grid
     # and the windows below move with the cloud under any rigid motion.
@@ -984,16 +984,16 @@ def _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock):
     local = (points - origin) @ np.ascontiguousarray(rotation.T)
     heights = np.ascontiguousarray(local[:, 2])
     surface = plane.inliers
-    if view_dir is None:
-        direction = normal
-    else:
-        direction = np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir)
-        # Only the surface's points slide: their height above the plane is range noise along the
-        # ray. A point of a cone, a bore wall or a floor is really below the surface; sliding it would
-        # move it sideways by its depth times the tilt and bend the cone the countersink fit reads.
-        surface_local = local[surface]
-        slide_in_plane_frame(surface_local, rotation @ direction, min_sine=settings.view_min_sine)
-        local[surface] = surface_local
+    direction = normal
+    if view_dir is not None:
+        check_view_angle(rotation @ (np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir)),
+                         min_sine=settings.view_min_sine)
+    # Every point is projected orthogonally, with a view too (and a center moves onto its local plane
+    # along the normal, _to_hole). Sliding the surface's points along the
+    # view onto the plane took their range noise out of the plane, but the surface band holds the top
+    # of the far bore wall a tilted sensor sees, and slid, those points stand inside the hole, up to
+    # band x tan(tilt): on tilted profiler scans the centers came out 30 % worse and the diameters
+    # smaller (tests/robust/test_robust_view_dir.py).
     # Column-major: the box tests below read x and y as contiguous columns.
     xy = np.asfortranarray(local[:, :2])
     del local

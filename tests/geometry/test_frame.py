@@ -1,4 +1,4 @@
-"""Tests of holecli.geometry.frame: the rotation onto z (not the paper's Eq. (9)/(10)), the plane frame, sliding."""
+"""Tests of holecli.geometry.frame: the rotation onto z (not the paper's Eq. (9)/(10)), the plane frame, the view's angle."""
 
 import numpy as np
 import pytest
@@ -7,8 +7,8 @@ from scipy.spatial.transform import Rotation
 from holecli.errors import PointsError
 from holecli.geometry.frame import (
     from_plane_frame,
+    check_view_angle,
     rotation_to_z,
-    slide_in_plane_frame,
     to_plane_frame,
 )
 
@@ -18,15 +18,6 @@ Z = np.array([0.0, 0.0, 1.0])
 def _random_unit_vectors(rng, count):
     vectors = rng.normal(size=(count, 3))
     return vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
-
-
-def slide_onto_plane(points, origin, normal, direction):
-    """World-frame slide through the plane frame, as the robust method does it."""
-    rotation = rotation_to_z(normal)
-    local = to_plane_frame(points, origin, rotation)
-    slide_in_plane_frame(local, rotation @ np.asarray(direction, dtype=np.float64))
-    local[:, 2] = 0.0
-    return from_plane_frame(local, origin, rotation)
 
 
 def _rodrigues(normal):
@@ -150,27 +141,6 @@ def test_points_on_the_plane_have_zero_local_z(rng):
     np.testing.assert_allclose(local[:, :2], uv, atol=1e-12)
 
 
-def test_slide_onto_plane_moves_points_along_the_direction_onto_the_plane(rng):
-    normal = np.array([0.2, -0.3, 0.9])
-    unit = normal / np.linalg.norm(normal)
-    origin = np.array([1.0, 2.0, 3.0])
-    direction = np.array([0.1, 0.4, 1.0])
-    points = origin + rng.normal(scale=2.0, size=(300, 3))
-    slid = slide_onto_plane(points, origin, normal, direction)
-    np.testing.assert_allclose((slid - origin) @ unit, 0.0, atol=1e-12)
-    # The move is parallel to the direction: no component across it.
-    np.testing.assert_allclose(np.cross(slid - points, direction), 0.0, atol=1e-12)
-    assert np.max(np.linalg.norm(slid - points, axis=1)) > 0.1
-
-
-def test_slide_along_the_normal_is_the_orthogonal_projection(rng):
-    normal = np.array([0.0, 0.6, 0.8])
-    origin = np.zeros(3)
-    points = rng.normal(size=(50, 3))
-    expected = points - np.outer(points @ normal, normal)
-    np.testing.assert_allclose(slide_onto_plane(points, origin, normal, -3.0 * normal), expected, atol=1e-12)
-
-
 @pytest.mark.parametrize(
     "direction",
     [
@@ -179,21 +149,16 @@ def test_slide_along_the_normal_is_the_orthogonal_projection(rng):
         (1.0, 0.0, np.tan(np.radians(2.0))),  # 2 degrees off the plane
     ],
 )
-def test_slide_onto_plane_refuses_a_direction_parallel_to_the_plane(direction):
-    with pytest.raises(PointsError, match="surface plane"):
-        slide_onto_plane(np.zeros((3, 3)), np.zeros(3), (0.0, 0.0, 1.0), direction)
+def test_a_view_grazing_the_plane_is_refused(direction):
+    with pytest.raises(PointsError, match="surface plane found"):
+        check_view_angle(direction)
 
 
-def test_slide_onto_plane_accepts_a_steep_enough_direction():
-    direction = (1.0, 0.0, np.tan(np.radians(5.0)))
-    slid = slide_onto_plane(np.array([[0.0, 0.0, 1.0]]), np.zeros(3), (0.0, 0.0, 1.0), direction)
-    assert slid[0, 2] == pytest.approx(0.0, abs=1e-12)
+def test_a_steep_enough_view_is_accepted():
+    check_view_angle((1.0, 0.0, np.tan(np.radians(5.0))))
+    check_view_angle((0.0, 0.0, -1.0))
 
 
-@pytest.mark.parametrize(
-    "normal, direction",
-    [((0.0, 0.0, 1.0), (0.0, 0.0, 0.0)), ((0.0, 0.0, 0.0), (0.0, 0.0, 1.0))],
-)
-def test_slide_onto_plane_refuses_the_zero_vector(normal, direction):
+def test_the_zero_view_is_refused():
     with pytest.raises(PointsError, match="zero vector"):
-        slide_onto_plane(np.ones((2, 3)), np.zeros(3), normal, direction)
+        check_view_angle((0.0, 0.0, 0.0))
