@@ -77,6 +77,10 @@ class RobustSettings:
     # may be at most this fraction of the points the disk holds, else the circle spanned a cut-out's
     # own sides (check "material_in_first_circle"). Holes on the validation scans drop <= 1 %.
     max_material_dropped: float = 0.05
+    # A blind hole whose flat floor lies less than this many diameters deep is a pocket (a spot face, a
+    # milled recess), not a drilled hole (check "pocket"): a 118-degree drill's point alone is 0.30
+    # diameters long, so no drill leaves a floor that shallow.
+    pocket_max_depth_ratio: float = 0.15
     # Default smallest reported diameter, in gaps (natural gaps of random sampling reach ~4 g).
     min_diameter_gaps: float = 6.0
     # Rim circle fit: sigma clipping threshold, and a floor of the residual scale (in spacings).
@@ -144,8 +148,8 @@ class RobustSettings:
     # top, a countersink or bore wall and a floor are the faces a hole scan holds.
     plane_max_faces: int = 3
     # A view direction (--view-dir) must make at least this sine of an angle with the plane
-    # (dimensionless; 0.05 is 2.9 degrees): sliding a point along a ray that grazes the surface moves
-    # it sideways by its height over this sine, 20 times its range noise at the limit.
+    # (dimensionless; 0.05 is 2.9 degrees): a sensor looking along the plane cannot have seen it, so
+    # the plane found is not the surface scanned (a wall, a side).
     view_min_sine: float = 0.05
 
     # --- Sampling statistics (holecli.robust.sampling.estimate_sampling), in spacings h ---
@@ -352,7 +356,7 @@ _RANGES = (
     ("plane_clip", 0.0, _INF), ("sampling_windows", 1, 1000), ("sampling_window_points", 10, 10 ** 9),
     ("cell_gaps", 0.0, _INF), ("alpha_gaps", 0.0, _INF), ("margin_alphas", 0.0, _INF),
     ("envelope_gaps", 0.0, _INF), ("empty_circle_max_noise", 0.0, _INF), ("max_material_inside", 0.0, 1.0),
-    ("max_material_dropped", 0.0, 1.0),
+    ("max_material_dropped", 0.0, 1.0), ("pocket_max_depth_ratio", 0.0, _INF),
     ("min_diameter_gaps", 0.0, _INF), ("clip_sigmas", 0.0, _INF),
     ("clip_floor_spacings", 0.0, _INF), ("max_relative_scatter", 0.0, _INF),
     ("min_partial_arc_deg", 0.0, 360.0), ("full_arc_deg", 0.0, 360.0), ("boss_fraction", 0.0, 1.0),

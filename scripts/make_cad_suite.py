@@ -66,6 +66,10 @@ PARTS = {
     "bosses": (PanelSpec(50, 40, 3, segments=SEGMENTS, features=(
         F("boss", (-12, 0), diameter=5.0, height=3.0), F("boss", (12, 8), diameter=8.0, height=2.0),
         F("through", (8, -8), diameter=4.0))), 0.1, None, None),
+    # shallow round pockets (spot faces) beside a blind and a through hole: the pockets are no holes
+    "pockets": (PanelSpec(50, 40, 5, segments=SEGMENTS, features=(
+        F("pocket", (-12, 6), diameter=12.0, depth=0.6), F("pocket", (-10, -10), diameter=8.0, depth=0.4),
+        F("blind", (10, 8), diameter=5.0, depth=2.5), F("through", (12, -8), diameter=4.0))), 0.1, None, None),
     # a 30 mm block with a 10 mm bore: with the walls, most of the surface is the bore's and the sides'
     "deep": (PanelSpec(24, 24, 30, segments=SEGMENTS, features=(F("through", (0, 0), diameter=10.0),)), 0.1, None, None),
     # the csk panel upside down in the file's frame: its top faces -z, the sensor looks along +z

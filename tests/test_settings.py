@@ -51,7 +51,7 @@ def test_function_defaults_are_the_settings():
         s.ransac_sample, s.ransac_hypotheses, s.ransac_quantile, s.plane_clip)
     assert (robust["max_rounds"], robust["refine_sample"], robust["max_faces"]) == (
         s.plane_refine_rounds, s.plane_refine_sample, s.plane_max_faces)
-    assert defaults(frame.slide_in_plane_frame)["min_sine"] == s.view_min_sine
+    assert defaults(frame.check_view_angle)["min_sine"] == s.view_min_sine
     windows = defaults(sampling.estimate_sampling)
     assert (windows["windows"], windows["window_points"]) == (s.sampling_windows, s.sampling_window_points)
     assert defaults(circle.fit_circle_robust)["clip"] == circle.CLIP_SIGMAS == s.clip_sigmas

@@ -351,13 +351,19 @@ def _dominant_face(faces):
     faces). A scan's own surface holds far more points than any other
     face it shows (a floor, a boss's top, a bore wall), so only clouds sampled from every side meet the
     tie; those whose faces all stand across +z keep the largest."""
+    contenders = _sheet_sides(faces)
+    if len(contenders) == 1:
+        return contenders[0]
+    return _seen_face(contenders, ASSUMED_VIEW)
+
+
+def _sheet_sides(faces):
+    """The largest face of ``faces`` and those parallel to it (within :data:`SHEET_SIDES_MAX_DEG`) holding
+    nearly as many points (``SEEN_FACE_SHARE`` of it), the largest first."""
     largest = max(faces, key=lambda face: face[0])
     cos_limit = math.cos(math.radians(SHEET_SIDES_MAX_DEG))
-    contenders = [face for face in faces if face[0] >= SEEN_FACE_SHARE * largest[0]
-                  and abs(float(face[1] @ largest[1])) >= cos_limit]
-    if len(contenders) == 1:
-        return largest
-    return _seen_face(contenders, ASSUMED_VIEW)
+    return [largest] + [face for face in faces if face is not largest and face[0] >= SEEN_FACE_SHARE * largest[0]
+                        and abs(float(face[1] @ largest[1])) >= cos_limit]
 
 
 def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
@@ -438,7 +444,13 @@ def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
     # sensor above the file's +z would see (_dominant_face).
     chosen = _dominant_face(faces) if view is None else _seen_face(faces, view)
     _, normal, offset, sigma, face_step = chosen[:5]
-    hidden = () if view is None else _hidden_faces(faces, chosen, view, clip, origin)
+    if view is not None:
+        hidden = _hidden_faces(faces, chosen, view, clip, origin)
+    else:
+        # Without a view, only a sheet sampled on both sides (a tie of _dominant_face) has a face hidden
+        # behind the one taken, as a sensor above the file's +z would see them.
+        sides = _sheet_sides(faces)
+        hidden = _hidden_faces(sides, chosen, ASSUMED_VIEW, clip, origin) if len(sides) > 1 else ()
     # Iterate on a subsample (a million points need not be refitted ten times), then settle the
     # inlier set on every point: the result depends on the subsample only through points exactly at
     # the band's edge.

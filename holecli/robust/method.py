@@ -27,7 +27,7 @@ from scipy import ndimage
 from holecli.errors import PointsError
 from holecli.geometry.frame import canonical_rotation, check_view_angle, from_plane_frame
 from holecli.geometry.kernels import CellIndex, box_indices, largest_angular_gap, orient_normal, robust_sigma
-from holecli.geometry.plane import PlaneFit, fit_plane_robust, fit_plane_scatter, hidden_points
+from holecli.geometry.plane import ASSUMED_VIEW, PlaneFit, fit_plane_robust, fit_plane_scatter, hidden_points
 from holecli.results import Hole, Plane, Rejection, Scales, Uncertainty
 from holecli.robust.bias import RimScales, sampling_errors
 from holecli.robust.boundary import hole_rim, near_box_edge
@@ -103,6 +103,7 @@ REJECTION_REASONS = {
                                 "(the long sides of a slot or cut-out, not reflections inside a hole)",
     "partial_rim_arc": "a partial hole whose rim covers too little of its circle",
     "boss": "material stands above the surface inside it (a pin or boss, not a hole)",
+    "pocket": "a flat floor shallower than any drilled hole's (a pocket or spot face, not a hole)",
     "duplicate": "the same hole as another candidate with more rim points",
     "partial_left_out": "a partial hole, left out by --full-only",
     "beyond_max_holes": "smaller than the holes kept by --max-holes",
@@ -1040,7 +1041,7 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     if plane.hidden:
         # A face hidden behind the surface along the view (a whole mesh sampled, its bottom under its
         # top): a sensor never recorded it, and seen through a countersink it reads as a counterbore's floor.
-        seen = ~hidden_points(points, plane, view_dir)
+        seen = ~hidden_points(points, plane, ASSUMED_VIEW if view_dir is None else view_dir)
         points, plane = points[seen], replace(plane, inliers=plane.inliers[seen], hidden=())
     frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
     # The heights are read along the normal toward the sensor (holecli.robust.facing): from
@@ -1113,6 +1114,10 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
              or _to_hole(scene, measured, 0) for measured in found]
     if not flat_crop:
         holes = [_with_shape(scene, hole, measured, gauge_depth, settings) for hole, measured in zip(holes, found)]
+        pockets = [_pocket_depth(hole, settings) for hole in holes]
+        rejected.extend(_as_rejected(measured, "pocket", depth, settings.pocket_max_depth_ratio)
+                        for measured, depth in zip(found, pockets) if depth is not None)
+        holes = [hole for hole, depth in zip(holes, pockets) if depth is None]
     holes.sort(key=lambda hole: (hole.partial, hole.center))
     holes = tuple(Hole(**{**hole.__dict__, "index": i}) for i, hole in enumerate(holes))
     plane_result = Plane(point=tuple(map(float, origin)), normal=tuple(map(float, orient_normal(normal))),
@@ -1124,6 +1129,15 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
                     height_noise=float(height_noise), min_diameter=2.0 * float(min_radius))
     return RobustResult(plane=plane_result, holes=holes, rejected=rejections, scales=scales, stages=clock.stop(),
                         candidates=len(voids))
+
+
+def _pocket_depth(hole, settings):
+    """A blind hole's floor depth in diameters when it is shallower than ``pocket_max_depth_ratio``
+    (a pocket, not a hole), else None."""
+    if hole.type != "blind" or hole.bore is None or hole.bore.floor_depth is None:
+        return None
+    ratio = float(hole.bore.floor_depth) / hole.diameter
+    return ratio if ratio < settings.pocket_max_depth_ratio else None
 
 
 def _with_shape(scene, hole, measured, gauge_depth, settings):

@@ -104,9 +104,9 @@ __all__ = [
     "parse_panel_toml",
 ]
 
-KINDS = ("through", "countersunk", "counterbored", "blind", "slot", "cutout", "boss")
+KINDS = ("through", "countersunk", "counterbored", "blind", "slot", "cutout", "boss", "pocket")
 # Kinds that are not holes: a detector must report nothing on them.
-NOT_HOLES = ("slot", "cutout", "boss")
+NOT_HOLES = ("slot", "cutout", "boss", "pocket")
 CURVATURES = ("flat", "convex", "concave")
 
 # Per-triangle part labels of Panel.parts.
@@ -155,7 +155,7 @@ class FeatureSpec:
 
     Attributes
     ----------
-    kind : {'through', 'countersunk', 'counterbored', 'blind', 'slot', 'cutout', 'boss'}
+    kind : {'through', 'countersunk', 'counterbored', 'blind', 'slot', 'cutout', 'boss', 'pocket'}
         ``'through'``: a cylindrical bore through the sheet. ``'countersunk'``: a cone of
         ``countersink_angle_deg`` from ``countersink_diameter`` at the surface down to the bore, then
         the bore through. ``'counterbored'``: a step of ``counterbore_diameter`` and
@@ -164,7 +164,9 @@ class FeatureSpec:
         to end) along ``direction_deg``; not a hole. ``'cutout'``: a rectangular window cut through,
         ``width`` by ``length`` along ``direction_deg``, its corners rounded to ``corner_radius`` (a
         milled window; ``corner_radius`` = width / 2 is a slot); not a hole. ``'boss'``: a cylindrical pin of ``diameter``
-        standing ``height`` above the tangent plane at the centre, flat-topped; not a hole.
+        standing ``height`` above the tangent plane at the centre, flat-topped; not a hole. ``'pocket'``:
+        a round recess of ``diameter`` milled to a flat floor at ``depth`` (built as a blind bore), so
+        shallow that no drill made it (a spot face); not a hole.
     center : (2,) tuple of float
         ``(u, v)`` of the feature's axis on the top surface, mm (arc length on a curved sheet): the
         centre point ``c``.
@@ -374,7 +376,7 @@ def _validate_feature(name, f, spec) -> None:
         _fail(f"{name}.name", "None or a non-empty printable string", f.name)
     t = spec.thickness
     allowed = {"through": set(), "countersunk": {"countersink_diameter", "countersink_angle_deg"},
-               "counterbored": {"counterbore_diameter", "counterbore_depth"}, "blind": {"depth"},
+               "counterbored": {"counterbore_diameter", "counterbore_depth"}, "blind": {"depth"}, "pocket": {"depth"},
                "slot": {"width", "length", "direction_deg"},
                "cutout": {"width", "length", "direction_deg", "corner_radius"}, "boss": {"height"}}[f.kind]
     if f.kind in _TILTABLE:
@@ -418,7 +420,7 @@ def _validate_feature(name, f, spec) -> None:
                   f.counterbore_diameter)
         if not (_number(f.counterbore_depth) and 0 < f.counterbore_depth < t):
             _fail(f"{name}.counterbore_depth", f"a number in (0, thickness = {t:g})", f.counterbore_depth)
-    if f.kind == "blind":
+    if f.kind in ("blind", "pocket"):
         if not (_number(f.depth) and 0 < f.depth < t):
             _fail(f"{name}.depth", f"a number in (0, thickness = {t:g})", f.depth)
     if f.kind == "boss":
@@ -768,7 +770,7 @@ def _feature_loops(k, f, spec, bend, label):
         count = _segments_for(f.outer_radius, spec)
         segments = count
         truth.update({"bore_diameter": float(f.diameter), "nominal_diameter": 2.0 * f.outer_radius,
-                      "through": f.kind not in ("blind", "boss")})
+                      "through": f.kind not in ("blind", "boss", "pocket")})
         if f.kind == "countersunk":
             rc, half = f.countersink_diameter / 2.0, math.radians(f.countersink_angle_deg) / 2.0
             h = _countersink_depth(f)
@@ -801,7 +803,7 @@ def _feature_loops(k, f, spec, bend, label):
                 raise SpecError(f"{name}.height must stand at least {_MIN_WALL:g} above the edge on the "
                                 f"surface (up to {np.max(top_s):.4g} above the tangent plane), got {f.height!r}")
             truth["height"] = float(f.height)
-        elif f.kind == "blind":
+        elif f.kind in ("blind", "pocket"):
             top, top_s = drilled(r, count, 0.0, 0.0)
             _, bottom_s = drilled(r, count, t, -t)
             loops = [top, level(r, count, f.depth)]
@@ -815,7 +817,7 @@ def _feature_loops(k, f, spec, bend, label):
         truth["bore_polygon_inradius"] = float(r * math.cos(math.pi / count))
         truth.update(_edge_truth(f, bend, c, (e1, e2, a), (eu, ev, n), top))
     truth["segments"] = int(segments)
-    through = f.kind not in ("blind", "boss")
+    through = f.kind not in ("blind", "boss", "pocket")
     if f.tilt_deg == 0:
         top_shape = bottom_shape = _shape(f)
     else:
@@ -1214,6 +1216,7 @@ _FEATURE_KEYS = {
     "slot": ("width", "length", "direction_deg"),
     "cutout": ("width", "length", "direction_deg", "corner_radius"),
     "boss": ("diameter", "height"),
+    "pocket": ("diameter", "depth"),
 }
 _OPTIONAL_FEATURE_KEYS = {"countersink_angle_deg", "direction_deg"} | set(_TILT_KEYS)
 

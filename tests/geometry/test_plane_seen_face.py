@@ -91,3 +91,20 @@ def test_a_floor_seen_around_a_part_is_not_hidden():
     points = np.vstack([top, np.column_stack([floor, np.full(len(floor), -5.0)])])
     plane = fit_plane_robust(points, view=DOWN)
     assert plane.hidden == ()
+
+
+def test_without_a_view_only_a_sheet_sampled_on_both_sides_has_a_hidden_face():
+    """_sheet_sides: without a view, the bottom of a sheet sampled on both sides (faces holding alike many
+    points) lies hidden behind the top a sensor above +z sees; a scan's own surface over a floor holding
+    far fewer points hides nothing (the floor is seen through the holes, the side's cue)."""
+    from holecli.geometry.plane import hidden_points
+
+    rng = np.random.default_rng(3)
+    top = np.column_stack([rng.uniform(-20, 20, (5000, 2)), np.zeros(5000)])
+    bottom = np.column_stack([rng.uniform(-20, 20, (5000, 2)), np.full(5000, -3.0)])
+    points = np.vstack([top, bottom])
+    plane = fit_plane_robust(points)
+    assert abs(float(plane.point[2])) < 1e-9 and len(plane.hidden) == 1
+    assert hidden_points(points, plane, (0.0, 0.0, -1.0)).sum() == len(bottom)
+    floor = bottom[:1500]
+    assert fit_plane_robust(np.vstack([top, floor])).hidden == ()
