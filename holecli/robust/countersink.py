@@ -104,12 +104,17 @@ def _least_median_hinge(rho, depth, edge, max_slope):
 
 def _median_errors(depth, ramp, slopes):
     """Per slope, the median of ``|depth - slope * ramp|``."""
-    return np.median(np.abs(depth[None, :] - slopes[:, None] * ramp[None, :]), axis=1)
+    errors = slopes[:, None] * ramp[None, :]
+    np.subtract(depth[None, :], errors, out=errors)
+    np.abs(errors, out=errors)
+    return np.median(errors, axis=1, overwrite_input=True)  # (partitioned in place: no copy)
 
 
 # _least_median_slope works out the medians of every STRIDES[0]-th slope first, then of every
 # STRIDES[1]-th among those still possible, and so on.
 STRIDES = (16, 8, 4, 2, 1)
+# With at most this many errors (points times slopes) every median is worked out at once.
+ALL_MEDIANS_UP_TO = 40_000
 
 
 def _least_median_slope(depth, ramp, slopes):
@@ -128,8 +133,10 @@ def _least_median_slope(depth, ramp, slopes):
     count = len(slopes)
     largest = float(ramp.max())
     reach = float(np.max(np.abs(depth))) + float(np.max(np.abs(slopes))) * largest
-    if not np.isfinite(reach) or not np.all(np.isfinite(depth)) or not np.all(np.isfinite(slopes)):
-        errors = _median_errors(depth, ramp, slopes)  # NaN or inf: argmin's own rules
+    if (len(depth) * count <= ALL_MEDIANS_UP_TO or not np.isfinite(reach) or not np.all(np.isfinite(depth))
+            or not np.all(np.isfinite(slopes))):
+        # Few errors (the levels would cost more than they skip), or NaN or inf: argmin's own rules.
+        errors = _median_errors(depth, ramp, slopes)
         index = int(np.argmin(errors))
         return index, float(errors[index])
     if largest == 0.0:

@@ -17,8 +17,8 @@ def _every_median(depth, ramp, slopes):
 @pytest.mark.parametrize("seed", range(6))
 def test_same_as_every_median(seed):
     rng = np.random.default_rng(seed)
-    for trial in range(300):
-        count = int(rng.integers(1, 600))
+    for trial in range(150):
+        count = int(rng.integers(1, 3000))  # above ALL_MEDIANS_UP_TO / 41 the fine search skips too
         rho = rng.uniform(0.0, 2.0, count)
         if trial % 4 == 1:
             rho = np.round(rho, 1)  # many points at one radius: ties
