@@ -159,6 +159,22 @@ def canonical_rotation(points, plane):
     normal = np.asarray(plane.normal, dtype=np.float64)
     major = np.asarray(plane.major, dtype=np.float64)
     along = points @ major - float(plane.point @ major)
-    if float(np.sum(along[plane.inliers] ** 3)) < 0.0:
+    if _negative_sum_of_cubes(along[plane.inliers]):
         major = -major
     return np.vstack([major, np.cross(normal, major), normal])
+
+
+def _negative_sum_of_cubes(values):
+    """Whether ``np.sum(values ** 3) < 0``, without the power where the sign does not need it.
+
+    ``x * x * x`` is some fifty times cheaper than ``x ** 3`` (a call of ``pow`` per value) and
+    differs from it by a few units in the last place; the two sums differ by less than 256 machine
+    epsilons of the sum of the magnitudes (the summation's own round-off, ``log2(n) + 16`` units
+    for numpy's pairwise sum, included). A sum of products farther from zero than that has the sign
+    of the sum of powers; nearer (a symmetric surface), the powers decide, as they always did.
+    """
+    cubes = values * values * values
+    total = float(np.sum(cubes))
+    if abs(total) > 256.0 * np.finfo(np.float64).eps * float(np.sum(np.abs(cubes))):
+        return total < 0.0
+    return float(np.sum(values ** 3)) < 0.0

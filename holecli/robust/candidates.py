@@ -75,10 +75,14 @@ class Grid:
         -------
         (n,) bool ndarray
         """
-        ij = self.cell_of(xy)
-        inside = (ij[:, 0] >= 0) & (ij[:, 1] >= 0) & (ij[:, 0] < mask.shape[0]) & (ij[:, 1] < mask.shape[1])
+        # Per column, as cell_of computes them (the same cells), and one flat index into the mask:
+        # no (n, 2) temporaries on a million points.
+        xy = np.asarray(xy, dtype=np.float64)
+        i = np.floor((xy[:, 0] - self.origin[0]) / self.cell).astype(np.int64)
+        j = np.floor((xy[:, 1] - self.origin[1]) / self.cell).astype(np.int64)
+        inside = np.flatnonzero((i >= 0) & (j >= 0) & (i < mask.shape[0]) & (j < mask.shape[1]))
         out = np.zeros(len(xy), dtype=bool)
-        out[inside] = mask[ij[inside, 0], ij[inside, 1]]
+        out[inside] = np.ravel(mask)[i[inside] * mask.shape[1] + j[inside]]
         return out
 
 

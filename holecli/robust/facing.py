@@ -144,9 +144,7 @@ def seen_through(heights, xy, surface, grid, band, spacing):
         return 0, 0
     reach = grid.cell
     low, high = xy[index].min(axis=0) - reach, xy[index].max(axis=0) + reach
-    near = np.flatnonzero(surface)
-    near_xy = xy[near]
-    near_xy = near_xy[np.all((near_xy >= low) & (near_xy <= high), axis=1)]
+    near_xy = xy[surface & _in_box(xy, low, high)]
     tree = cKDTree(near_xy)
     surrounded = np.zeros(len(index), dtype=bool)
     for k, neighbours in enumerate(tree.query_ball_point(xy[index], reach)):
@@ -220,9 +218,7 @@ def fan_spacing(xy, heights, surface, band, spacing, reach):
     pairs = cKDTree(local).query_pairs(reach, output_type="ndarray")
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(index), len(index)))
     count, labels = connected_components(graph, directed=False)
-    surface_index = np.flatnonzero(surface)
-    surface_xy = xy[surface_index]
-    surface_tree = cKDTree(surface_xy)
+    surface_xy = None  # (taken when a cluster gets that far)
     ring_reach = FAN_RING_SPACINGS * spacing
     out = []
     for label in range(count):
@@ -235,21 +231,35 @@ def fan_spacing(xy, heights, surface, band, spacing, reach):
         inner = float(np.median(distances[:, 1]))
         if _spread(distances[:, 1]) > FAN_MAX_SPREAD:
             continue
-        box = np.all((surface_xy >= cluster_xy.min(axis=0) - ring_reach)
-                     & (surface_xy <= cluster_xy.max(axis=0) + ring_reach), axis=1)
-        candidates = np.flatnonzero(box)
-        to_cluster, _ = cluster_tree.query(surface_xy[candidates], 1, distance_upper_bound=ring_reach)
+        if surface_xy is None:
+            surface_xy = xy[surface]
+        low, high = cluster_xy.min(axis=0) - ring_reach, cluster_xy.max(axis=0) + ring_reach
+        # The surface points around the ring's box: a ring point's nearest neighbours among them are
+        # its nearest among all the surface points whenever they lie within ring_reach (anything
+        # outside lies over 1.5 ring_reach away), else they are looked up among all of them.
+        around = np.flatnonzero(_in_box(surface_xy, low - 1.5 * ring_reach, high + 1.5 * ring_reach))
+        around_xy = surface_xy[around]
+        candidates = np.flatnonzero(_in_box(around_xy, low, high))
+        to_cluster, _ = cluster_tree.query(around_xy[candidates], 1, distance_upper_bound=ring_reach)
         ring = candidates[np.isfinite(to_cluster)]
         if len(ring) < FAN_MIN_POINTS:
             continue
-        ring_xy = surface_xy[ring]
-        distances, _ = surface_tree.query(ring_xy, 2)
+        ring_xy = around_xy[ring]
+        distances, _ = cKDTree(around_xy).query(ring_xy, 2)
+        far = np.flatnonzero(~(distances[:, 1] <= ring_reach))
+        if len(far):
+            distances[far] = cKDTree(surface_xy).query(ring_xy[far], 2)[0]
         outer = float(np.median(distances[:, 1]))
         if _spread(distances[:, 1]) > FAN_MAX_SPREAD:
             continue
         side = float(np.median(heights[index[members]]))
         out.append((inner / outer, side, len(members), len(ring)))
     return out
+
+
+def _in_box(xy, low, high):
+    """Whether each point of ``xy`` (n, 2) lies in the closed box ``[low, high]``."""
+    return (xy[:, 0] >= low[0]) & (xy[:, 0] <= high[0]) & (xy[:, 1] >= low[1]) & (xy[:, 1] <= high[1])
 
 
 def _spread(distances):

@@ -1000,12 +1000,12 @@ def _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock):
     del local
     band = float(np.max(np.abs(heights[surface])))
     clock.start("sampling")
-    sampling = estimate_sampling(xy[surface], windows=settings.sampling_windows,
+    surface_xy = np.asfortranarray(xy[surface])  # (one copy for the sampling and the grid)
+    sampling = estimate_sampling(surface_xy, windows=settings.sampling_windows,
                                  window_points=settings.sampling_window_points, settings=settings)
     gap = sampling.gap
     min_radius = 0.5 * (min_diameter if min_diameter is not None else settings.min_diameter_gaps * gap)
     clock.start("grid")
-    surface_xy = np.asfortranarray(xy[surface])
     grid = occupancy_grid(surface_xy, settings.cell_gaps * gap, max_speck_cells=settings.max_speck_cells)
     return _Frame(rotation=rotation, xy=xy, heights=heights, band=band, direction=direction, sampling=sampling,
                   min_radius=min_radius, surface_xy=surface_xy, grid=grid)
