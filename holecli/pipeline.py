@@ -115,8 +115,9 @@ def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_hol
     view_dir : (3,) float, optional
         The sensor's viewing direction, from the sensor toward the part (``(0, 0, -1)``: a sensor
         above). It tells which side of the surface the sensor saw, which face of a cloud holding
-        several is the surface, and which faces lie hidden behind it (left out); every point is still
-        projected orthogonally onto the plane.
+        several is the surface, and which faces lie hidden behind it (left out). When the sensor sees
+        nothing behind the surface, the surface's points slide along it onto the plane instead of
+        being projected orthogonally, which keeps range noise out of the in-plane coordinates.
     min_diameter : float, optional
         Smallest diameter reported, file units; by default six times the sampling's gap scale.
     max_holes : int, optional
