@@ -37,6 +37,7 @@ from holecli.robust.countersink import MIN_SLOPE as MIN_CONE_SLOPE
 from holecli.robust.countersink import Cone, fit_cone_edge, points_on_hinge
 from holecli.robust.doubts import Doubts, doubt_warnings
 from holecli.robust.edge import fit_edge
+from holecli.robust.edge_loops import LOOP_CHECKS, coordinate_step, edge_loops, looks_like_vertices
 from holecli.robust.facing import decide, fan_side, fan_spacing, MIN_POINTS as SEEN_MIN_POINTS, seen_through
 from holecli.robust.empty_circle import empty_circle_errors, largest_empty_circle
 from holecli.robust.hole_shape import measure_hole_shape
@@ -107,6 +108,7 @@ REJECTION_REASONS = {
     "duplicate": "the same hole as another candidate with more rim points",
     "partial_left_out": "a partial hole, left out by --full-only",
     "beyond_max_holes": "smaller than the holes kept by --max-holes",
+    **LOOP_CHECKS,  # the loops of a CAD export's vertices (holecli.robust.edge_loops)
 }
 
 
@@ -1108,6 +1110,21 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
              or _to_hole(scene, measured, 0) for measured in found]
     if not flat_crop:
         holes = [_with_shape(scene, hole, measured, gauge_depth, settings) for hole, measured in zip(holes, found)]
+    if not flat_crop and looks_like_vertices(float(sampling.spacing), float(gap)):
+        # A CAD export's vertices: no point inside a face, the holes are the loops of its edges.
+        loops, loop_rejected = edge_loops(xy, heights, surface, height_noise, min_diameter=min_diameter,
+                                          resolution=resolution, step=coordinate_step(points))
+        rejected.extend(_Rejected(check=r.check, value=r.value, limit=r.limit, center=r.center, radius=r.radius)
+                        for r in loop_rejected)
+        for loop in loops:
+            if not any(np.hypot(*(loop.center - m.center)) < max(m.radius, 0.5 * loop.diameter) for m in found):
+                holes.append(_loop_hole(scene, loop))
+        if max_holes is not None and len(holes) > max_holes:
+            ranked = sorted(holes, key=lambda hole: -hole.diameter)
+            holes = ranked[:max_holes]
+            rejected.extend(_Rejected(check="beyond_max_holes", value=h.diameter, limit=holes[-1].diameter,
+                                      center=(rotation @ (np.asarray(h.center) - origin))[:2], radius=h.radius)
+                            for h in ranked[max_holes:])
     holes.sort(key=lambda hole: (hole.partial, hole.center))
     holes = tuple(Hole(**{**hole.__dict__, "index": i}) for i, hole in enumerate(holes))
     plane_result = Plane(point=tuple(map(float, origin)), normal=tuple(map(float, orient_normal(normal))),
@@ -1119,6 +1136,49 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
                     height_noise=float(height_noise), min_diameter=2.0 * float(min_radius))
     return RobustResult(plane=plane_result, holes=holes, rejected=rejections, scales=scales, stages=clock.stop(),
                         candidates=len(voids))
+
+
+def _loop_hole(scene, loop):
+    """The :class:`Hole` of an edge loop of a CAD export's vertices (:mod:`holecli.robust.edge_loops`)."""
+    from holecli.results import Bore, Counterbore, Countersink, HoleNote
+    from holecli.robust.hole_shape import NOTE_CODES
+
+    def world(center2d, height):
+        return from_plane_frame(np.array([center2d[0], center2d[1], height]), scene.origin, scene.rotation)
+
+    normal = scene.rotation[2]
+    center = world(loop.center, 0.0)
+    bore = countersink = counterbore = axis = None
+    if loop.bore is not None:
+        ring = loop.bore
+        bore = Bore(diameter=ring.diameter, rms=ring.rms, points=ring.points, depth_range=(0.0, ring.depth),
+                    arc_deg=360.0)
+        along = center - world(ring.center, -ring.depth)
+        axis = tuple(map(float, along / np.linalg.norm(along)))
+    if loop.type == "countersunk":
+        countersink = Countersink(diameter=loop.diameter, angle_deg=loop.cone_angle_deg, depth=loop.bore.depth,
+                                  depth_from="bore", diameter_at_depth=None, gauge_depth=None, rms=None,
+                                  points=loop.vertices + loop.bore.points, arc_deg=360.0)
+    elif loop.type == "counterbored":
+        counterbore = Counterbore(diameter=loop.diameter, depth=loop.counterbore_depth, rms=0.0,
+                                  points=loop.bore.points)
+    perpendicularity = None
+    if axis is not None:
+        perpendicularity = math.degrees(math.acos(min(1.0, abs(float(np.dot(axis, normal))))))
+    count = max(len(scene.surface_xy), 1)
+    extent = float(np.sqrt(np.mean(np.sum(scene.surface_xy ** 2, axis=1)))) if len(scene.surface_xy) else 1.0
+    u_normal = max(float(scene.height_noise) / math.sqrt(count), resolution_uncertainty(scene.resolution)) / extent
+    note = HoleNote(code="edge_loops", message=(
+        f"{NOTE_CODES['edge_loops']} ({loop.vertices} vertices; the circle through them is "
+        f"{loop.vertex_diameter:.6g})"))
+    return Hole(index=0, center=tuple(map(float, center)), diameter=float(loop.diameter),
+                normal=tuple(map(float, orient_normal(normal))), rim_points=int(loop.vertices), fit_rms=loop.rms,
+                max_residual=loop.max_residual, roundness=loop.roundness, bias_correction=0.0, partial=False,
+                arc_deg=360.0, scan_lines=None, type=loop.type, countersink=countersink, counterbore=counterbore,
+                bore=bore, axis=axis, perpendicularity_deg=perpendicularity, notes=(note,),
+                uncertainty=Uncertainty(center_in_plane=loop.u_center, center_along_normal=loop.u_height,
+                                        diameter=loop.u_diameter, normal_deg=math.degrees(u_normal),
+                                        estimator="edge_loops"))
 
 
 def _with_shape(scene, hole, measured, gauge_depth, settings):
