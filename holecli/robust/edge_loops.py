@@ -39,6 +39,8 @@ from scipy.spatial import cKDTree
 #: spacings wide. Only a gate on the cost (a neighbour query of every surface point): the checks below
 #: decide what a hole is.
 GAP_RATIO = 4.0
+#: ... or when the surface holds at most this many points (the search costs about 10 ms).
+SMALL_SURFACE = 20_000
 #: Fewest vertices of a hole's edge loop (a CAD kernel tessellates a circle with 8 or more segments).
 MIN_VERTICES = 8
 #: A vertex lies on the loop's circle within this many height-noise sigmas (plus round-off).
@@ -50,7 +52,6 @@ CONE_ANGLES_DEG = (30.0, 150.0)
 
 #: Why a loop of the surface is not a hole's edge (the name of each check, for the record).
 LOOP_CHECKS = {
-    "loop_few_vertices": f"fewer than {MIN_VERTICES} vertices: no circle to tell",
     "loop_not_round": "the vertices do not lie on one circle within the noise (a slot, a cut-out, the border)",
     "loop_not_isolated": "other surface points lie near its circle: sampled points near an edge, not the edge's vertices",
     "loop_no_face_outside": "no other point of the face lies outside its circle: nothing shows the face around it "
@@ -102,9 +103,11 @@ class LoopRejection:
     radius: float
 
 
-def looks_like_vertices(spacing: float, gap: float) -> bool:
-    """Whether the sampling estimate (``spacing``, ``gap``) leaves the faces empty (:data:`GAP_RATIO`)."""
-    return bool(np.isfinite(gap) and spacing > 0 and gap >= GAP_RATIO * spacing)
+def looks_like_vertices(spacing: float, gap: float, surface_points: int) -> bool:
+    """Whether to look for vertex loops: the sampling estimate (``spacing``, ``gap``) leaves the faces
+    empty (:data:`GAP_RATIO`), or the surface is small enough for the search to cost nothing
+    (:data:`SMALL_SURFACE`: a part of a few coarse loops leaves smaller gaps)."""
+    return bool(surface_points <= SMALL_SURFACE or (np.isfinite(gap) and spacing > 0 and gap >= GAP_RATIO * spacing))
 
 
 def coordinate_step(points, sample=10_000) -> float:
@@ -162,39 +165,74 @@ def sides_diameter(ordered, center) -> float:
 
 
 def _loops(xy):
-    """The closed chains of the mutual two-nearest-neighbour links of ``xy``: lists of indices in order."""
-    if len(xy) < 3:
+    """The closed chains of the mutual two-nearest-neighbour links of ``xy`` with at least
+    :data:`MIN_VERTICES` vertices: arrays of indices in order along each chain."""
+    n = len(xy)
+    if n < MIN_VERTICES:
         return []
     _, index = cKDTree(xy).query(xy, k=3)
-    n = len(xy)
     src = np.repeat(np.arange(n), 2)
     dst = index[:, 1:].reshape(-1)
-    pairs = np.unique(np.sort(np.column_stack([src, dst]), axis=1), axis=0, return_counts=True)
-    links = pairs[0][pairs[1] == 2]  # both ends name each other
+    pairs, counts = np.unique(np.sort(np.column_stack([src, dst]), axis=1), axis=0, return_counts=True)
+    links = pairs[counts == 2]  # both ends name each other
     if not len(links):
         return []
     degree = np.bincount(links.reshape(-1), minlength=n)
     graph = coo_matrix((np.ones(len(links)), (links[:, 0], links[:, 1])), shape=(n, n))
     count, label = connected_components(graph, directed=False)
-    neighbours = [[] for _ in range(n)]
-    for i, j in links:
-        neighbours[i].append(j)
-        neighbours[j].append(i)
-    loops = []
     sizes = np.bincount(label, minlength=count)
-    for comp in range(count):
-        members = np.flatnonzero(label == comp)
-        if sizes[comp] < 3 or np.any(degree[members] != 2):
-            continue
-        order, previous, current = [members[0]], -1, members[0]
+    good = sizes >= MIN_VERTICES
+    good[np.unique(label[degree != 2])] = False  # a chain with an end or a branch is no loop
+    if not good.any():
+        return []
+    # The two neighbours of every vertex of degree 2.
+    ends = np.concatenate([links[:, 0], links[:, 1]])
+    others = np.concatenate([links[:, 1], links[:, 0]])
+    order = np.argsort(ends, kind="stable")
+    ends, others = ends[order], others[order]
+    first = np.searchsorted(ends, np.arange(n))
+    loops = []
+    for comp in np.flatnonzero(good):
+        start = int(np.flatnonzero(label == comp)[0])
+        chain, previous, current = [start], -1, start
         while True:
-            nxt = neighbours[current][0] if neighbours[current][0] != previous else neighbours[current][1]
-            if nxt == members[0]:
+            a, b = others[first[current]], others[first[current] + 1]
+            nxt = a if a != previous else b
+            if nxt == start:
                 break
-            order.append(nxt)
-            previous, current = current, nxt
-        loops.append(np.asarray(order))
+            chain.append(int(nxt))
+            previous, current = current, int(nxt)
+        loops.append(np.asarray(chain))
     return loops
+
+
+def top_face(xy, heights, noise, span_share=0.5):
+    """The points of the face a sensor on the heights' positive side sees, in a cloud of vertices:
+    of the levels of ``heights`` (parallel faces), those whose points span at least ``span_share`` of
+    the largest span (convex hull area in the plane: the top and bottom of a part span all of it, a
+    counterbore's floor or a boss's top a small part), the one nearest the sensor. A vertex export's
+    faces hold their edges' vertices, not a number of points in proportion to their area, so the
+    face holding the most points (a counterbore floor with its four loops) need not be the surface.
+    Returns a boolean mask, or None when no level has three points off one line."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    heights = np.asarray(heights, dtype=np.float64)
+    order = np.argsort(heights)
+    step = max(8.0 * noise, 1e-9)
+    levels = np.split(order, np.flatnonzero(np.diff(heights[order]) > step) + 1)
+    spans = []
+    for level in levels:
+        try:
+            spans.append(ConvexHull(xy[level]).volume if len(level) >= 3 else 0.0)
+        except QhullError:
+            spans.append(0.0)
+    if max(spans) <= 0:
+        return None
+    wide = [level for level, span in zip(levels, spans) if span >= span_share * max(spans)]
+    best = max(wide, key=lambda level: float(np.mean(heights[level])))
+    mask = np.zeros(len(heights), bool)
+    mask[best] = True
+    return mask
 
 
 def _angular_gap_deg(vectors):
@@ -301,9 +339,6 @@ def edge_loops(xy, heights, surface, noise, *, min_diameter=None, resolution=0.0
         def reject(check, value=None, limit=None):
             rejected.append(LoopRejection(check, value, limit, center, radius))
 
-        if len(loop) < MIN_VERTICES:
-            reject("loop_few_vertices", len(loop), MIN_VERTICES)
-            continue
         residual = np.hypot(*(pts - center).T) - radius
         worst = float(np.max(np.abs(residual)))
         if worst > tolerance:
@@ -343,7 +378,8 @@ def edge_loops(xy, heights, surface, noise, *, min_diameter=None, resolution=0.0
         u_diameter = math.hypot(2.0 * rms / math.sqrt(n), floor)
         h = heights[surface][loop]
         u_height = math.hypot(float(np.std(h)) / math.sqrt(n), floor)
-        side_distance = np.abs(np.cross(np.roll(pts, -1, axis=0) - pts, center - pts)) / np.maximum(chords, 1e-300)
+        along, to_center = np.roll(pts, -1, axis=0) - pts, center - pts
+        side_distance = np.abs(along[:, 0] * to_center[:, 1] - along[:, 1] * to_center[:, 0]) / np.maximum(chords, 1e-300)
         rings = _rings_below(below_xy, below_depth, center, radius, tolerance)
         kind, angle, cbore_depth, bore = _hole_type(diameter, rings, tolerance)
         found.append(EdgeLoop(center=center, diameter=diameter, vertex_diameter=2.0 * radius, vertices=n, rms=rms,

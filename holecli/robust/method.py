@@ -37,7 +37,7 @@ from holecli.robust.countersink import MIN_SLOPE as MIN_CONE_SLOPE
 from holecli.robust.countersink import Cone, fit_cone_edge, points_on_hinge
 from holecli.robust.doubts import Doubts, doubt_warnings
 from holecli.robust.edge import fit_edge
-from holecli.robust.edge_loops import LOOP_CHECKS, coordinate_step, edge_loops, looks_like_vertices
+from holecli.robust.edge_loops import LOOP_CHECKS, coordinate_step, edge_loops, looks_like_vertices, top_face
 from holecli.robust.facing import decide, fan_side, fan_spacing, MIN_POINTS as SEEN_MIN_POINTS, seen_through
 from holecli.robust.empty_circle import empty_circle_errors, largest_empty_circle
 from holecli.robust.hole_shape import measure_hole_shape
@@ -1056,6 +1056,18 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         # and its rigid motions are measured in the same frame of the part.
         plane = replace(plane, normal=-plane.normal)
         frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
+    vertices = not flat_crop and looks_like_vertices(float(frame.sampling.spacing), float(frame.sampling.gap),
+                                                     int(np.count_nonzero(plane.inliers)))
+    if vertices:
+        # A CAD export's vertices: its faces hold their edges' vertices, not points in proportion to
+        # their area; the surface is the widest face nearest the sensor (edge_loops.top_face).
+        noise = max(robust_sigma(frame.heights[plane.inliers]), float(plane.resolution))
+        top = top_face(frame.xy, frame.heights, noise)
+        if top is not None and np.count_nonzero(top & plane.inliers) < 0.5 * np.count_nonzero(top):
+            fit = fit_plane_scatter(points[top])
+            plane = replace(plane, point=fit.point, normal=fit.normal if fit.normal @ plane.normal > 0 else -fit.normal,
+                            rms=fit.rms, inliers=top, major=fit.major)
+            frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
     normal, origin = plane.normal, plane.point
     rotation, xy, heights, band, direction = frame.rotation, frame.xy, frame.heights, frame.band, frame.direction
     sampling, grid, surface, min_radius = frame.sampling, frame.grid, plane.inliers, frame.min_radius
@@ -1110,7 +1122,7 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
              or _to_hole(scene, measured, 0) for measured in found]
     if not flat_crop:
         holes = [_with_shape(scene, hole, measured, gauge_depth, settings) for hole, measured in zip(holes, found)]
-    if not flat_crop and looks_like_vertices(float(sampling.spacing), float(gap)):
+    if vertices:
         # A CAD export's vertices: no point inside a face, the holes are the loops of its edges.
         loops, loop_rejected = edge_loops(xy, heights, surface, height_noise, min_diameter=min_diameter,
                                           resolution=resolution, step=coordinate_step(points))
