@@ -58,7 +58,11 @@ LOOP_CHECKS = {
                             "(a round part's outline)",
     "loop_material_inside": "surface points lie inside its circle (the outline of a face around other loops)",
     "loop_boss": "points stand above the surface inside it (the foot of a boss)",
+    "loop_wider_below": "a wider loop lies below it on its axis (the island of a ring groove: a hole's walls "
+                        "never widen below its edge as the vertices show them)",
 }
+#: The checks applied, in this order (each has a test that needs it: tests/robust/test_edge_loops.py).
+ACTIVE_CHECKS = tuple(LOOP_CHECKS)
 
 
 @dataclass(frozen=True)
@@ -330,7 +334,6 @@ def edge_loops(xy, heights, surface, noise, *, min_diameter=None, resolution=0.0
     above = xy[heights > band]
     below = heights < -band
     below_xy, below_depth = xy[below], -heights[below]
-    tree = cKDTree(face)
     found, rejected = [], []
     for loop in _loops(face):
         pts = face[loop]
@@ -341,30 +344,28 @@ def edge_loops(xy, heights, surface, noise, *, min_diameter=None, resolution=0.0
 
         residual = np.hypot(*(pts - center).T) - radius
         worst = float(np.max(np.abs(residual)))
-        if worst > tolerance:
-            reject("loop_not_round", worst, tolerance)
-            continue
         chords = np.hypot(*(np.roll(pts, -1, axis=0) - pts).T)
         reach = ISOLATION_CHORDS * float(chords.max())
         others = np.setdiff1d(np.arange(len(face)), loop)
-        nearby = tree.query_ball_point(center, radius + reach)
-        nearby = np.setdiff1d(nearby, loop)
-        rho_near = np.hypot(*(face[nearby] - center).T) if len(nearby) else np.zeros(0)
-        inside = int(np.count_nonzero(rho_near < radius - reach))
-        close = int(np.count_nonzero(np.abs(rho_near - radius) <= reach))
-        if close:
-            reject("loop_not_isolated", close, 0)
-            continue
-        outside = int(np.count_nonzero(np.hypot(*(face[others] - center).T) > radius + reach))
-        if not outside:
-            reject("loop_no_face_outside", outside, 1)
-            continue
-        if inside:
-            reject("loop_material_inside", inside, 0)
-            continue
+        rho_others = np.hypot(*(face[others] - center).T)
+        inside = int(np.count_nonzero(rho_others < radius - reach))
+        close = int(np.count_nonzero(np.abs(rho_others - radius) <= reach))
+        outside = int(np.count_nonzero(rho_others > radius + reach))
         boss = int(np.count_nonzero(np.hypot(*(above - center).T) < radius + tolerance)) if len(above) else 0
-        if boss:
-            reject("loop_boss", boss, 0)
+        wide = max(8 * tolerance, 0.01 * radius)
+        rings = _rings_below(below_xy, below_depth, center, 2.0 * radius, tolerance)
+        wider = [ring for ring in rings if ring.diameter > 2.0 * radius + 2.0 * wide
+                 and np.hypot(*(ring.center - center)) <= wide]
+        rings = tuple(ring for ring in rings if ring.diameter <= 2.0 * radius + 2.0 * wide)
+        failed = {"loop_not_round": (worst > tolerance, worst, tolerance),
+                  "loop_not_isolated": (close > 0, close, 0),
+                  "loop_no_face_outside": (outside == 0, outside, 1),
+                  "loop_material_inside": (inside > 0, inside, 0),
+                  "loop_boss": (boss > 0, boss, 0),
+                  "loop_wider_below": (bool(wider), max((r.diameter for r in wider), default=None), 2.0 * radius)}
+        check = next((name for name in ACTIVE_CHECKS if failed[name][0]), None)
+        if check is not None:
+            reject(check, *failed[check][1:])
             continue
         ordered = pts
         diameter = sides_diameter(ordered, center)
@@ -380,7 +381,6 @@ def edge_loops(xy, heights, surface, noise, *, min_diameter=None, resolution=0.0
         u_height = math.hypot(float(np.std(h)) / math.sqrt(n), floor)
         along, to_center = np.roll(pts, -1, axis=0) - pts, center - pts
         side_distance = np.abs(along[:, 0] * to_center[:, 1] - along[:, 1] * to_center[:, 0]) / np.maximum(chords, 1e-300)
-        rings = _rings_below(below_xy, below_depth, center, radius, tolerance)
         kind, angle, cbore_depth, bore = _hole_type(diameter, rings, tolerance)
         found.append(EdgeLoop(center=center, diameter=diameter, vertex_diameter=2.0 * radius, vertices=n, rms=rms,
                               max_residual=worst,
