@@ -107,11 +107,16 @@ class LoopRejection:
     radius: float
 
 
+def faces_empty(spacing: float, gap: float) -> bool:
+    """Whether the sampling estimate (``spacing``, ``gap``) leaves the faces empty (:data:`GAP_RATIO`)."""
+    return bool(np.isfinite(gap) and spacing > 0 and gap >= GAP_RATIO * spacing)
+
+
 def looks_like_vertices(spacing: float, gap: float, surface_points: int) -> bool:
-    """Whether to look for vertex loops: the sampling estimate (``spacing``, ``gap``) leaves the faces
-    empty (:data:`GAP_RATIO`), or the surface is small enough for the search to cost nothing
-    (:data:`SMALL_SURFACE`: a part of a few coarse loops leaves smaller gaps)."""
-    return bool(surface_points <= SMALL_SURFACE or (np.isfinite(gap) and spacing > 0 and gap >= GAP_RATIO * spacing))
+    """Whether to look for vertex loops: the faces are empty (:func:`faces_empty`), or the surface is
+    small enough for the search to cost nothing (:data:`SMALL_SURFACE`: a part of a few coarse loops
+    leaves smaller gaps)."""
+    return bool(surface_points <= SMALL_SURFACE or faces_empty(spacing, gap))
 
 
 def coordinate_step(points, sample=10_000) -> float:

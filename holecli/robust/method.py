@@ -37,7 +37,8 @@ from holecli.robust.countersink import MIN_SLOPE as MIN_CONE_SLOPE
 from holecli.robust.countersink import Cone, fit_cone_edge, points_on_hinge
 from holecli.robust.doubts import Doubts, doubt_warnings
 from holecli.robust.edge import fit_edge
-from holecli.robust.edge_loops import LOOP_CHECKS, coordinate_step, edge_loops, looks_like_vertices, top_face
+from holecli.robust.edge_loops import (LOOP_CHECKS, coordinate_step, edge_loops, faces_empty, looks_like_vertices,
+                                       top_face)
 from holecli.robust.facing import decide, fan_side, fan_spacing, MIN_POINTS as SEEN_MIN_POINTS, seen_through
 from holecli.robust.empty_circle import empty_circle_errors, largest_empty_circle
 from holecli.robust.hole_shape import measure_hole_shape
@@ -1126,8 +1127,10 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         # A CAD export's vertices: no point inside a face, the holes are the loops of its edges.
         loops, loop_rejected = edge_loops(xy, heights, surface, height_noise, min_diameter=min_diameter,
                                           resolution=resolution, step=coordinate_step(points))
-        rejected.extend(_Rejected(check=r.check, value=r.value, limit=r.limit, center=r.center, radius=r.radius)
-                        for r in loop_rejected)
+        if loops or faces_empty(float(sampling.spacing), float(gap)):
+            # (a small scan's sampling makes loops too, of a grid's ties: they are not what it shows)
+            rejected.extend(_Rejected(check=r.check, value=r.value, limit=r.limit, center=r.center,
+                                      radius=r.radius) for r in loop_rejected)
         for loop in loops:
             if not any(np.hypot(*(loop.center - m.center)) < max(m.radius, 0.5 * loop.diameter) for m in found):
                 holes.append(_loop_hole(scene, loop))
