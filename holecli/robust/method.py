@@ -1059,9 +1059,10 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
     vertices = not flat_crop and looks_like_vertices(float(frame.sampling.spacing), float(frame.sampling.gap),
                                                      int(np.count_nonzero(plane.inliers)))
-    if vertices:
+    if vertices and faces_empty(float(frame.sampling.spacing), float(frame.sampling.gap)):
         # A CAD export's vertices: its faces hold their edges' vertices, not points in proportion to
-        # their area; the surface is the widest face nearest the sensor (edge_loops.top_face).
+        # their area; the surface is the widest face nearest the sensor (edge_loops.top_face). Only
+        # when the faces are empty: a small surface sampling's walls join its faces' levels.
         noise = max(robust_sigma(frame.heights[plane.inliers]), float(plane.resolution))
         top = top_face(frame.xy, frame.heights, noise)
         if top is not None and np.count_nonzero(top & plane.inliers) < 0.5 * np.count_nonzero(top):
