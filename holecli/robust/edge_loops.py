@@ -182,8 +182,10 @@ def _loops(xy):
     _, index = cKDTree(xy).query(xy, k=3)
     src = np.repeat(np.arange(n), 2)
     dst = index[:, 1:].reshape(-1)
-    pairs, counts = np.unique(np.sort(np.column_stack([src, dst]), axis=1), axis=0, return_counts=True)
-    links = pairs[counts == 2]  # both ends name each other
+    low, high = np.minimum(src, dst).astype(np.int64), np.maximum(src, dst).astype(np.int64)
+    keys, counts = np.unique(low * n + high, return_counts=True)
+    keys = keys[counts == 2]  # both ends name each other
+    links = np.column_stack([keys // n, keys % n])
     if not len(links):
         return []
     degree = np.bincount(links.reshape(-1), minlength=n)
@@ -356,7 +358,9 @@ def edge_loops(xy, heights, surface, noise, *, min_diameter=None, resolution=0.0
 
         def rho_others():  # distances of the face's other points from the centre (computed once, when asked)
             if "rho" not in cache:
-                cache["rho"] = np.hypot(*(face[np.setdiff1d(np.arange(len(face)), loop)] - center).T)
+                other = np.ones(len(face), bool)
+                other[loop] = False
+                cache["rho"] = np.hypot(*(face[other] - center).T)
             return cache["rho"]
 
         def rings_all():
