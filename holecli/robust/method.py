@@ -37,6 +37,8 @@ from holecli.robust.countersink import MIN_SLOPE as MIN_CONE_SLOPE
 from holecli.robust.countersink import Cone, fit_cone_edge, points_on_hinge
 from holecli.robust.doubts import Doubts, doubt_warnings
 from holecli.robust.edge import fit_edge
+from holecli.robust.edge_loops import (LOOP_CHECKS, coordinate_step, edge_loops, faces_empty, looks_like_vertices,
+                                       top_face)
 from holecli.robust.facing import decide, fan_side, fan_spacing, MIN_POINTS as SEEN_MIN_POINTS, seen_through
 from holecli.robust.empty_circle import empty_circle_errors, largest_empty_circle
 from holecli.robust.hole_shape import measure_hole_shape
@@ -108,6 +110,7 @@ REJECTION_REASONS = {
     "duplicate": "the same hole as another candidate with more rim points",
     "partial_left_out": "a partial hole, left out by --full-only",
     "beyond_max_holes": "smaller than the holes kept by --max-holes",
+    **LOOP_CHECKS,  # the loops of a CAD export's vertices (holecli.robust.edge_loops)
 }
 
 
@@ -1059,12 +1062,15 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
                              clip=settings.plane_clip, max_rounds=settings.plane_refine_rounds,
                              refine_sample=settings.plane_refine_sample, max_faces=settings.plane_max_faces,
                              view=view_dir)
-    if plane.hidden:
+    frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
+    if plane.hidden and not faces_empty(float(frame.sampling.spacing), float(frame.sampling.gap)):
         # A face hidden behind the surface along the view (a whole mesh sampled, its bottom under its
-        # top): a sensor never recorded it, and seen through a countersink it reads as a counterbore's floor.
+        # top): a sensor never recorded it, and seen through a countersink it reads as a counterbore's
+        # floor. (Not in a CAD export's vertices, whose faces are empty: there the loops at one depth,
+        # a countersink's inner loops, make such a face, and they are what types the holes.)
         seen = ~hidden_points(points, plane, ASSUMED_VIEW if view_dir is None else view_dir)
         points, plane = points[seen], replace(plane, inliers=plane.inliers[seen], hidden=())
-    frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
+        frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
     # The heights are read along the normal toward the sensor (holecli.robust.facing): from
     # --view-dir, else from the points seen through the surface, else the z-positive normal. A flat
     # crop's frame has the sensor on +z (_on_curved_surface).
@@ -1081,6 +1087,19 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         # and its rigid motions are measured in the same frame of the part.
         plane = replace(plane, normal=-plane.normal)
         frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
+    vertices = not flat_crop and looks_like_vertices(float(frame.sampling.spacing), float(frame.sampling.gap),
+                                                     int(np.count_nonzero(plane.inliers)))
+    if vertices and faces_empty(float(frame.sampling.spacing), float(frame.sampling.gap)):
+        # A CAD export's vertices: its faces hold their edges' vertices, not points in proportion to
+        # their area; the surface is the widest face nearest the sensor (edge_loops.top_face). Only
+        # when the faces are empty: a small surface sampling's walls join its faces' levels.
+        noise = max(robust_sigma(frame.heights[plane.inliers]), float(plane.resolution))
+        top = top_face(frame.xy, frame.heights, noise)
+        if top is not None and np.count_nonzero(top & plane.inliers) < 0.5 * np.count_nonzero(top):
+            fit = fit_plane_scatter(points[top])
+            plane = replace(plane, point=fit.point, normal=fit.normal if fit.normal @ plane.normal > 0 else -fit.normal,
+                            rms=fit.rms, inliers=top, major=fit.major)
+            frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
     normal, origin = plane.normal, plane.point
     rotation, xy, heights, band, direction = frame.rotation, frame.xy, frame.heights, frame.band, frame.direction
     sampling, grid, surface, min_radius = frame.sampling, frame.grid, plane.inliers, frame.min_radius
@@ -1139,6 +1158,23 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         rejected.extend(_as_rejected(measured, "pocket", depth, settings.pocket_max_depth_ratio)
                         for measured, depth in zip(found, pockets) if depth is not None)
         holes = [hole for hole, depth in zip(holes, pockets) if depth is None]
+    if vertices:
+        # A CAD export's vertices: no point inside a face, the holes are the loops of its edges.
+        loops, loop_rejected = edge_loops(xy, heights, surface, height_noise, min_diameter=min_diameter,
+                                          resolution=resolution, step=coordinate_step(points))
+        if loops or faces_empty(float(sampling.spacing), float(gap)):
+            # (a small scan's sampling makes loops too, of a grid's ties: they are not what it shows)
+            rejected.extend(_Rejected(check=r.check, value=r.value, limit=r.limit, center=r.center,
+                                      radius=r.radius) for r in loop_rejected)
+        for loop in loops:
+            if not any(np.hypot(*(loop.center - m.center)) < max(m.radius, 0.5 * loop.diameter) for m in found):
+                holes.append(_loop_hole(scene, loop))
+        if max_holes is not None and len(holes) > max_holes:
+            ranked = sorted(holes, key=lambda hole: -hole.diameter)
+            holes = ranked[:max_holes]
+            rejected.extend(_Rejected(check="beyond_max_holes", value=h.diameter, limit=holes[-1].diameter,
+                                      center=(rotation @ (np.asarray(h.center) - origin))[:2], radius=h.radius)
+                            for h in ranked[max_holes:])
     holes.sort(key=lambda hole: (hole.partial, hole.center))
     holes = tuple(Hole(**{**hole.__dict__, "index": i}) for i, hole in enumerate(holes))
     plane_result = Plane(point=tuple(map(float, origin)), normal=tuple(map(float, orient_normal(normal))),
@@ -1159,6 +1195,49 @@ def _pocket_depth(hole, settings):
         return None
     ratio = float(hole.bore.floor_depth) / hole.diameter
     return ratio if ratio < settings.pocket_max_depth_ratio else None
+
+
+def _loop_hole(scene, loop):
+    """The :class:`Hole` of an edge loop of a CAD export's vertices (:mod:`holecli.robust.edge_loops`)."""
+    from holecli.results import Bore, Counterbore, Countersink, HoleNote
+    from holecli.robust.hole_shape import NOTE_CODES
+
+    def world(center2d, height):
+        return from_plane_frame(np.array([center2d[0], center2d[1], height]), scene.origin, scene.rotation)
+
+    normal = scene.rotation[2]
+    center = world(loop.center, 0.0)
+    bore = countersink = counterbore = axis = None
+    if loop.bore is not None:
+        ring = loop.bore
+        bore = Bore(diameter=ring.diameter, rms=ring.rms, points=ring.points, depth_range=(0.0, ring.depth),
+                    arc_deg=360.0)
+        along = center - world(ring.center, -ring.depth)
+        axis = tuple(map(float, along / np.linalg.norm(along)))
+    if loop.type == "countersunk":
+        countersink = Countersink(diameter=loop.diameter, angle_deg=loop.cone_angle_deg, depth=loop.bore.depth,
+                                  depth_from="bore", diameter_at_depth=None, gauge_depth=None, rms=None,
+                                  points=loop.vertices + loop.bore.points, arc_deg=360.0)
+    elif loop.type == "counterbored":
+        counterbore = Counterbore(diameter=loop.diameter, depth=loop.counterbore_depth, rms=0.0,
+                                  points=loop.bore.points)
+    perpendicularity = None
+    if axis is not None:
+        perpendicularity = math.degrees(math.acos(min(1.0, abs(float(np.dot(axis, normal))))))
+    count = max(len(scene.surface_xy), 1)
+    extent = float(np.sqrt(np.mean(np.sum(scene.surface_xy ** 2, axis=1)))) if len(scene.surface_xy) else 1.0
+    u_normal = max(float(scene.height_noise) / math.sqrt(count), resolution_uncertainty(scene.resolution)) / extent
+    note = HoleNote(code="edge_loops", message=(
+        f"{NOTE_CODES['edge_loops']} ({loop.vertices} vertices; the circle through them is "
+        f"{loop.vertex_diameter:.6g})"))
+    return Hole(index=0, center=tuple(map(float, center)), diameter=float(loop.diameter),
+                normal=tuple(map(float, orient_normal(normal))), rim_points=int(loop.vertices), fit_rms=loop.rms,
+                max_residual=loop.max_residual, roundness=loop.roundness, bias_correction=0.0, partial=False,
+                arc_deg=360.0, scan_lines=None, type=loop.type, countersink=countersink, counterbore=counterbore,
+                bore=bore, axis=axis, perpendicularity_deg=perpendicularity, notes=(note,),
+                uncertainty=Uncertainty(center_in_plane=loop.u_center, center_along_normal=loop.u_height,
+                                        diameter=loop.u_diameter, normal_deg=math.degrees(u_normal),
+                                        estimator="edge_loops"))
 
 
 def _with_shape(scene, hole, measured, gauge_depth, settings):

@@ -29,8 +29,10 @@ pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"
 DOWN = (0.0, 0.0, -1.0)
 
 
-def _panel(kind, seed):
-    """A small flat panel with two holes of ``kind`` whose sizes and places vary with ``seed``."""
+def _panel(kind, seed, segments=None):
+    """A small flat panel with two holes of ``kind`` whose sizes and places vary with ``seed`` (``mixed``:
+    a plain and a countersunk hole among a slot, a cut-out and a boss); ``segments`` per circle, else
+    drawn from 48, 64, 96."""
     rng = np.random.default_rng(seed)
     d = float(rng.uniform(3.0, 6.0))
     x = float(rng.uniform(7.0, 9.0))
@@ -38,8 +40,18 @@ def _panel(kind, seed):
     hole = {"plain": lambda c: F("through", c, diameter=d),
             "csk": lambda c: F("countersunk", c, diameter=d, countersink_diameter=d + 3.0,
                                countersink_angle_deg=float(rng.choice([82.0, 90.0, 100.0]))),
-            "cbore": lambda c: F("counterbored", c, diameter=d, counterbore_diameter=d + 3.0, counterbore_depth=1.0)}[kind]
-    spec = PanelSpec(36, 26, t, segments=int(rng.choice([48, 64, 96])), features=(hole((-x, 1.0)), hole((x, -1.0))))
+            "cbore": lambda c: F("counterbored", c, diameter=d, counterbore_diameter=d + 3.0, counterbore_depth=1.0),
+            "mixed": None}[kind]
+    drawn = int(rng.choice([48, 64, 96]))
+    segments = drawn if segments is None else segments
+    if kind == "mixed":
+        spec = PanelSpec(50, 36, t, segments=segments, features=(
+            F("through", (-x - 4.0, 2.0), diameter=d),
+            F("countersunk", (x + 4.0, -2.0), diameter=d, countersink_diameter=d + 3.0),
+            F("slot", (0.0, 10.0), width=3.0, length=10.0), F("boss", (0.0, 0.0), diameter=5.0, height=2.0),
+            F("cutout", (0.0, -10.0), width=5.0, length=10.0, corner_radius=1.0)))
+    else:
+        spec = PanelSpec(36, 26, t, segments=segments, features=(hole((-x, 1.0)), hole((x, -1.0))))
     panel = build_panel(spec)
     return panel.vertices, panel.triangles, [f for f in panel_truth(panel)["features"] if not f["is_hole"]]
 
@@ -75,8 +87,8 @@ def _score(holes, truth, pitch, noise):
     return fails, len(full)
 
 
-def _run(kind, cloud, faces, spacing, noise, seed, view_dir, frame=None):
-    vertices, triangles, not_holes = _panel(kind, seed)
+def _run(kind, cloud, faces, spacing, noise, seed, view_dir, frame=None, segments=None):
+    vertices, triangles, not_holes = _panel(kind, seed, segments)
     rng = np.random.default_rng(seed)
     target = None
     if cloud == "lattice":  # the lattice's phase against the holes
@@ -104,6 +116,7 @@ def _rate(cases):
 
 
 SEEDS = (0, 1, 2)
+UPSIDE_DOWN = np.diag([1.0, -1.0, -1.0, 1.0])  # 180 deg about x: the top faces -z, the sensor looks along +z
 CLASSES = {
     # straight-down lattices, noise-free and noisy, random phase against the holes
     "lattice": [(k, "lattice", "all", 0.1, n, s, False) for k in ("plain", "csk", "cbore") for n in (0.0, 0.005)
@@ -121,28 +134,19 @@ CLASSES = {
     # sensor above +z sees (it was the face holding the most points, often the bottom)
     "surface, no view": [(k, "surface", f, 0.1, 0.0, s, False) for k in ("plain", "cbore")
                          for f in ("all", "no-walls") for s in SEEDS],
+    # a CAD export's vertices (points only along the edges, none inside a face): the edge loops
+    # (holecli.robust.edge_loops), 24- to 96-gons, among slots, cut-outs and bosses, with and without the view
+    "vertices": [(k, "vertices", "all", 0.1, n, s, v, None, (24, 32, 48, 64, 96)[s % 5])
+                 for k in ("plain", "csk", "cbore", "mixed") for n in (0.0, 0.005) for s in range(10, 15)
+                 for v in (True, False)],
+    # the same turned upside down, the view given
+    "vertices upside down": [(k, "vertices", "all", 0.1, n, s, True, UPSIDE_DOWN, (24, 48, 96)[s % 3])
+                             for k in ("csk", "mixed") for n in (0.0, 0.005) for s in range(20, 23)],
 }
-FAILING = {
-    # a CAD export's vertices: no point inside a face, the sampling estimate takes the faces for gaps
-    "vertices": [(k, "vertices", "all", 0.1, n, s, True) for k in ("plain", "csk") for n in (0.0, 0.005)
-                 for s in SEEDS[:1]],
-}
-
-
 @pytest.mark.parametrize("name", list(CLASSES))
 def test_cad_clouds_measured_right(name):
     failures = _rate(CLASSES[name])
     assert not failures, failures
-
-
-@pytest.mark.parametrize("name", list(FAILING))
-@pytest.mark.xfail(strict=True, reason="issue 24 item 2: a class of CAD-made clouds holecli does not measure yet")
-def test_cad_clouds_not_yet(name):
-    failures = _rate(FAILING[name])
-    assert not failures, failures
-
-
-UPSIDE_DOWN = np.diag([1.0, -1.0, -1.0, 1.0])  # 180 deg about x: the top faces -z, the sensor looks along +z
 
 
 @pytest.mark.parametrize("kind", ["csk", "cbore", "plain"])
