@@ -335,6 +335,20 @@ def conformance_text(check, entry):
     return f"{check} {value_text} {limits} U {'-' if expanded is None else f'{expanded:.2g}'}: {entry['decision']}"
 
 
+def refused_summary(checks, explain=False):
+    """Why no hole was reported, for the "no hole found" line: `` (3 candidates refused: 2 below_min_diameter,
+    1 not_round; --explain lists them)``, most frequent first; empty when no candidate was examined."""
+    if not checks:
+        return " (no candidate: the surface has no empty region a hole would leave)"
+    counts = {}
+    for check in checks:
+        counts[check] = counts.get(check, 0) + 1
+    reasons = ", ".join(f"{count} {check}" for check, count in sorted(counts.items(), key=lambda item: (-item[1], item[0])))
+    plural = "" if len(checks) == 1 else "s"
+    hint = "" if explain else "; --explain lists them"
+    return f" ({len(checks)} candidate{plural} refused: {reasons}{hint})"
+
+
 def _rejected_table(rejected, digits=4):
     from rich.table import Table
 
@@ -542,6 +556,8 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
     nominal = nominal_from_options(spec_file, **nominal_options)
     decision = decision_from_options(decision_rule, coverage_factor, nominal is not None or spec_file is not None)
 
+    refused = []  # the checks that refused candidates, for "no hole found"
+
     def body():
         from holecli.cli.progress import DetectStatus
         from holecli.tolerance import check
@@ -565,6 +581,7 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
                 detection = measure_file(scan, run_options, scan_index)
             else:
                 detection, points = measure_with_points(scan, run_options, scan_index)
+        refused.extend(rejection.check for rejection in detection.rejected)
         # in the output unit before the check: tolerances are in it too
         record = choice.express(detection.to_dict(explain=explain), detection.units)
         if spec is not None:
@@ -589,7 +606,8 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
         for line in warning_lines(record):
             click.echo(line, err=True)
     if not quiet and not record["holes"]:
-        click.echo(f"holecli: no hole found in {record['file']}", err=True)
+        why = refused_summary(refused, explain) if method == "robust" else ""  # (the paper's has no candidates)
+        click.echo(f"holecli: no hole found in {record['file']}{why}", err=True)
     verdict = record.get("verdict")
     if verdict is not None and (verdict["out_of_tolerance"] or verdict["missing"]):
         if quiet:

@@ -424,13 +424,14 @@ def _read_raw(name: str, extension: str, scan=None):
     except OSError as exc:
         raise _BadFile(f"cannot open file ({_describe(exc)})") from None
     if stat.S_ISDIR(info.st_mode):
-        raise _BadFile("is a directory")
+        raise _BadFile(f"is a directory (to measure every scan in it: holecli batch {name})")
     if not stat.S_ISREG(info.st_mode):
         # Decided before opening: opening a FIFO blocks until a writer comes, and a device never ends.
         raise _BadFile(f"not a regular file ({file_kind(info.st_mode)})")
     if extension not in SUPPORTED_EXTENSIONS:
         shown = repr(extension) if extension else "(none)"
-        raise _BadFile(f"unsupported extension {shown} (expected {_EXPECTED})")
+        raise _BadFile(f"unsupported extension {shown} (expected {_EXPECTED}; a text file of x y z rows "
+                       "under another name: give --input-format xyz, or csv)")
     if info.st_size == 0:
         raise _BadFile("empty file")
     if extension == ".e57":

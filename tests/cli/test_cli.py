@@ -4,6 +4,7 @@ import csv
 import io
 import json
 import os
+import re
 import stat
 import subprocess
 import sys
@@ -14,6 +15,8 @@ import pytest
 from holecli import __version__, cli, report
 from holecli.io import load_points, save_points
 from holecli.simulation import synth
+
+SAMPLES = os.path.join(os.path.dirname(__file__), os.pardir, os.pardir, "sample_clouds")
 
 RECORD_KEYS = {"schema_version", "holecli_version", "file", "points", "dropped_points", "method", "options", "scales",
                "candidates", "plane", "holes", "timing"}
@@ -222,6 +225,26 @@ def test_detect_no_hole_csv_is_one_row_with_only_the_file(run, tmp_path):
     assert rows[0] == list(report.CSV_COLUMNS) and len(rows) == 2
     assert rows[1][:provenance] == [str(path)] + [""] * (provenance - 1)
     assert dict(zip(report.CSV_COLUMNS, rows[1]))["method"] == "paper"
+
+
+def test_no_hole_found_says_why(run):
+    """The "no hole found" line counts the refused candidates by check, most frequent first, and points
+    to --explain (which lists them); with --explain it does not."""
+    scan = os.path.join(SAMPLES, "no_hole.csv")
+    result = run("detect", scan)
+    assert result.exit_code == cli.EXIT_NO_HOLE
+    line = result.stderr.strip().splitlines()[-1]
+    assert re.fullmatch(r"holecli: no hole found in .*no_hole\.csv \(\d+ candidates? refused: \d+ [a-z_]+"
+                        r"(, \d+ [a-z_]+)*; --explain lists them\)", line), line
+    explained = run("detect", scan, "--explain")
+    checks = [r["check"] for r in json.loads(explained.stdout)["rejected"]]
+    assert f"{len(checks)} candidate" in explained.stderr and "--explain lists" not in explained.stderr
+
+
+def test_detect_a_folder_points_to_batch(run, tmp_path):
+    result = run("detect", tmp_path)
+    assert result.exit_code == cli.EXIT_INPUT
+    assert result.stderr.strip() == f"Error: {tmp_path}: is a directory (to measure every scan in it: holecli batch {tmp_path})"
 
 
 def test_detect_robust_finds_no_hole_on_a_simulated_plain_surface(run, tmp_path):

@@ -480,7 +480,8 @@ def _cut(content, nbytes):
 
 _BAD_FILES = [
     # name, content, problem pattern
-    ("a.obj", "v 1 2 3\n", r"unsupported extension '\.obj' \(expected \.ply, \.pcd, \.csv, \.txt, \.xyz, \.e57, \.las or \.laz\)$"),
+    ("a.obj", "v 1 2 3\n", r"unsupported extension '\.obj' \(expected \.ply, \.pcd, \.csv, \.txt, \.xyz, \.e57, \.las or \.laz; "
+                           r"a text file of x y z rows under another name: give --input-format xyz, or csv\)$"),
     ("noext", "1 2 3\n", r"unsupported extension \(none\)"),
     ("a.ply", b"", r"empty file$"),
     ("a.pcd", b"", r"empty file$"),
@@ -566,7 +567,8 @@ def test_missing_file(tmp_path):
 
 def test_directory(tmp_path):
     (tmp_path / "scan.ply").mkdir()
-    with pytest.raises(LoadError, match="is a directory$"):
+    # the hint points to the command that measures a folder
+    with pytest.raises(LoadError, match=r"is a directory \(to measure every scan in it: holecli batch .*scan\.ply\)$"):
         load_points(tmp_path / "scan.ply")
 
 
