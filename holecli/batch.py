@@ -804,6 +804,11 @@ class OutputBusyError(HoleCliError):
     """The output file is locked by another running batch."""
 
 
+class OutputNotEmptyError(HoleCliError):
+    """The output file holds something (an earlier run's records) and neither ``resume`` nor
+    ``overwrite`` says what to do with it."""
+
+
 class BatchOutput:
     """The ``--output`` of a batch, held for the whole run.
 
@@ -825,6 +830,9 @@ class BatchOutput:
         Its format.
     resume : bool
         Keep what the file holds and tell what it holds (:attr:`earlier`, :attr:`needs_header`).
+    overwrite : bool
+        Empty a file that holds something; without it (or ``resume``) such a file is refused with
+        :class:`OutputNotEmptyError` and left as it is.
 
     Attributes
     ----------
@@ -837,6 +845,8 @@ class BatchOutput:
     ------
     OutputBusyError
         When another batch holds the lock.
+    OutputNotEmptyError
+        When the file holds something and neither ``resume`` nor ``overwrite`` is given.
     ResumeError
         With ``resume``, when the file is not a regular file or not a batch output of that format
         (a line that is not a JSON object with a ``file``; a CSV header other than the batch's).
@@ -844,7 +854,7 @@ class BatchOutput:
         When the file cannot be opened, read or cut.
     """
 
-    def __init__(self, path, fmt, resume=False):
+    def __init__(self, path, fmt, resume=False, overwrite=False):
         from holecli.io.outfile import destination
 
         self.path = path
@@ -881,6 +891,11 @@ class BatchOutput:
                 if len(complete) != len(data):
                     os.ftruncate(descriptor, len(complete))
             else:
+                size = os.fstat(descriptor).st_size
+                if size and not overwrite:
+                    raise OutputNotEmptyError(
+                        f"{path}: holds {size} bytes, an earlier run's records?: give --resume to add to them "
+                        f"or --overwrite to replace them")
                 os.ftruncate(descriptor, 0)
             os.lseek(descriptor, 0, os.SEEK_END)
         except BaseException:

@@ -291,10 +291,23 @@ def test_output_appends_on_resume_or_empties(tmp_path):
         assert [summary.file for summary in output.earlier] == ["old.ply"]
         output.write('{"file": "new.ply"}\n')
     assert path.read_text() == '{"file": "old.ply"}\n{"file": "new.ply"}\n'
-    with batch.BatchOutput(str(path), "jsonl") as output:
+    with batch.BatchOutput(str(path), "jsonl", overwrite=True) as output:
         assert output.earlier == [] and output.needs_header
         output.write("fresh ü\n")
     assert path.read_text(encoding="utf-8") == "fresh ü\n"
+
+
+def test_an_output_that_holds_records_is_neither_replaced_nor_touched_without_resume_or_overwrite(tmp_path):
+    """Issue 25, item 4: yesterday's 30 records were replaced by today's 1."""
+    path = tmp_path / "out.jsonl"
+    path.write_text('{"file": "old.ply"}\n')
+    with pytest.raises(batch.OutputNotEmptyError, match=r"holds 20 bytes.*--resume.*--overwrite"):
+        batch.BatchOutput(str(path), "jsonl")
+    assert path.read_text() == '{"file": "old.ply"}\n'
+    path.write_text("")  # an empty file is written as a new one
+    with batch.BatchOutput(str(path), "jsonl") as output:
+        output.write("new\n")
+    assert path.read_text() == "new\n"
 
 
 def test_resume_of_a_missing_file(tmp_path):

@@ -126,6 +126,9 @@ def batch_exit_code(tally, fail_on_warning=None):
               help="Worker processes [default: the number of cores].")
 @click.option("--resume", is_flag=True,
               help="Keep the records already in --output, skip their files and append the others.")
+@click.option("--overwrite", is_flag=True,
+              help="Replace an --output that is not empty (without it, or --resume, such a file is refused and "
+                   "left as it is).")
 @click.option("--plot", "plot_dir", type=click.Path(path_type=str), default=None, metavar="PLOTDIR",
               help="Also draw each scan's holes into PLOTDIR/<scan stem>.png (created; a stem met again gets -2, -3, "
                    "...), as holecli plot does, with the verdict when tolerances are given; PLOTDIR is never "
@@ -141,7 +144,8 @@ def batch_exit_code(tally, fail_on_warning=None):
 @tolerance_option_decorators
 @fail_on_warning_option
 @verbosity_option_decorators
-def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, plot_dir, explain, file_timeout, scan_index,
+def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, overwrite, plot_dir, explain, file_timeout,
+          scan_index,
           units, output_units,
           method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor,
           fail_on_warning, quiet, verbose, **nominal_options):
@@ -177,6 +181,8 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, pl
     decision = decision_from_options(decision_rule, coverage_factor, nominal is not None or spec_file is not None)
     if resume and (output is None or output == "-"):
         raise click.UsageError("--resume needs --output (the file to go on with)")
+    if resume and overwrite:
+        raise click.UsageError("--resume keeps the output's records and --overwrite replaces them: give one")
     if explain and fmt == "csv":
         raise click.UsageError("--explain needs --format jsonl (CSV has one row per hole)")
     if output == "-":  # stdout, as without --output
@@ -225,9 +231,11 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, pl
         try:
             if output is not None:
                 try:
-                    output_file = batching.BatchOutput(output, fmt, resume=resume)
+                    output_file = batching.BatchOutput(output, fmt, resume=resume, overwrite=overwrite)
                 except (batching.ResumeError, batching.OutputBusyError) as error:
                     raise Failure(str(error), EXIT_INPUT) from None
+                except batching.OutputNotEmptyError as error:
+                    raise Failure(str(error), EXIT_USAGE) from None
                 except OSError as error:
                     action = "resume" if resume else "write output"
                     raise Failure(f"{output}: cannot {action}: {error.strerror or error}", EXIT_INPUT) from None
