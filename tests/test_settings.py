@@ -52,6 +52,8 @@ def test_function_defaults_are_the_settings():
     assert (robust["max_rounds"], robust["refine_sample"], robust["max_faces"]) == (
         s.plane_refine_rounds, s.plane_refine_sample, s.plane_max_faces)
     assert defaults(frame.check_view_angle)["min_sine"] == s.view_min_sine
+    from holecli.robust import edge_loops
+    assert edge_loops.POCKET_MAX_DEPTH_RATIO == s.pocket_max_depth_ratio
     windows = defaults(sampling.estimate_sampling)
     assert (windows["windows"], windows["window_points"]) == (s.sampling_windows, s.sampling_window_points)
     assert defaults(circle.fit_circle_robust)["clip"] == circle.CLIP_SIGMAS == s.clip_sigmas

@@ -60,7 +60,11 @@ LOOP_CHECKS = {
     "loop_boss": "points stand above the surface inside it (the foot of a boss)",
     "loop_wider_below": "a wider loop lies below it on its axis (the island of a ring groove: a hole's walls "
                         "never widen below its edge as the vertices show them)",
+    "loop_pocket": "a loop of its own size lies below it on a floor of its own (no other vertex at that depth: not "
+                   "the part's bottom face), shallower than any drilled hole's: a pocket or spot face",
 }
+#: A floor less than this many diameters deep is a pocket's (RobustSettings.pocket_max_depth_ratio's value).
+POCKET_MAX_DEPTH_RATIO = 0.15
 #: The checks applied, in this order (each has a test that needs it: tests/robust/test_edge_loops.py).
 ACTIVE_CHECKS = tuple(LOOP_CHECKS)
 
@@ -376,6 +380,24 @@ def edge_loops(xy, heights, surface, noise, *, min_diameter=None, resolution=0.0
                      and np.hypot(*(ring.center - center)) <= wide]
             return bool(rings), max((r.diameter for r in rings), default=None), 2.0 * radius
 
+        def pocket():
+            # The first ring below of the edge's own size: a floor when no other vertex lies at its depth
+            # (a through hole's bottom loop lies on the bottom face, with the part's other bottom vertices).
+            # A ring beside it on that floor or below it (a counterbore's bore, a groove's island) is no
+            # pocket's: its floor is whole.
+            axis = [ring for ring in rings_all() if np.hypot(*(ring.center - center)) <= wide]
+            rings = [ring for ring in axis if abs(ring.diameter - 2.0 * radius) <= wide]
+            if not rings:
+                return False, None, POCKET_MAX_DEPTH_RATIO
+            ring = min(rings, key=lambda r: r.depth)
+            same_level = max(10 * tolerance, 1e-3 * radius)
+            if any(other is not ring and other.depth >= ring.depth - same_level for other in axis):
+                return False, None, POCKET_MAX_DEPTH_RATIO
+            level = np.abs(below_depth - ring.depth) <= same_level
+            beyond = np.hypot(*(below_xy[level] - center).T) > radius + reach
+            ratio = ring.depth / (2.0 * radius)
+            return not beyond.any() and ratio < POCKET_MAX_DEPTH_RATIO, ratio, POCKET_MAX_DEPTH_RATIO
+
         # Each check: () -> (failed, value, limit), evaluated in ACTIVE_CHECKS' order (the cheap first).
         failed = {"loop_not_round": lambda: (worst > tolerance, worst, tolerance),
                   "loop_not_isolated": lambda: (count(np.abs(rho_others() - radius) <= reach) > 0,
@@ -386,7 +408,8 @@ def edge_loops(xy, heights, surface, noise, *, min_diameter=None, resolution=0.0
                                                    count(rho_others() < radius - reach), 0),
                   "loop_boss": lambda: ((b := count(np.hypot(*(above - center).T) < radius + tolerance)
                                          if len(above) else 0) > 0, b, 0),
-                  "loop_wider_below": wider}
+                  "loop_wider_below": wider,
+                  "loop_pocket": pocket}
         check = None
         for name in ACTIVE_CHECKS:
             result = failed[name]()

@@ -86,7 +86,7 @@ def test_few_vertices_are_no_circle(monkeypatch):
 def test_a_round_outline_is_no_hole(monkeypatch):
     """A round part's outline (a disc: its top and bottom loops): nothing outside it shows a face
     around it (loop_no_face_outside)."""
-    points = np.concatenate([_ring((0, 0), 20.0, 96, 0.0), _ring((0, 0), 20.0, 96, -3.0)])
+    points = np.concatenate([_ring((0, 0), 20.0, 96, 0.0), _ring((0, 0), 20.0, 96, -10.0)])  # (no pocket's floor)
     found, rejected = _loops(points)
     assert found == [] and [r.check for r in rejected] == ["loop_no_face_outside"]
     _without(monkeypatch, "loop_no_face_outside")
@@ -179,3 +179,27 @@ def test_sensor_sampling_is_not_looked_at():
     assert not E.looks_like_vertices(0.1, 0.26, E.SMALL_SURFACE + 1)
     assert E.looks_like_vertices(0.1, 0.26, E.SMALL_SURFACE)
     assert E.looks_like_vertices(0.4, 6.0, 10 ** 6)
+
+
+def test_a_pocket_is_no_hole_and_a_thin_sheets_hole_is(monkeypatch):
+    """loop_pocket: a loop of the edge's size below it on a floor of its own (no other vertex at that depth)
+    less than 0.15 diameters deep is a pocket's floor; a through hole in a sheet as thin as that has its
+    bottom loop on the bottom face, beside the part's other bottom vertices, and is a hole."""
+    pocket = _plate_with(_ring((0.0, 0.0), 6.0, 48, 0.0), _ring((0.0, 0.0), 6.0, 48, -0.8))
+    found, rejected = _loops(pocket)
+    assert found == [] and [r.check for r in rejected if r.check != "loop_not_round"] == ["loop_pocket"]
+    _without(monkeypatch, "loop_pocket")
+    assert len(_loops(pocket)[0]) == 1
+    monkeypatch.undo()
+    thin = _plate_with(_ring((0.0, 0.0), 6.0, 48, 0.0), _ring((0.0, 0.0), 6.0, 48, -0.8), depth=0.8)
+    (hole,), _ = _loops(thin)
+    assert hole.type == "through"
+
+
+def test_pockets_of_a_panel_as_its_vertices():
+    """The panel simulator's pockets (kind "pocket") given as the mesh's vertices: no hole on them."""
+    panel = build_panel(PanelSpec(50, 40, 5, segments=64, features=(
+        F("pocket", (-12, 6), diameter=12.0, depth=0.6), F("pocket", (-10, -10), diameter=8.0, depth=0.4),
+        F("through", (12, -8), diameter=4.0))))
+    holes = detect(cad_cloud(panel.vertices, panel.triangles, "vertices"), view_dir=DOWN).holes
+    assert [(h.type, round(h.center[0])) for h in holes] == [("through", 12)]
