@@ -390,7 +390,7 @@ def edge_loops(xy, heights, surface, noise, *, min_diameter=None, resolution=0.0
             if not rings:
                 return False, None, POCKET_MAX_DEPTH_RATIO
             ring = min(rings, key=lambda r: r.depth)
-            same_level = max(10 * tolerance, 1e-3 * radius)
+            same_level = 2.0 * tolerance + 1e-3 * radius  # (its own vertices lie within the noise of it)
             if any(other is not ring and other.depth >= ring.depth - same_level for other in axis):
                 return False, None, POCKET_MAX_DEPTH_RATIO
             level = np.abs(below_depth - ring.depth) <= same_level

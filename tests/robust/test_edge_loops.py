@@ -196,10 +196,12 @@ def test_a_pocket_is_no_hole_and_a_thin_sheets_hole_is(monkeypatch):
     assert hole.type == "through"
 
 
-def test_pockets_of_a_panel_as_its_vertices():
-    """The panel simulator's pockets (kind "pocket") given as the mesh's vertices: no hole on them."""
+@pytest.mark.parametrize("noise", [0.0, 0.005])
+def test_pockets_of_a_panel_as_its_vertices(noise):
+    """The panel simulator's pockets (kind "pocket") given as the mesh's vertices: no hole on them (with
+    5 um of noise, the level of the other pocket's floor 0.2 mm away is not this floor's)."""
     panel = build_panel(PanelSpec(50, 40, 5, segments=64, features=(
         F("pocket", (-12, 6), diameter=12.0, depth=0.6), F("pocket", (-10, -10), diameter=8.0, depth=0.4),
         F("through", (12, -8), diameter=4.0))))
-    holes = detect(cad_cloud(panel.vertices, panel.triangles, "vertices"), view_dir=DOWN).holes
+    holes = detect(cad_cloud(panel.vertices, panel.triangles, "vertices", noise=noise, rng=1), view_dir=DOWN).holes
     assert [(h.type, round(h.center[0])) for h in holes] == [("through", 12)]
