@@ -326,6 +326,9 @@ class RobustSettings:
     # A fringe of mixed points at the edge mostly hidden in the surface band (its share off the band
     # this wide, in gaps): where the edge lies in it is not measured (blurred_edge).
     doubt_max_hidden_fringe_gaps: float = 0.01
+    # edge_bore_mismatch: a plain through hole's edge and bore wall disagree by more than this many
+    # combined standard uncertainties (the validation suite's 17 such holes: at most 3.9).
+    doubt_edge_bore_sigmas: float = 6.0
 
     def __post_init__(self):
         for name, low, high in _RANGES:
@@ -394,7 +397,7 @@ _RANGES = (
     ("doubt_surface_sigmas", 0.0, _INF), ("doubt_surface_floor_spacings", 0.0, _INF),
     ("doubt_border_radii", 0.0, _INF), ("doubt_max_bias_spacings", 0.0, _INF),
     ("doubt_max_bias_diameter", 0.0, _INF), ("doubt_max_fit_rms_gaps", 0.0, _INF),
-    ("doubt_max_hidden_fringe_gaps", 0.0, _INF),
+    ("doubt_max_hidden_fringe_gaps", 0.0, _INF), ("doubt_edge_bore_sigmas", 0.0, _INF),
 )
 _COUNTS = {"cell_index_from_candidates",
            "ransac_sample", "ransac_hypotheses", "sampling_windows", "sampling_window_points", "bias_passes",

@@ -160,3 +160,16 @@ def test_notes_are_apart_from_warnings_in_the_schema(panel_record):
     assert not validator.is_valid(dict(panel_record, holes=[warning_as_note]))
     without_notes = {key: value for key, value in hole.items() if key != "notes"}
     assert not validator.is_valid(dict(panel_record, holes=[without_notes]))
+
+
+def test_every_rejection_check_and_estimator_is_in_the_schema():
+    """The schema lists every check that can refuse a candidate (pocket, the edge loops' ...) and every
+    estimator of an edge (edge_loops): a record holecli writes is always valid."""
+    from holecli.robust.method import REJECTION_REASONS
+    from holecli.robust.uncertainty import METHOD_TERMS
+
+    defs = record_schema()["$defs"]
+    assert set(defs["rejection"]["properties"]["check"]["enum"]) == set(REJECTION_REASONS)
+    text = json.dumps(record_schema())
+    for estimator in [*METHOD_TERMS, "edge_loops"]:
+        assert f'"{estimator}"' in text, estimator

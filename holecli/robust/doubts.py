@@ -13,6 +13,7 @@ contradict the hole's type; the reasons a value is null are notes, not warnings
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Optional
 
@@ -37,6 +38,9 @@ DOUBT_CODES = {
     "view_dir_contradicted": "the points seen through the surface lie on the sensor's side that --view-dir gives "
                              "(--view-dir is the direction the sensor looks, from the sensor toward the part: "
                              "is its sign reversed?)",
+    "edge_bore_mismatch": "the edge's diameter and the bore wall's disagree far beyond their uncertainties: an edge "
+                          "break (chamfer, burr) the scan does not resolve, or an edge its sampling does not "
+                          "show; the diameter may be off by that difference",
 }
 
 
@@ -159,3 +163,33 @@ def doubt_warnings(doubts, settings=DEFAULT_SETTINGS):
     if d.facing_conflict:
         out.append(_warning("view_dir_contradicted", "the heights are read toward the sensor --view-dir gives"))
     return tuple(out)
+
+
+def edge_bore_warning(edge_diameter, u_edge, bore_diameter, u_bore, settings=DEFAULT_SETTINGS):
+    """The ``edge_bore_mismatch`` warning of a plain through hole, or None.
+
+    A through hole's edge is where its bore wall meets the surface: the two diameters agree unless the
+    edge is broken (a chamfer or a burr too small for a countersink's cone) or the surface's sampling
+    stops short of it. They disagree when they differ by more than ``doubt_edge_bore_sigmas`` times
+    their combined standard uncertainty.
+
+    Parameters
+    ----------
+    edge_diameter, u_edge : float
+        The hole's diameter and its standard uncertainty.
+    bore_diameter, u_bore : float
+        The bore wall's cylinder diameter and its standard uncertainty.
+    settings : holecli.settings.RobustSettings
+
+    Returns
+    -------
+    HoleWarning or None
+    """
+    combined = math.hypot(float(u_edge), float(u_bore))
+    difference = float(edge_diameter) - float(bore_diameter)
+    limit = settings.doubt_edge_bore_sigmas * combined
+    if not abs(difference) > limit:
+        return None
+    return _warning("edge_bore_mismatch", f"edge {edge_diameter:.6g}, bore {bore_diameter:.6g}: {difference:+.4g}, "
+                                          f"{abs(difference) / combined:.0f} times their combined u {combined:.3g} "
+                                          f"> {settings.doubt_edge_bore_sigmas:g}")

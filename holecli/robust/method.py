@@ -35,7 +35,7 @@ from holecli.robust.boundary import hole_rim, near_box_edge
 from holecli.robust.candidates import distance_to_outside, find_voids, occupancy_grid, scanned_hull
 from holecli.robust.countersink import MIN_SLOPE as MIN_CONE_SLOPE
 from holecli.robust.countersink import Cone, fit_cone_edge, points_on_hinge
-from holecli.robust.doubts import Doubts, doubt_warnings
+from holecli.robust.doubts import Doubts, doubt_warnings, edge_bore_warning
 from holecli.robust.edge import fit_edge
 from holecli.robust.edge_loops import (LOOP_CHECKS, coordinate_step, edge_loops, faces_empty, looks_like_vertices,
                                        top_face)
@@ -1252,6 +1252,12 @@ def _with_shape(scene, hole, measured, gauge_depth, settings):
                                noise=scene.height_noise, spacing=scene.sampling.spacing,
                                cone_slope=measured.cone_slope, gauge_depth=gauge_depth, settings=settings)
     doubts = doubt_warnings(_doubts(scene, hole, measured), settings)
+    if shape.type == "through" and shape.bore is not None and shape.bore.diameter is not None \
+            and hole.uncertainty is not None and shape.uncertainty is not None:
+        bore_u = dict(shape.uncertainty)["bore"]
+        mismatch = edge_bore_warning(hole.diameter, hole.uncertainty.diameter, shape.bore.diameter,
+                                     0.0 if bore_u is None or bore_u.diameter is None else bore_u.diameter, settings)
+        doubts = doubts + ((mismatch,) if mismatch is not None else ())
     return Hole(**{**hole.__dict__, "type": shape.type, "countersink": shape.countersink,
                    "counterbore": shape.counterbore, "bore": shape.bore, "axis": shape.axis,
                    "perpendicularity_deg": shape.perpendicularity_deg, "warnings": shape.warnings + doubts,

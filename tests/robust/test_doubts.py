@@ -140,3 +140,24 @@ def test_no_bias_check_on_a_countersink_and_no_surface_check_without_a_ring():
 def test_settings_are_validated(name):
     with pytest.raises(ValueError, match=name):
         RobustSettings(**{name: -1})
+
+
+def test_edge_bore_warning_compares_in_combined_uncertainties():
+    from holecli.robust.doubts import edge_bore_warning
+
+    assert edge_bore_warning(5.010, 0.002, 5.000, 0.001) is None  # 4.5 combined u
+    warning = edge_bore_warning(5.020, 0.002, 5.000, 0.001)  # 8.9 combined u
+    assert warning.code == "edge_bore_mismatch" and "+0.02" in warning.message
+
+
+def test_hirai_bore_whose_edge_the_top_face_does_not_show_is_doubtful():
+    """edge_bore_mismatch: HiraiKyo's hole.ply (MIT, tests/data/cad: a block's 35 mm bore, its top face a
+    0.87 mm lattice whose points stop 0.04-0.6 mm short of the edge, its wall sampled) read 36.053 +- 0.057
+    with no warning; its bore wall says 35.2."""
+    from pathlib import Path
+
+    from holecli.io import load_points
+
+    points = load_points(Path(__file__).resolve().parents[1] / "data" / "cad" / "hirai_hole.ply")
+    (hole,) = detect(getattr(points, "points", points)).holes
+    assert "edge_bore_mismatch" in [w.code for w in hole.warnings]
