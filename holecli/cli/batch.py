@@ -117,8 +117,9 @@ def batch_exit_code(tally, fail_on_warning=None):
                    "a / is matched against the path below the folder), e.g. 'part7_*'.")
 @input_format_option("Read every file in this format, whatever its extension; a folder then contributes "
                      "every file (that --pattern matches), e.g. --input-format xyz --pattern '*.asc'.")
-@click.option("--format", "fmt", type=click.Choice(["jsonl", "csv"]), default="jsonl", show_default=True,
-              help="JSON Lines (one detect record per file) or CSV (one row per hole).")
+@click.option("--format", "fmt", type=click.Choice(["jsonl", "json", "csv"]), default="jsonl", show_default=True,
+              help="JSON Lines (one detect record per file, each on one line; json is taken for it, the word "
+                   "detect uses) or CSV (one row per hole).")
 @click.option("--output", "-o", type=click.Path(dir_okay=False, allow_dash=True, path_type=str), default=None,
               help="Write the records to this file (each as soon as its file is measured; - is stdout) instead "
                    "of stdout.")
@@ -179,6 +180,8 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ov
     # the tolerance options (--nominal-diameter, ..., --max-perpendicularity) by their parameter names
     nominal = nominal_from_options(spec_file, **nominal_options)
     decision = decision_from_options(decision_rule, coverage_factor, nominal is not None or spec_file is not None)
+    if fmt == "json":  # detect's word: a batch's records are JSON, one per line
+        fmt = "jsonl"
     if resume and (output is None or output == "-"):
         raise click.UsageError("--resume needs --output (the file to go on with)")
     if resume and overwrite:

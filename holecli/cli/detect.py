@@ -137,19 +137,21 @@ def render(records, fmt):
     ----------
     records : list of dict
         ``detect`` records (:meth:`holecli.Detection.to_dict`, with verdicts when checked).
-    fmt : {"json", "csv", "table"}
+    fmt : {"json", "jsonl", "csv", "table"}
         ``--format``.
 
     Returns
     -------
     str
-        Whole lines: one JSON object per record, CSV with a header, or the tables of
-        :func:`render_table`.
+        Whole lines: one JSON object per record (indented; on one line for ``jsonl``), CSV with a
+        header, or the tables of :func:`render_table`.
     """
     from holecli import report
 
     if fmt == "json":
         return "".join(report.to_json(record) for record in records)
+    if fmt == "jsonl":
+        return "".join(report.to_json_line(record) for record in records)
     if fmt == "csv":
         buffer = _stringio.StringIO()
         report.write_csv(records, buffer)
@@ -488,8 +490,9 @@ def write_outputs(outputs):
 @click.command(epilog=EXIT_CODES_HELP)
 @click.argument("scan", type=click.Path(allow_dash=True, path_type=str))
 @input_format_option("Read SCAN in this format, whatever its extension (scan.asc as xyz); needed for - (stdin).")
-@click.option("--format", "fmt", type=click.Choice(["json", "csv", "table"]), default="json", show_default=True,
-              help="Output format: JSON record, CSV (one row per hole) or a table for people.")
+@click.option("--format", "fmt", type=click.Choice(["json", "jsonl", "csv", "table"]), default="json", show_default=True,
+              help="Output format: JSON record (indented), JSON Lines (the record on one compact line, as batch "
+                   "writes it: for appending to a log), CSV (one row per hole) or a table for people.")
 @click.option("--output", "-o", type=click.Path(dir_okay=False, allow_dash=True, path_type=str),
               help="Write the result to this file (a regular file atomically; - is stdout) instead of stdout; "
                    "with --plot, both are written or neither. Never SCAN, --spec or the --plot file.")

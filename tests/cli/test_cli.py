@@ -241,6 +241,19 @@ def test_no_hole_found_says_why(run):
     assert f"{len(checks)} candidate" in explained.stderr and "--explain lists" not in explained.stderr
 
 
+def test_detect_jsonl_is_the_record_on_one_line_and_batch_takes_json(run):
+    """Issue 25, item 9: detect --format jsonl writes batch's line (appending to a log keeps one record
+    a line), and batch --format json is its JSON Lines (the two commands share their format words)."""
+    scan = os.path.join(SAMPLES, "table1.ply")
+    line = run("detect", scan, "--format", "jsonl")
+    assert line.exit_code == 0 and line.stdout.count("\n") == 1
+    record, indented = json.loads(line.stdout), json.loads(run("detect", scan).stdout)
+    assert record.keys() == indented.keys() and record["holes"] == indented["holes"]  # (timing differs)
+    batch = run("batch", scan, "--format", "json", "-q")
+    assert batch.exit_code == 0 and batch.stdout.count("\n") == 1
+    assert json.loads(batch.stdout)["holes"] == json.loads(line.stdout)["holes"]
+
+
 def test_detect_a_folder_points_to_batch(run, tmp_path):
     result = run("detect", tmp_path)
     assert result.exit_code == cli.EXIT_INPUT
