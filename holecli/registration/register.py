@@ -10,7 +10,8 @@ Steps
    stem, or ``--name SCAN=HOLE``) pair with the spec hole of that name. Without names, three or more
    holes pair by their mutual distances (:func:`holecli.registration.match_holes`, frame-free). With
    some named and some not, the named holes are fitted first and, when they fix every degree of
-   freedom, the others pair by nearness after that fit. One or two unnamed holes cannot be matched.
+   freedom, the others pair by nearness after that fit. One or two unnamed holes cannot be matched,
+   but for one measured hole against a spec of one hole (``"only"``).
 2. Normals. A measured normal has no sign of its own (holecli orients it to z > 0, see
    :mod:`holecli.results`) and a spec's normal may have either sign (hole by hole: not every one
    reversed, see the notes below). With three or more matched holes not on one line, a centers-only
@@ -144,7 +145,8 @@ class Registration:
     holes : tuple of RegisteredHole
         Every matched hole, in the order of ``measured_holes``.
     match_method : str
-        ``"names"``, ``"distances"`` or ``"names+nearest"``.
+        ``"names"``, ``"distances"``, ``"names+nearest"`` or ``"only"`` (one unnamed measured hole and a
+        spec of one hole).
     ambiguous : bool
         The distance match found other pairings that fit as well (a symmetric layout): name the holes.
     unmatched_measured : tuple of int
@@ -408,6 +410,9 @@ def _match(nominal_names, nominal_centers, nominal_normals, measured_centers, me
         found = match_holes(nominal_names, nominal_centers, measured_centers, measured_names=measured_names)
         return found.pairs, "names", False
     if not named:
+        if count == 1 and len(nominal_names) == 1:
+            # One measured hole, one spec hole: nothing to choose between.
+            return [(0, 0)], "only", False
         if count < 3 or len(nominal_names) < 3:
             raise RegistrationError(
                 f"{count} unnamed measured hole{'s' if count != 1 else ''} cannot be matched by their mutual "

@@ -113,6 +113,16 @@ def test_one_hole_leaves_the_rotation_about_its_normal_free():
     assert any(code == "free_dofs" for code, _ in result.warnings)
 
 
+def test_one_unnamed_hole_against_a_spec_of_one_is_that_hole():
+    """Issue 25, item 6: "1 unnamed measured hole cannot be matched by their mutual distances", although
+    the match is obvious; more unnamed holes than that still need names or three holes."""
+    result = register(_measured(1), _nominals(1))
+    assert result.match_method == "only" and result.free_dofs == ("rotation about the normal",)
+    assert np.allclose(result.transform.apply_points(CENTERS[0]), TRUTH.apply_points(CENTERS[0]))
+    with pytest.raises(RegistrationError, match="cannot be matched"):
+        register(_measured(1), _nominals(2))
+
+
 def test_corrected_targets_match_the_truth():
     result = register(_measured(), _nominals(), measured_names=NAMES)
     points = np.array([[10.0, 20.0, 0.0], [100.0, 5.0, 2.0]])
