@@ -681,6 +681,30 @@ def check(record, spec) -> dict:
     return out
 
 
+def far_from_spec(record, spec):
+    """``(distance, name)``: how far the nearest measured hole lies from the nearest spec hole, when holes
+    were measured, every spec hole has a center and none of them was matched (all beyond their match
+    radii: a scan in another frame or unit than the spec); else None.
+
+    Parameters
+    ----------
+    record : dict
+        A detect record, checked against ``spec`` (:func:`check`).
+    spec : Spec
+
+    Returns
+    -------
+    (float, str) or None
+    """
+    holes, verdict = record.get("holes") or [], record.get("verdict") or {}
+    nominals = spec.holes
+    if not holes or not nominals or verdict.get("checked") or any(n.center is None for n in nominals):
+        return None
+    distance, name = min((math.dist(hole["center"], nominal.center), nominal.name)
+                         for hole in holes for nominal in nominals)
+    return distance, name
+
+
 def _match(holes, nominals) -> dict:
     """{measured index: nominal}: one-to-one by increasing distance for nominals with a center; a
     nominal without a center takes every hole."""

@@ -560,6 +560,7 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
     decision = decision_from_options(decision_rule, coverage_factor, nominal is not None or spec_file is not None)
 
     refused = []  # the checks that refused candidates, for "no hole found"
+    far = []  # (distance, name) when no measured hole lies near any spec hole
 
     def body():
         from holecli.cli.progress import DetectStatus
@@ -588,7 +589,10 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
         # in the output unit before the check: tolerances are in it too
         record = choice.express(detection.to_dict(explain=explain), detection.units)
         if spec is not None:
+            from holecli.tolerance import far_from_spec
+
             record = check(record, spec)
+            far.append(far_from_spec(record, spec))
         outputs = [(output, render([record], fmt), "output")]
         if plot_file is not None:
             from holecli.cli.plot import PLOT_WHAT, plot_png
@@ -620,8 +624,14 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
                            for hole in record["holes"])
         unmeasured = f" ({not_measured} with a check not measured)" if not_measured else ""
         undecided = f", {verdict['undecided']} undecided" if verdict["undecided"] else ""
+        hint = ""
+        if far and far[0] is not None:
+            distance, name = far[0]
+            hint = (f" (no measured hole lies near a spec hole: the nearest is {distance:.4g} from {name}; are the "
+                    f"scan and the spec in the same frame and unit? holecli register gives the frame, --units "
+                    f"the unit)")
         click.echo(f"holecli: out of tolerance: {verdict['out_of_tolerance']} of {verdict['checked']} checked "
-                   f"holes{unmeasured}{undecided}{missing} in {record['file']}", err=True)
+                   f"holes{unmeasured}{undecided}{missing} in {record['file']}{hint}", err=True)
         sys.exit(EXIT_OUT_OF_TOLERANCE)
     if verdict is not None and verdict["undecided"]:
         if not quiet:

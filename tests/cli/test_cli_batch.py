@@ -4,6 +4,7 @@ interruption and resume of a real process."""
 import csv
 import io
 import json
+import re
 import math
 import os
 import shutil
@@ -401,6 +402,25 @@ def test_detect_spec_matching_missing_and_extra(run, tmp_path):
     result = run("batch", path, "--spec", spec, "--format", "csv")
     rows = list(csv.DictReader(io.StringIO(result.stdout)))
     assert sorted(row["name"] for row in rows) == ["", "L"]
+
+
+def test_a_spec_far_from_every_measured_hole_says_how_far(run, tmp_path):
+    """Issue 25: a scan in the robot's frame against the part's spec reported every hole missing with no
+    hint; the line now gives the nearest distance and names the likely cause. Not when one is matched."""
+    scan = _scan(4, holes=((-2.0, 0.0, 1.5), (2.0, 0.0, 1.5)), extent=(-4, 4, -2.5, 2.5))
+    path = tmp_path / "two.ply"
+    save_points(path, scan.points)
+    left, _ = scan.truth["holes"]
+    spec = tmp_path / "part.toml"
+    spec.write_text(_spec_text([("A", [c + 500.0 for c in left["center"]], 1.5, ""),
+                                ("B", [c + 700.0 for c in left["center"]], 1.5, "")]))
+    result, _ = _detect(run, path, "--spec", spec)
+    assert result.exit_code == cli.EXIT_OUT_OF_TOLERANCE
+    assert "missing: A, B" in result.stderr and re.search(r"the nearest is 86\d(\.\d)? from A", result.stderr)
+    assert "same frame and unit" in result.stderr
+    spec.write_text(_spec_text([("L", left["center"], 1.5, ""), ("B", [c + 700.0 for c in left["center"]], 1.5, "")]))
+    result, _ = _detect(run, path, "--spec", spec)
+    assert "missing: B" in result.stderr and "nearest" not in result.stderr
 
 
 def test_batch_spec_missing_holes_are_csv_rows(run, tmp_path, good_scans):
