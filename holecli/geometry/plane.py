@@ -263,6 +263,14 @@ HIDDEN_SPACINGS = 2.0
 HIDDEN_BAND_SHARE = 0.5
 
 
+def _turned(faces, view):
+    """The unit ``view`` and the faces turned toward a sensor looking along it (normal within
+    ``SEEN_FACE_MAX_DEG`` of the view's line)."""
+    view = np.asarray(view, dtype=np.float64) / np.linalg.norm(view)
+    cos_limit = math.cos(math.radians(SEEN_FACE_MAX_DEG))
+    return view, [face for face in faces if abs(float(face[1] @ view)) >= cos_limit]
+
+
 def _hidden(face, nearer, view):
     """Whether ``face``'s member points lie mostly under ``nearer``'s along ``view`` (nearer the sensor)."""
     from scipy.spatial import cKDTree
@@ -283,8 +291,7 @@ def _hidden(face, nearer, view):
 def _hidden_faces(faces, chosen, view, clip, origin):
     """(normal, offset, half_width) of the faces turned toward the sensor hidden behind ``chosen``
     (:func:`_hidden`), the offsets from the coordinates' own origin."""
-    view = np.asarray(view, dtype=np.float64) / np.linalg.norm(view)
-    cos_limit = math.cos(math.radians(SEEN_FACE_MAX_DEG))
+    view, turned = _turned(faces, view)
 
     def thin(face):
         # A face, not the leftovers of the sample (walls and cones, whose quantile makes a band of
@@ -292,9 +299,9 @@ def _hidden_faces(faces, chosen, view, clip, origin):
         behind = np.median((face[5] - np.mean(chosen[5], axis=0)) @ view) if len(face[5]) else 0.0
         return clip * face[3] < HIDDEN_BAND_SHARE * behind
 
-    return tuple((face[1], face[2] + float(face[1] @ origin), clip * face[3]) for face in faces
+    return tuple((face[1], face[2] + float(face[1] @ origin), clip * face[3]) for face in turned
                  if face is not chosen and len(face) > 5 and len(chosen) > 5
-                 and abs(float(face[1] @ view)) >= cos_limit and _hidden(face, chosen, view) and thin(face))
+                 and _hidden(face, chosen, view) and thin(face))
 
 
 def hidden_points(points, plane, view):
@@ -320,9 +327,7 @@ def _seen_face(faces, view):
     the points is no guide when the top has large holes), of those holding at least ``SEEN_FACE_SHARE``
     of the largest one's points, the one nearest the sensor (where the view's line through the origin
     meets it first). No face turned toward it: the largest face."""
-    view = np.asarray(view, dtype=np.float64) / np.linalg.norm(view)
-    cos_limit = math.cos(math.radians(SEEN_FACE_MAX_DEG))
-    turned = [face for face in faces if abs(float(face[1] @ view)) >= cos_limit]
+    view, turned = _turned(faces, view)
     if not turned:
         return max(faces, key=lambda face: face[0])
     if all(len(face) > 5 for face in turned):

@@ -989,11 +989,12 @@ def _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock):
     local = (points - origin) @ np.ascontiguousarray(rotation.T)
     heights = np.ascontiguousarray(local[:, 2])
     surface = plane.inliers
+    band = float(np.max(np.abs(heights[surface])))  # (a slide moves xy only)
     direction = normal
     if view_dir is not None:
         view = rotation @ (np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir))
         check_view_angle(view, min_sine=settings.view_min_sine)
-        if _nothing_behind(heights, surface, view):
+        if _nothing_behind(heights, surface, band, view):
             # The surface's points slide along the view onto the plane: a triangulation sensor's range
             # noise lies along its ray, and slid back along it a point lands where the ray met the
             # surface (the paper's Table I protocol: the center's error a tenth of the orthogonal
@@ -1006,7 +1007,6 @@ def _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock):
     # Column-major: the box tests below read x and y as contiguous columns.
     xy = np.asfortranarray(local[:, :2])
     del local
-    band = float(np.max(np.abs(heights[surface])))
     clock.start("sampling")
     surface_xy = np.asfortranarray(xy[surface])  # (one copy for the sampling and the grid)
     sampling = estimate_sampling(surface_xy, windows=settings.sampling_windows,
@@ -1019,9 +1019,10 @@ def _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock):
                   min_radius=min_radius, surface_xy=surface_xy, grid=grid)
 
 
-def _nothing_behind(heights, surface, view):
-    """Whether no more than ``facing.MIN_POINTS`` points stand behind the surface band as the sensor
-    sees it: then the band holds the surface alone and its points may slide along the view.
+def _nothing_behind(heights, surface, band, view):
+    """Whether no more than ``facing.MIN_POINTS`` points stand behind the surface band (``band``, the
+    largest surface height) as the sensor sees it: then the band holds the surface alone and its points
+    may slide along the view.
 
     Where the sensor sees behind the surface (a bore's far wall on a tilted scan, a floor, a cone),
     the band also holds the top of what it sees there: slid, the far wall's top lands where its rays
@@ -1030,7 +1031,6 @@ def _nothing_behind(heights, surface, view):
     orthogonally, and the validation suite's centers were covered in 87 % of cases against 100 %:
     tests/robust/test_robust_view_dir.py). Every point is then projected orthogonally.
     """
-    band = float(np.max(np.abs(heights[surface]))) if surface.any() else 0.0
     behind = np.count_nonzero(~surface & (heights * np.sign(view[2]) > band))
     return behind <= SEEN_MIN_POINTS
 
