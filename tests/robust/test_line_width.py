@@ -40,15 +40,20 @@ def _scene(seed, countersunk):
         feature = FeatureSpec(kind="through", center=(0.0, 0.0), diameter=diameter)
     size = 6.0 * diameter
     panel = build_panel(PanelSpec(width=size, height=size, thickness=thickness, features=(feature,), chord_error=1e-4))
-    reach = 3.0 * diameter
+    points, truth = _wide_line_scan(panel, 3.0 * diameter, tilt, pitch, line_pitch, noise, width, rng, seed)
+    return points, truth, dict(width=width, pitch=pitch, noise=noise)
+
+
+def _wide_line_scan(panel, reach, tilt, pitch, line_pitch, noise, width, rng, seed):
+    """The finite points and the hole's truth of a profiler scan of ``panel`` with a laser line ``width``
+    wide (fan or parallel rays drawn from ``rng``, camera occlusion at 25 degrees, float32)."""
     spec = ProfilerSpec(target=(0.0, 0.0, 0.0), standoff=100.0, view=(0.0, math.sin(tilt), -math.cos(tilt)),
                         line=(1.0, 0.0, 0.0), line_length=reach, scan_length=reach, point_pitch=pitch,
                         line_pitch=line_pitch, fan=bool(rng.integers(2)), triangulation_deg=25.0,
                         max_incidence_deg=80.0, range_noise=noise, float32=True, line_width=width)
     scanned = scan_part(panel.vertices, panel.triangles, panel_truth(panel)["features"], spec, rng=seed)
     points = scanned.scan.points
-    truth = next(h for h in scanned.truth["holes"] if h["inside_scan"])
-    return points[np.isfinite(points).all(axis=1)], truth, dict(width=width, pitch=pitch, noise=noise)
+    return points[np.isfinite(points).all(axis=1)], next(h for h in scanned.truth["holes"] if h["inside_scan"])
 
 
 def _measure(seed, countersunk):
@@ -117,14 +122,7 @@ def _plain_scene(seed, widths, noises):
     feature = FeatureSpec(kind="through", center=(0.0, 0.0), diameter=diameter)
     panel = build_panel(PanelSpec(width=6.0 * diameter, height=6.0 * diameter, thickness=3.0, features=(feature,),
                                   chord_error=1e-4))
-    reach = 2.5 * diameter
-    spec = ProfilerSpec(target=(0.0, 0.0, 0.0), standoff=100.0, view=(0.0, math.sin(tilt), -math.cos(tilt)),
-                        line=(1.0, 0.0, 0.0), line_length=reach, scan_length=reach, point_pitch=pitch,
-                        line_pitch=line_pitch, fan=bool(rng.integers(2)), triangulation_deg=25.0,
-                        max_incidence_deg=80.0, range_noise=noise, float32=True, line_width=width)
-    scanned = scan_part(panel.vertices, panel.triangles, panel_truth(panel)["features"], spec, rng=seed)
-    points = scanned.scan.points
-    return points[np.isfinite(points).all(axis=1)], next(h for h in scanned.truth["holes"] if h["inside_scan"])
+    return _wide_line_scan(panel, 2.5 * diameter, tilt, pitch, line_pitch, noise, width, rng, seed)
 
 
 @functools.lru_cache(maxsize=None)
