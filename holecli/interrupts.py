@@ -6,6 +6,11 @@ and ends the process with exit code 130 at once (no traceback, whatever is being
 body runs (:func:`raising`), a signal raises :class:`KeyboardInterrupt` instead, so that the body
 can clean up (an atomic write removes its temporary file) before the command exits with 130.
 
+A KeyboardInterrupt raised where Python cannot pass it on (a weak reference's callback, such as the
+one importlib's module locks use, or a ``__del__``) is "ignored" by the interpreter. The signal is
+still recorded: :func:`check`, called before anything is committed (an atomic rename) and when a body
+returns, raises it again, and the interpreter's "Exception ignored" report of it is not printed.
+
 Only the standard library is imported here.
 """
 
@@ -13,9 +18,10 @@ from __future__ import annotations
 
 import os
 import signal
+import sys
 from contextlib import contextmanager
 
-__all__ = ["EXIT_INTERRUPTED", "install", "installed", "raising", "received", "record"]
+__all__ = ["EXIT_INTERRUPTED", "check", "install", "installed", "raising", "received", "record"]
 
 EXIT_INTERRUPTED = 130
 SIGNALS = ("SIGINT", "SIGTERM")
@@ -50,7 +56,40 @@ def install():
     global _installed
     for name in SIGNALS:
         signal.signal(getattr(signal, name), _handle)
+    if not _installed:
+        sys.unraisablehook = _quiet_about_our_interrupt(sys.unraisablehook)
     _installed = True
+
+
+def _quiet_about_our_interrupt(hook):
+    """``hook``, except for the KeyboardInterrupt of a received signal that the interpreter could not
+    raise (it is raised again by :func:`check`)."""
+
+    def unraisable(report):
+        if isinstance(report.exc_value, KeyboardInterrupt) and _raise and _received is not None:
+            return
+        hook(report)
+
+    return unraisable
+
+
+def check():
+    """Raise :class:`KeyboardInterrupt` when a signal came in the current :func:`raising` block.
+
+    The handler raised it already; this raises it again where the first one was swallowed (see the
+    module's docstring). Call it before committing anything.
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    KeyboardInterrupt
+        When :func:`received` is not None inside a :func:`raising` block.
+    """
+    if _raise and _received is not None:
+        raise KeyboardInterrupt
 
 
 def record(number):

@@ -126,3 +126,44 @@ def test_without_a_signal_a_bug_is_still_a_bug():
 
     with pytest.raises(ImportError, match="a real one"):
         cli.run_guarded(body)
+
+
+@pytest.mark.parametrize("writes", [True, False], ids=["before_a_write", "before_returning"])
+def test_an_interrupt_the_interpreter_swallowed_still_stops_the_command(monkeypatch, capsys, tmp_path, writes):
+    # A signal handled inside a weak reference's callback (importlib's module locks use them): the
+    # interpreter reports its KeyboardInterrupt as "Exception ignored" and goes on. Seen under load:
+    # detect then wrote its result and exited 0 after a SIGTERM, with that report on stderr.
+    import sys
+    import weakref
+
+    from holecli import cli
+    from holecli.io.outfile import write_text_atomic
+
+    previous = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    monkeypatch.setattr(sys, "unraisablehook", sys.__unraisablehook__)  # the interpreter's report, to stderr
+    monkeypatch.setattr(interrupts, "_installed", False)
+    interrupts.install()
+    monkeypatch.setattr(interrupts, "_installed", False)  # so that run_guarded exits, not os._exit
+    output = tmp_path / "result.json"
+
+    class Thing:
+        pass
+
+    def body():
+        thing = Thing()
+        reference = weakref.ref(thing, lambda _: interrupts._handle(signal.SIGTERM, None))
+        del thing  # the callback raises KeyboardInterrupt, which the interpreter swallows
+        assert reference() is None
+        if writes:
+            write_text_atomic(output, "{}\n")
+        return 0
+
+    try:
+        with pytest.raises(SystemExit) as exit_info:
+            cli.run_guarded(body)
+    finally:
+        signal.signal(signal.SIGINT, previous[0])
+        signal.signal(signal.SIGTERM, previous[1])
+    assert exit_info.value.code == interrupts.EXIT_INTERRUPTED
+    assert capsys.readouterr().err == "Error: interrupted\n"
+    assert os.listdir(tmp_path) == []

@@ -133,7 +133,9 @@ def run_guarded(function, *args, **kwargs):
 
     try:
         with interrupts.raising():
-            return function(*args, **kwargs)
+            result = function(*args, **kwargs)
+            interrupts.check()  # a signal whose KeyboardInterrupt was swallowed on the way
+            return result
     except Failure as failure:
         if interrupts.received() is None:
             fail(str(failure), failure.code)

@@ -38,6 +38,8 @@ import stat
 import sys
 import time
 
+from holecli import interrupts
+
 __all__ = ["STDOUT", "Outputs", "destination", "open_stream", "remove_stale", "write_bytes", "write_bytes_atomic", "write_text", "write_text_atomic"]
 
 # The path that means standard output.
@@ -182,6 +184,7 @@ class Outputs:
             whose reader went away) stays one.
         """
         try:
+            interrupts.check()  # a signal whose KeyboardInterrupt was swallowed: commit nothing
             for path, descriptor, payload in self._streams:
                 if descriptor is None:
                     self._write_stdout(payload)  # its errors as they are: stdout has no path
@@ -290,6 +293,7 @@ def write_bytes_atomic(path, payload):
     path = os.fspath(path)
     temporary = _stage(path, payload)
     try:
+        interrupts.check()  # a signal whose KeyboardInterrupt was swallowed: replace nothing
         os.replace(temporary, path)
     except BaseException:
         _unlink_quietly(temporary)
