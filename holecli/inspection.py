@@ -102,9 +102,9 @@ class Inspection:
         if name is not None and len(holes) == 1:  # a stem names a one-hole scan only
             tied = {0: name}
         checked = tolerance.check(record, spec, tied)
-        if isinstance(checked.get("options"), dict) and isinstance(checked["options"].get("tolerances"), dict):
-            checked["options"]["tolerances"]["tied"] = (
-                None if tied is None else {"hole": name, "by": how})
+        options = checked.get("options")
+        if tied is not None and isinstance(options, dict) and isinstance(options.get("tolerances"), dict):
+            options["tolerances"]["tied"] = {"hole": name, "by": how}
         return checked
 
 
