@@ -244,8 +244,9 @@ def measure_record(path, options, spec=None, explain=False, scan=None, units=Non
     options : dict
         Keyword arguments of :func:`holecli.detect_file`: those of :func:`holecli.detect`, and
         ``input_format``.
-    spec : holecli.tolerance.Spec, optional
-        Tolerances to check the holes against.
+    spec : holecli.tolerance.Spec or holecli.inspection.Inspection, optional
+        Tolerances to check the holes against (an Inspection: mapped by a registration, holes tied
+        by name; see :func:`holecli.inspection.check_record`).
     explain : bool
         Also give the record ``rejected``, the candidates that are not holes (``detect --explain``).
     scan : int, optional
@@ -269,7 +270,6 @@ def measure_record(path, options, spec=None, explain=False, scan=None, units=Non
         "error": message}``. An unexpected exception (a bug) becomes such an
         error record too, so that one file cannot stop a batch.
     """
-    from holecli import tolerance
     from holecli.pipeline import detect_file
     from holecli.units import UnitChoice
 
@@ -298,7 +298,12 @@ def measure_record(path, options, spec=None, explain=False, scan=None, units=Non
         return error_record(path, f"{path}: {error}", resolved)
     record["path"] = resolved
     if spec is not None:
-        record = tolerance.check(record, spec)
+        from holecli.inspection import check_record
+
+        try:
+            record = check_record(record, spec, path)
+        except HoleCliError as error:  # a scan tied to a hole (--name) that holds several
+            return error_record(path, str(error), resolved)
     if plot_file is not None:
         problem = _draw(plot_file, detection, cloud.points, record, spec is not None, units)
         if problem is not None:

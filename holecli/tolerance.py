@@ -125,6 +125,10 @@ _KEY_NAMES = {key: key for key in _SPEC_KEYS}
 _TOLERANCE_KEYS = ("tolerance", "position_tolerance", "max_tilt",
                    *(f"{feature.name}_tolerance" for feature in _FEATURE_CHECKS), "max_perpendicularity")
 
+# The note of a hole tied to a spec hole (check's ``tied``) that lies beyond its match radius in a spec
+# no registration mapped: the scan is in another frame, so its position and tilt are not checked.
+NOT_IN_SPEC_FRAME = "not_in_spec_frame"
+
 # The decision rules of ISO 14253-1 that check() applies, and the default coverage factor (k = 2: about
 # 95 % coverage for a normal distribution, the usual choice of a calibration certificate).
 DECISION_RULES = ("simple", "guarded")
@@ -185,6 +189,15 @@ class NominalHole:
         Largest allowed angle between the hole's axis and its surface normal, degrees.
     match_radius : float
         A measured hole farther than this from ``center`` is not matched to this nominal.
+    center_covariance : (3, 3) tuple of tuples of float, optional
+        The covariance of ``center`` itself, file units squared: a nominal mapped into the measuring
+        frame by a registration (:func:`holecli.registration.apply.map_spec`) is only as well known as
+        the registration. Its part in the hole's plane enters the position check's uncertainty (in
+        quadrature with the measured center's); ``inf`` or NaN entries make that uncertainty unknown.
+        None: the nominal center is exact (a drawing's).
+    normal_uncertainty_deg : float, optional
+        The standard uncertainty of ``normal``'s direction, degrees (a registered nominal's), added in
+        quadrature to the tilt check's; None: exact.
     """
 
     name: Optional[str]
@@ -204,6 +217,8 @@ class NominalHole:
     bore_diameter_band: Optional[Band] = None
     max_perpendicularity: Optional[float] = None
     match_radius: float = math.inf
+    center_covariance: Optional[tuple] = None
+    normal_uncertainty_deg: Optional[float] = None
 
 
 @dataclass(frozen=True)
@@ -226,6 +241,10 @@ class Spec:
         docstring): ``simple`` by the value alone, ``guarded`` by the value +- its expanded uncertainty.
     coverage_factor : float
         ``k`` of the expanded uncertainty ``U = k * u``; a finite number > 0.
+    registration : dict, optional
+        When the nominal holes were mapped into the measuring frame by a registration
+        (:func:`holecli.registration.apply.map_spec`): what it was (its file, SHA-256, ...), for the
+        record's ``options.tolerances.registration``. None: the holes are as drawn.
 
     Raises
     ------
@@ -240,6 +259,7 @@ class Spec:
     sha256: Optional[str] = None
     decision_rule: str = "simple"
     coverage_factor: float = DEFAULT_COVERAGE_FACTOR
+    registration: Optional[dict] = None
 
     def __post_init__(self):
         if self.decision_rule not in DECISION_RULES:
@@ -598,15 +618,18 @@ def describe(spec) -> dict:
         nominal holes are in the file), ``nominal`` None; for the command line's tolerance options,
         ``spec_file`` and ``spec_sha256`` None and ``nominal`` the one nominal hole: every
         :class:`NominalHole` value by name (bands as ``{"lower", "upper"}``, None where not given).
-        Either way ``decision_rule`` and ``coverage_factor``, how the checks were decided.
+        Either way ``decision_rule`` and ``coverage_factor``, how the checks were decided, and
+        ``registration`` when the nominal holes were mapped by one (:attr:`Spec.registration`).
     """
     decision = {"decision_rule": spec.decision_rule, "coverage_factor": spec.coverage_factor}
+    if spec.registration is not None:
+        decision["registration"] = spec.registration
     if spec.named:
         return {"spec_file": spec.source, "spec_sha256": spec.sha256, "nominal": None, **decision}
     hole = spec.holes[0]
     nominal = {}
     for name, value in hole.__dict__.items():
-        if name in ("name", "match_radius"):
+        if name in ("name", "match_radius", "center_covariance", "normal_uncertainty_deg"):
             continue
         if isinstance(value, Band):
             value = {"lower": value.lower, "upper": value.upper}
@@ -616,7 +639,7 @@ def describe(spec) -> dict:
     return {"spec_file": None, "spec_sha256": None, "nominal": nominal, **decision}
 
 
-def check(record, spec) -> dict:
+def check(record, spec, tied=None) -> dict:
     """A copy of ``record`` with the tolerance verdicts of ``spec`` added.
 
     Parameters
@@ -629,6 +652,14 @@ def check(record, spec) -> dict:
     spec : Spec
         From :func:`nominal_spec` or :func:`parse_spec`; its ``decision_rule`` and
         ``coverage_factor`` say how a value and its uncertainty decide a check.
+    tied : dict, optional
+        ``{measured hole index: nominal name}``: holes tied to spec holes by name (``--name``, a
+        one-hole scan named after a hole). Each is checked against its nominal wherever it lies; no
+        other hole is matched and only the tied nominals are expected (a scan of one hole does not
+        miss the spec's other holes). A tied hole farther from its nominal's center than the
+        nominal's ``match_radius``, with a spec that no registration mapped into the scan's frame
+        (:attr:`Spec.registration` None), is in another frame: its position and tilt are not checked
+        (null, and the note ``not_in_spec_frame`` says so).
 
     Returns
     -------
@@ -649,10 +680,16 @@ def check(record, spec) -> dict:
     Raises
     ------
     ValueError
-        When a hole's ``uncertainty`` holds a value that is not a finite number >= 0.
+        When a hole's ``uncertainty`` holds a value that is not a finite number >= 0, or ``tied``
+        names a hole or a nominal that is not there.
     """
     holes = record["holes"]
-    assigned = _match(holes, spec.holes)
+    expected = spec.holes
+    if tied is None:
+        assigned = _match(holes, spec.holes)
+    else:
+        assigned = _tie(holes, spec.holes, tied)
+        expected = tuple(assigned.values())
     checked_holes = []
     checked = failed = undecided = 0
     for index, hole in enumerate(holes):
@@ -660,14 +697,22 @@ def check(record, spec) -> dict:
         result = dict(hole)
         if spec.named:
             result["name"] = nominal.name if nominal else None
-        result.update(_verdict(hole, nominal, spec.decision_rule, spec.coverage_factor))
+        in_frame = (tied is None or nominal is None or spec.registration is not None or nominal.center is None
+                    or math.dist(hole["center"], nominal.center) <= nominal.match_radius)
+        result.update(_verdict(hole, nominal, spec.decision_rule, spec.coverage_factor, in_frame))
+        if not in_frame:
+            distance = math.dist(hole["center"], nominal.center)
+            result["notes"] = [*hole.get("notes", ()), {"code": NOT_IN_SPEC_FRAME, "message": (
+                f"tied to spec hole {nominal.name} but {distance:.4g} from its center (match radius "
+                f"{nominal.match_radius:g}): the scan is in another frame, position and tilt not checked "
+                f"(--registration maps the spec into the scan's frame)")}]
         if nominal is not None:
             checked += 1
             failed += bool(result["failed_checks"])
             undecided += not result["failed_checks"] and bool(result["undecided_checks"])
         checked_holes.append(result)
     matched = {id(nominal) for nominal in assigned.values()}
-    missing = [nominal.name for nominal in spec.holes if id(nominal) not in matched]
+    missing = [nominal.name for nominal in expected if id(nominal) not in matched]
     verdict = {"checked": checked, "out_of_tolerance": failed, "undecided": undecided, "missing": missing,
                "in_tolerance": failed == 0 and undecided == 0 and not missing,
                "decision_rule": spec.decision_rule, "coverage_factor": spec.coverage_factor}
@@ -705,6 +750,19 @@ def far_from_spec(record, spec):
     return distance, name
 
 
+def _tie(holes, nominals, tied) -> dict:
+    """{measured index: nominal} of ``tied`` ({measured index: nominal name})."""
+    by_name = {nominal.name: nominal for nominal in nominals}
+    assigned = {}
+    for index, name in tied.items():
+        if not 0 <= index < len(holes):
+            raise ValueError(f"tied hole {index} is not a measured hole (there are {len(holes)})")
+        if name not in by_name:
+            raise ValueError(f"tied to {name!r}, which is not a hole of the spec")
+        assigned[index] = by_name[name]
+    return assigned
+
+
 def _match(holes, nominals) -> dict:
     """{measured index: nominal}: one-to-one by increasing distance for nominals with a center; a
     nominal without a center takes every hole."""
@@ -725,7 +783,9 @@ def _match(holes, nominals) -> dict:
     return assigned
 
 
-def _verdict(hole, nominal, rule="simple", coverage_factor=DEFAULT_COVERAGE_FACTOR) -> dict:
+def _verdict(hole, nominal, rule="simple", coverage_factor=DEFAULT_COVERAGE_FACTOR, in_frame=True) -> dict:
+    """The verdict fields of ``hole`` against ``nominal``; without ``in_frame`` (a tied hole of a scan
+    in another frame than the nominal's) no position and no tilt."""
     out = {"diameter_deviation": None, "position_deviation": None, "tilt_deg": None,
            **{f"{feature.name}_deviation": None for feature in _FEATURE_CHECKS},
            "in_tolerance": None, "failed_checks": None, "undecided_checks": None, "conformance": None}
@@ -734,27 +794,33 @@ def _verdict(hole, nominal, rule="simple", coverage_factor=DEFAULT_COVERAGE_FACT
     uncertainty = hole.get("uncertainty") or {}
     conformance = {}
 
-    def decide(name, value, lower, upper, size):
+    def decide(name, value, lower, upper, size, nominal_u=None):
         expanded = _expanded_uncertainty(uncertainty, name, coverage_factor, hole.get("index"))
+        if nominal_u is not None:  # the nominal's own (a registration's), in quadrature with the measurement's
+            known = expanded is not None and math.isfinite(nominal_u)
+            expanded = math.hypot(expanded, coverage_factor * nominal_u) if known else None
         conformance[name] = _decision(value, lower, upper, expanded, size, rule)
+        if nominal_u is not None:
+            conformance[name]["nominal_uncertainty"] = nominal_u if math.isfinite(nominal_u) else None
 
     if nominal.diameter is not None:
         deviation = hole["diameter"] - nominal.diameter
         out["diameter_deviation"] = deviation
         decide("diameter", deviation, nominal.band.lower, nominal.band.upper, nominal.diameter)
     normal = _unit(hole["normal"])
-    if nominal.center is not None:
+    if nominal.center is not None and in_frame:
         offset = [m - c for m, c in zip(hole["center"], nominal.center)]
         along = sum(o * n for o, n in zip(offset, normal))
         in_plane = math.hypot(*(o - along * n for o, n in zip(offset, normal)))
         out["position_deviation"] = {"in_plane": in_plane, "along_normal": along}
         if nominal.position_tolerance is not None:
-            decide("position", in_plane, None, nominal.position_tolerance, nominal.position_tolerance)
-    if nominal.normal is not None:
+            decide("position", in_plane, None, nominal.position_tolerance, nominal.position_tolerance,
+                   _in_plane_uncertainty(nominal.center_covariance, normal))
+    if nominal.normal is not None and in_frame:
         tilt = _line_angle_deg(normal, _unit(nominal.normal))
         out["tilt_deg"] = tilt
         if nominal.max_tilt is not None:
-            decide("tilt", tilt, None, nominal.max_tilt, nominal.max_tilt)
+            decide("tilt", tilt, None, nominal.max_tilt, nominal.max_tilt, nominal.normal_uncertainty_deg)
     for feature in _FEATURE_CHECKS:
         nominal_value = getattr(nominal, feature.name)
         if nominal_value is None:
@@ -774,6 +840,20 @@ def _verdict(hole, nominal, rule="simple", coverage_factor=DEFAULT_COVERAGE_FACT
     out["in_tolerance"] = not out["failed_checks"] and not out["undecided_checks"]
     out["conformance"] = conformance
     return out
+
+
+def _in_plane_uncertainty(covariance, normal):
+    """The standard uncertainty of each coordinate, in the plane of unit ``normal``, of a point of 3x3
+    ``covariance`` (as a hole's ``uncertainty.center_in_plane``): ``sqrt(trace(P C P) / 2)`` with
+    ``P = I - n n^T``; None without a covariance, ``inf`` when it is not finite."""
+    if covariance is None:
+        return None
+    values = [float(value) for row in covariance for value in row]
+    if not all(math.isfinite(value) for value in values):
+        return math.inf
+    trace = values[0] + values[4] + values[8]
+    along = sum(normal[i] * values[3 * i + j] * normal[j] for i in range(3) for j in range(3))
+    return math.sqrt(max(trace - along, 0.0) / 2.0)
 
 
 def _decision(value, lower, upper, expanded, size, rule) -> dict:

@@ -50,7 +50,7 @@ LENGTH_CHECKS = frozenset({"below_min_diameter", "not_round", "beyond_max_holes"
 # countersink_angle and perpendicularity, are in degrees.
 LENGTH_CONFORMANCE_CHECKS = frozenset({"diameter", "position", "countersink_diameter", "countersink_depth",
                                        "bore_diameter"})
-_CONFORMANCE_LENGTHS = ("value", "lower", "upper", "expanded_uncertainty")
+_CONFORMANCE_LENGTHS = ("value", "lower", "upper", "expanded_uncertainty", "nominal_uncertainty")
 
 # Decimals of a length in ``--format table``: a tenth of a micrometre in mm and m; in inches 0.00001
 # (a quarter of a micrometre, a step finer than inch gauges read).

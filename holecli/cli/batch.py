@@ -16,8 +16,9 @@ from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_BROKEN_PIPE, EXIT_FIL
                                EXIT_INTERRUPTED, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_UNDECIDED, EXIT_USAGE,
                                EXIT_WARNING, Failure, broken_pipe, run_guarded, write_stdout)
 from holecli.cli.options import (Decimal, check_verbosity, decision_from_options, detection_option_decorators, detection_options,
-                                 fail_on_warning_option, input_format_option, nominal_from_options, read_spec,
-                                 reading_option_decorators, refuse_same_files, tolerance_option_decorators,
+                                 fail_on_warning_option, input_format_option, inspection_from_options,
+                                 nominal_from_options, read_spec, reading_option_decorators, refuse_same_files,
+                                 registration_option_decorators, tolerance_option_decorators,
                                  unit_choice, verbosity_option_decorators, warned, with_decision)
 from holecli.cli.progress import BatchDisplay, batch_summary, verbose_text
 from holecli.errors import LoadError
@@ -143,13 +144,14 @@ def batch_exit_code(tally, fail_on_warning=None):
 @reading_option_decorators
 @detection_option_decorators
 @tolerance_option_decorators
+@registration_option_decorators(plain_name=False)
 @fail_on_warning_option
 @verbosity_option_decorators
 def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, overwrite, plot_dir, explain, file_timeout,
           scan_index,
           units, output_units,
           method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor,
-          fail_on_warning, quiet, verbose, **nominal_options):
+          registration_file, name_pairs, fail_on_warning, quiet, verbose, **nominal_options):
     """Measure every point cloud in the folders and files PATH.
 
     A folder contributes the .ply, .pcd, .csv, .txt, .xyz, .e57, .las and .laz files directly in it (any case; with
@@ -170,6 +172,7 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ov
       holecli batch scans/ --input-format xyz --pattern '*.asc' -o -
       holecli batch scans/ -q -o results.jsonl
       holecli batch scans/ --spec part.toml -o shift.jsonl --plot shift_plots/
+      holecli batch cell/R1.ply cell/R3.ply --spec part.toml --registration registration.json
     """
     check_verbosity(quiet, verbose)
     # --output-units without --units is checked on the files found, in the body (all E57 is fine)
@@ -196,8 +199,10 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ov
         from holecli.io import SUPPORTED_EXTENSIONS
 
         # the output never replaces the spec or a file named to be measured (issue 23, item 4)
-        refuse_same_files([("--spec", spec_file), *(("PATH", path) for path in paths)], [("-o/--output", output)])
+        refuse_same_files([("--spec", spec_file), ("--registration", registration_file),
+                           *(("PATH", path) for path in paths)], [("-o/--output", output)])
         spec = with_decision(read_spec(spec_file) if spec_file is not None else nominal, decision)
+        spec = inspection_from_options(spec, spec_file, registration_file, name_pairs)
         if plot_dir is not None:
             from holecli.cli.plot import require_matplotlib
 
@@ -215,6 +220,11 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ov
             what = "files" if input_format else f"point-cloud files ({', '.join(SUPPORTED_EXTENSIONS)})"
             raise Failure(f"{', '.join(paths)}: no {what}" + (f" matching {pattern!r}" if pattern else "") + " found",
                           EXIT_INPUT)
+        from holecli.inspection import tied_hole_name
+
+        for scan, hole in name_pairs:  # before the output is opened: a --name that ties nothing is a typo
+            if not any(tied_hole_name(str(file), [(scan, hole)], ())[0] for file in files):
+                raise Failure(f"--name {scan}={hole}: {scan} is none of the files found", EXIT_USAGE)
         units_now = choice
         if output_units is not None and units is None:
             try:

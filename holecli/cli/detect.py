@@ -13,7 +13,8 @@ from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_O
                                EXIT_WARNING, Failure, run_guarded, write_stdout)
 from holecli.cli.options import (INPUT_FORMATS, check_verbosity, decision_from_options, detection_option_decorators,
                                  detection_options, fail_on_warning_option, input_format_option, nominal_from_options,
-                                 read_spec, reading_option_decorators, refuse_same_files, tolerance_option_decorators,
+                                 inspection_from_options, read_spec, reading_option_decorators,
+                                 refuse_same_files, registration_option_decorators, tolerance_option_decorators,
                                  unit_choice,
                                  verbosity_option_decorators, warned, with_decision)
 from holecli.errors import HoleCliError
@@ -506,11 +507,12 @@ def write_outputs(outputs):
 @reading_option_decorators
 @detection_option_decorators
 @tolerance_option_decorators
+@registration_option_decorators(plain_name=True)
 @fail_on_warning_option
 @verbosity_option_decorators
 def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, units, output_units, method, view_dir, min_diameter,
-           max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor, fail_on_warning, quiet,
-           verbose, **nominal_options):
+           max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor, registration_file, name_pairs,
+           fail_on_warning, quiet, verbose, **nominal_options):
     """Measure the holes in SCAN (.ply, .pcd, .csv, .txt, .xyz, .e57, .las or .laz; - reads it from
     stdin, with --input-format).
 
@@ -531,6 +533,8 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
           --countersink-diameter 7 --countersink-diameter-tolerance +0.1/-0 --max-perpendicularity 0.5
       holecli detect scan.ply --gauge-depth 0.5
       holecli detect scan.ply --spec part.toml --format table
+      holecli detect R1.ply --spec part.toml --registration registration.json
+      holecli detect left.ply --spec part.toml --name R1
       holecli detect scan.ply --explain --format table
       holecli detect scan.ply --plot fit.png
       holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0 --plot plots/
@@ -564,16 +568,16 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
 
     def body():
         from holecli.cli.progress import DetectStatus
-        from holecli.tolerance import check
-
         plot_path = None
         if plot_file is not None:
             from holecli.cli.plot import plot_path_of
 
             plot_path = plot_path_of(plot_file, scan)
         # before anything is read or made: no output may replace an input or another output
-        refuse_same_files([("SCAN", scan), ("--spec", spec_file)], [("-o/--output", output), ("--plot", plot_path)])
+        refuse_same_files([("SCAN", scan), ("--spec", spec_file), ("--registration", registration_file)],
+                          [("-o/--output", output), ("--plot", plot_path)])
         spec = with_decision(read_spec(spec_file) if spec_file is not None else nominal, decision)
+        inspection = inspection_from_options(spec, spec_file, registration_file, name_pairs, [scan])
         if plot_file is not None:
             from holecli.cli.plot import measure_with_points, plot_destination, require_matplotlib
 
@@ -589,10 +593,15 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
         # in the output unit before the check: tolerances are in it too
         record = choice.express(detection.to_dict(explain=explain), detection.units)
         if spec is not None:
+            from holecli.inspection import Inspection, check_record
             from holecli.tolerance import far_from_spec
 
-            record = check(record, spec)
-            far.append(far_from_spec(record, spec))
+            try:
+                record = check_record(record, inspection, scan)
+            except HoleCliError as error:  # a scan tied to a hole (--name) that holds several
+                raise Failure(str(error), EXIT_INPUT) from None
+            mapped = inspection.spec_for(record.get("units")) if isinstance(inspection, Inspection) else spec
+            far.append(far_from_spec(record, mapped))
         outputs = [(output, render([record], fmt), "output")]
         if plot_file is not None:
             from holecli.cli.plot import PLOT_WHAT, plot_png

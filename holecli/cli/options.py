@@ -720,3 +720,130 @@ def _is_device(path):
         return stat.S_ISCHR(os.stat(path).st_mode)
     except (OSError, ValueError):
         return False
+
+
+class HoleTie(click.ParamType):
+    """``--name SCAN=HOLE`` of ``detect`` and ``batch`` (``(SCAN, HOLE)``); a plain ``HOLE`` (``(None,
+    HOLE)``: detect's one scan) when ``plain`` is allowed."""
+
+    name = "SCAN=HOLE"
+
+    def __init__(self, plain=False):
+        self.plain = plain
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        scan, sep, hole = str(value).rpartition("=")
+        if sep and scan and hole:
+            return scan, hole
+        if not sep and hole and self.plain:
+            return None, hole
+        expected = "SCAN=HOLE or HOLE" if self.plain else "SCAN=HOLE"
+        self.fail(f"{value!r}: expected {expected} (a scan as given, its file name or stem; a hole name of "
+                  "the spec)", param, ctx)
+
+
+def registration_option_decorators(plain_name):
+    """``--registration FILE`` and ``--name`` of ``detect`` (``plain_name``: ``--name HOLE`` too) and
+    ``batch``.
+
+    Returns
+    -------
+    callable
+        A decorator that applies both options.
+    """
+    scans = "SCAN" if plain_name else "a scan"
+    options = [
+        click.option("--registration", "registration_file", type=click.Path(dir_okay=False, path_type=str),
+                     default=None, metavar="FILE.json",
+                     help="holecli register's JSON result: the --spec holes (part frame) are mapped into the "
+                          "scans' frame by its transform, and its uncertainty at each hole enters the "
+                          "position (and tilt) check's U. Needs --spec."),
+        click.option("--name", "name_pairs", type=HoleTie(plain=plain_name), multiple=True,
+                     help=f"{scans}'s hole is the spec hole HOLE (SCAN=HOLE, repeatable"
+                          f"{'; HOLE alone for SCAN' if plain_name else ''}): checked against it wherever it "
+                          "lies, the spec's other holes not expected in that scan. By default a one-hole scan "
+                          "whose file stem is a spec hole's name (R1.ply) is that hole, as in holecli register. "
+                          "Needs --spec."),
+    ]
+    return lambda function: _applied(options, function)
+
+
+def read_registration(path):
+    """The registration of ``holecli register``'s JSON result, and the record's provenance of it.
+
+    Returns
+    -------
+    registration : holecli.registration.apply.LoadedRegistration
+    provenance : dict
+        ``file``, ``sha256`` (of its bytes), ``spec_file``, ``spec_sha256`` (the spec it was fitted
+        to), ``verdict``, ``free_dofs``.
+
+    Raises
+    ------
+    Failure
+        With the input-error code, ``FILE: ...``, when it cannot be read, is not JSON or not a
+        registration.
+    """
+    import hashlib
+    import json
+
+    from holecli.registration import RegistrationError
+    from holecli.registration.apply import parse_registration
+
+    data = read_small_bytes(path, "a registration")
+    try:
+        registration = parse_registration(json.loads(_utf8(path, data)))
+    except json.JSONDecodeError as error:
+        raise Failure(f"{path}: not a registration (holecli register's JSON): {error}", EXIT_INPUT) from None
+    except RegistrationError as error:
+        raise Failure(f"{path}: {error}", EXIT_INPUT) from None
+    provenance = {"file": path, "sha256": hashlib.sha256(data).hexdigest(), "spec_file": registration.spec_file,
+                  "spec_sha256": registration.spec_sha256, "verdict": registration.verdict,
+                  "free_dofs": list(registration.free_dofs)}
+    return registration, provenance
+
+
+def inspection_from_options(spec, spec_file, registration_file, name_pairs, scans=None):
+    """``spec`` with ``--registration`` and ``--name`` (:class:`holecli.inspection.Inspection`), or
+    ``spec`` itself (the command line's nominal hole without them).
+
+    Parameters
+    ----------
+    spec : holecli.tolerance.Spec or None
+    spec_file : str or None
+    registration_file : str or None
+    name_pairs : tuple of (str or None, str)
+    scans : list of str, optional
+        detect's SCAN: every ``--name`` SCAN must be it.
+
+    Raises
+    ------
+    Failure
+        With the usage code: ``--registration`` or ``--name`` without ``--spec``, an unknown hole
+        name (naming the spec and its holes), a ``--name`` SCAN that is not detect's SCAN; with the
+        input code: a registration that cannot be read.
+    """
+    from holecli.inspection import Inspection
+
+    if spec_file is None:
+        if registration_file is not None or name_pairs:
+            option = "--registration" if registration_file is not None else "--name"
+            raise Failure(f"{option} needs --spec (the part's nominal holes it applies to)", EXIT_USAGE)
+        return spec
+    hole_names = [hole.name for hole in spec.holes]
+    for scan, hole in name_pairs:
+        shown = hole if scan is None else f"{scan}={hole}"
+        if hole not in hole_names:
+            raise Failure(f"--name {shown}: no hole {hole!r} in {spec_file} (its holes: {', '.join(hole_names)})",
+                          EXIT_USAGE)
+        if scans is not None and scan is not None:
+            from holecli.inspection import tied_hole_name
+
+            if not any(tied_hole_name(path, [(scan, hole)], ())[0] for path in scans):
+                raise Failure(f"--name {shown}: {scan} is not SCAN ({', '.join(scans)})", EXIT_USAGE)
+    registration = provenance = None
+    if registration_file is not None:
+        registration, provenance = read_registration(registration_file)
+    return Inspection(spec, registration, provenance, tuple(name_pairs))
