@@ -290,8 +290,9 @@ class WarningCodes(click.ParamType):
             return value
         from holecli.robust.doubts import DOUBT_CODES
         from holecli.robust.hole_shape import NOTE_CODES, WARNING_CODES
+        from holecli.units import UNIT_MISMATCH
 
-        known = [*WARNING_CODES, *DOUBT_CODES]
+        known = [*WARNING_CODES, *DOUBT_CODES, UNIT_MISMATCH]
         codes = frozenset(part.strip() for part in str(value).split(",") if part.strip())
         if codes == {"any"}:
             return codes
