@@ -79,7 +79,7 @@ from holecli.io.decimal_text import parse_decimal
 from holecli.units import UNIT_MISMATCH, declared_units, label_record, scale_factor, unit_factors, unit_mistake
 
 __all__ = ["DECISION_RULES", "DEFAULT_COVERAGE_FACTOR", "Band", "NominalHole", "Spec", "check", "describe",
-           "load_toml", "nominal_spec", "parse_band", "parse_spec", "spec_number"]
+           "load_toml", "nominal_spec", "parse_band", "parse_spec", "spec_in_units", "spec_number", "unit_scale_match"]
 
 Vector = tuple[float, float, float]
 
@@ -760,6 +760,30 @@ def unit_scale_match(record, spec):
     return None
 
 
+def spec_in_units(spec, units):
+    """``spec`` with its lengths in ``units``, when it declares its own (:attr:`Spec.units`) and ``units``
+    is known; else ``spec`` itself (a spec without units is in the scan's unit, whatever it is; a known
+    spec unit against an unknown scan unit is taken as the scan's).
+
+    Parameters
+    ----------
+    spec : Spec
+    units : {"mm", "m", "in"} or None
+        The scan's unit.
+
+    Returns
+    -------
+    Spec
+        Its ``units`` still the declared one (what the file said); angles, normals and names unchanged.
+    """
+    if spec.units is None or units is None:
+        return spec
+    factor = scale_factor(spec.units, units)
+    if factor == 1.0:
+        return spec
+    return replace(spec, holes=tuple(_scaled_nominal(hole, factor) for hole in spec.holes))
+
+
 def _spec_in_record_units(spec, record):
     """``(spec, record, assumed)``: ``spec`` with its lengths in the record's unit when it declares its own
     and the record says one; the record labelled with the spec's unit when it says none (``assumed``
@@ -768,11 +792,7 @@ def _spec_in_record_units(spec, record):
         return spec, record, False
     if record.get("units") is None:
         return spec, label_record(record, spec.units), True
-    factor = scale_factor(spec.units, record["units"])
-    if factor == 1.0:
-        return spec, record, False
-    return replace(spec, holes=tuple(_scaled_nominal(hole, factor) for hole in spec.holes),
-                   units=record["units"]), record, False
+    return spec_in_units(spec, record["units"]), record, False
 
 
 # The lengths of a nominal hole (the others are angles, a direction and the name).

@@ -134,3 +134,16 @@ def test_min_diameter_beyond_scan():
     assert min_diameter_beyond_scan(20.0, 10_000, 0.1) == pytest.approx(10.0)
     assert min_diameter_beyond_scan(None, 10_000, 0.1) is None
     assert min_diameter_beyond_scan(2.0, 10_000, None) is None
+
+
+def test_spec_in_units_converts_lengths_not_angles():
+    from holecli.tolerance import spec_in_units
+
+    spec = parse_spec(SPEC_IN_INCHES)
+    (hole,) = spec_in_units(spec, "mm").holes
+    assert hole.center == pytest.approx((10.0, 20.0, 0.0)) and hole.diameter == pytest.approx(3.0)
+    assert hole.band.upper == pytest.approx(0.0254) and hole.position_tolerance == pytest.approx(0.1016)
+    assert hole.match_radius == pytest.approx(3.0) and hole.max_tilt == 1.0 and hole.normal == (0.0, 0.0, 1.0)
+    assert spec_in_units(spec, None) is spec and spec_in_units(spec, "in") is spec
+    undeclared = parse_spec(SPEC_IN_INCHES.replace('units = "in"\n', ""))
+    assert spec_in_units(undeclared, "mm") is undeclared

@@ -245,6 +245,7 @@ def register(scans, spec_file, name_pairs, targets_file, targets_output, max_res
         measured, measured_names, origin, scan_records = [], [], [], []
         for scan in scans:
             detection = measure_file(scan, options)
+            scan_units = detection.units
             if not detection.holes:
                 raise Failure(f"{scan}: no hole found", EXIT_NO_HOLE)
             name = names[scan]
@@ -256,6 +257,10 @@ def register(scans, spec_file, name_pairs, targets_file, targets_output, max_res
                 measured_names.append(name)
                 origin.append((scan, hole.index))
             scan_records.append({"file": scan, "holes": len(detection.holes), "name": name})
+        # a spec that declares its unit, in the scans' when their format says it (E57: metres)
+        from holecli.tolerance import spec_in_units
+
+        spec = spec_in_units(spec, scan_units)
         try:
             result = register_holes(measured, spec.holes,
                                     measured_names=measured_names if any(measured_names) else None,

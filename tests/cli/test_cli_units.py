@@ -137,3 +137,22 @@ def test_batch_warns_when_units_overrides_e57_metres_in_a_mixed_batch(run, scans
     assert "e57_units_overridden: --units mm is taken for the 1 E57 file too" in result.stderr
     for args in ((scans["mm"], e57), (scans["mm"], "--units", "mm"), (scans["mm"], e57, "--units", "m")):
         assert "e57_units_overridden" not in run("batch", *args, "--format", "csv").stderr
+
+
+def test_register_takes_a_spec_that_declares_its_unit(run, tmp_path):
+    """A spec with units = "mm" was refused by every command (unknown top-level key 'units')."""
+    from holecli.simulation import synth
+
+    holes = ((0.0, 0.0), (20.0, 0.0), (0.0, 12.0))
+    scene = synth.SceneSpec(holes=tuple(synth.HoleSpec(center=c, diameter=3.0) for c in holes),
+                            extent=(-4.0, 24.0, -4.0, 16.0), spacing=0.12)
+    scan = tmp_path / "three.ply"
+    save_points(scan, synth.make_scan(scene, 0).points)
+    text = "".join(f'[[hole]]\nname = "H{k}"\ncenter = [{x}, {y}, 0.0]\nnormal = [0, 0, 1]\n'
+                   'diameter = 3.0\ntolerance = 0.05\n' for k, (x, y) in enumerate(holes))
+    plain, declared = tmp_path / "plain.toml", tmp_path / "declared.toml"
+    plain.write_text(text)
+    declared.write_text('units = "mm"\n' + text)
+    first, second = run("register", scan, "--spec", plain), run("register", scan, "--spec", declared)
+    assert second.exit_code == first.exit_code == EXIT_OK, second.stderr
+    assert json.loads(second.stdout)["transform"] == json.loads(first.stdout)["transform"]
