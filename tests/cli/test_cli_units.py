@@ -156,3 +156,15 @@ def test_register_takes_a_spec_that_declares_its_unit(run, tmp_path):
     first, second = run("register", scan, "--spec", plain), run("register", scan, "--spec", declared)
     assert second.exit_code == first.exit_code == EXIT_OK, second.stderr
     assert json.loads(second.stdout)["transform"] == json.loads(first.stdout)["transform"]
+    # targets in inches (# units = in) against the spec's mm: converted, the same corrected targets as in mm
+    in_mm, in_inches = tmp_path / "targets_mm.csv", tmp_path / "targets_in.csv"
+    in_mm.write_text("name,x,y,z,nx,ny,nz\nT1,10.16,5.08,0,0,0,1\n")
+    in_inches.write_text("# units = in\nname,x,y,z,nx,ny,nz\nT1,0.4,0.2,0,0,0,1\n")
+    corrected = {}
+    for path in (in_mm, in_inches):
+        corrected[path] = tmp_path / f"corrected_{path.stem}.csv"
+        result = run("register", scan, "--spec", declared, "--targets", path, "--targets-output", corrected[path])
+        assert result.exit_code == EXIT_OK, result.stderr
+    rows = [next(csv.DictReader(io.StringIO(corrected[path].read_text()))) for path in (in_mm, in_inches)]
+    for key in ("x", "y", "z"):
+        assert float(rows[1][key]) == pytest.approx(float(rows[0][key]), abs=1e-9)
