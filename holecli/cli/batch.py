@@ -145,7 +145,6 @@ def e57_units_overridden(files, units):
             f"{units}; measure them in a batch of their own if they are in metres")
 
 
-
 @click.command(epilog=BATCH_EXIT_CODES_HELP)
 # (readable=False: a file that cannot be read gets its error record, as any bad file; not a usage error)
 @click.argument("paths", metavar="PATH...", nargs=-1, required=True, type=click.Path(readable=False, path_type=str))

@@ -639,9 +639,9 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
         if spec is not None:
             from holecli.tolerance import far_from_spec, unit_scale_match
 
-            scaled.append(unit_scale_match(check(record, spec), spec))
             record = check(record, spec)
             far.append(far_from_spec(record, spec))
+            scaled.append(unit_scale_match(record, spec))
         outputs = [(output, render([record], fmt), "output")]
         if plot_file is not None:
             from holecli.cli.plot import PLOT_WHAT, plot_png
