@@ -81,7 +81,13 @@ class Inspection:
             provenance["units"] = registration.units
         else:
             provenance["units"] = None  # not said: taken as the record's
-        return map_spec(self.spec, registration, provenance)
+        spec = self.spec
+        if spec.units is not None and units in UNITS and spec.units != units:
+            # the spec's own unit first, then the registration's transform (which is in the record's unit)
+            from dataclasses import replace
+
+            spec = replace(tolerance.spec_in_units(spec, units), units=units)
+        return map_spec(spec, registration, provenance)
 
     def check(self, record, path):
         """:func:`holecli.tolerance.check` of ``record`` (of the scan ``path``) against the mapped spec,

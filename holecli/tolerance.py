@@ -76,9 +76,10 @@ from typing import Optional
 
 from holecli.errors import SpecError
 from holecli.io.decimal_text import parse_decimal
+from holecli.units import UNIT_MISMATCH, declared_units, label_record, scale_factor, unit_factors, unit_mistake
 
 __all__ = ["DECISION_RULES", "DEFAULT_COVERAGE_FACTOR", "Band", "NominalHole", "Spec", "check", "describe",
-           "load_toml", "nominal_spec", "parse_band", "parse_spec", "spec_number"]
+           "load_toml", "nominal_spec", "parse_band", "parse_spec", "spec_in_units", "spec_number", "unit_scale_match"]
 
 Vector = tuple[float, float, float]
 
@@ -245,6 +246,10 @@ class Spec:
         When the nominal holes were mapped into the measuring frame by a registration
         (:func:`holecli.registration.apply.map_spec`): what it was (its file, SHA-256, ...), for the
         record's ``options.tolerances.registration``. None: the holes are as drawn.
+    units : {"mm", "m", "in"} or None
+        The unit the spec file declares (``units = "in"`` at its top): :func:`check` converts its
+        lengths into the record's unit, or takes them in it when the record's unit is not known. None:
+        the spec's lengths are in the record's unit, whatever it is.
 
     Raises
     ------
@@ -260,6 +265,7 @@ class Spec:
     decision_rule: str = "simple"
     coverage_factor: float = DEFAULT_COVERAGE_FACTOR
     registration: Optional[dict] = None
+    units: Optional[str] = None
 
     def __post_init__(self):
         if self.decision_rule not in DECISION_RULES:
@@ -464,7 +470,8 @@ def _refuse_huge_integers(value, where, first_index):
 def parse_spec(text, source="spec") -> Spec:
     """The nominal holes of a part from the text of a TOML spec file.
 
-    The file holds one ``[[hole]]`` table per hole with ``name``, ``center = [x, y, z]``,
+    The file may declare the unit of its lengths at its top, ``units = "mm"`` (``"m"``, ``"in"``:
+    :attr:`Spec.units`), and holds one ``[[hole]]`` table per hole with ``name``, ``center = [x, y, z]``,
     ``diameter`` and ``tolerance`` (see :func:`parse_band`), and optionally ``position_tolerance``,
     ``normal = [x, y, z]``, ``max_tilt`` (degrees, needs ``normal``), the pairs
     ``countersink_diameter`` and ``countersink_diameter_tolerance``, ``countersink_angle`` and
@@ -493,9 +500,13 @@ def parse_spec(text, source="spec") -> Spec:
         it does not repeat ``source``.
     """
     data = load_toml(text, "spec")
+    try:
+        units = declared_units(data, "spec")
+    except ValueError as error:
+        raise SpecError(str(error)) from None
     unknown = sorted(set(data) - {"hole"})
     if unknown:
-        raise SpecError(f"unknown top-level key {unknown[0]!r} (expected [[hole]] tables only)")
+        raise SpecError(f"unknown top-level key {unknown[0]!r} (expected units and [[hole]] tables only)")
     tables = data.get("hole")
     if not isinstance(tables, list) or not tables or not all(isinstance(table, dict) for table in tables):
         raise SpecError("expected at least one [[hole]] table")
@@ -521,7 +532,7 @@ def parse_spec(text, source="spec") -> Spec:
         entry = {key: value for key, value in table.items() if key != "name"}
         hole = _nominal_hole(entry, name=name, names=_KEY_NAMES, where=f"{where}: ")
         holes.append(replace(hole, match_radius=hole.diameter))
-    return Spec(holes=tuple(holes), named=True, source=source)
+    return Spec(holes=tuple(holes), named=True, source=source, units=units)
 
 
 def _nominal_hole(entry, name, names, where) -> NominalHole:
@@ -675,7 +686,11 @@ def check(record, spec, tied=None) -> dict:
         "out_of_tolerance", "undecided", "missing", "in_tolerance", "decision_rule",
         "coverage_factor"}`` after ``holes`` (``out_of_tolerance`` the holes with a failed check,
         ``undecided`` those with an undecided check and none failed). A record with ``options`` gets
-        its ``tolerances`` (:func:`describe`).
+        its ``tolerances`` (:func:`describe`). A spec that declares its unit (:attr:`Spec.units`) is
+        converted into the record's ``units``; a record without ``units`` takes the spec's (its
+        lengths are assumed to be in it); the verdict then also says ``spec_units`` and
+        ``spec_units_assumed``. A hole whose measured diameter is a unit's factor of its nominal
+        (1000, 25.4, ... within 1 %) gets the warning ``unit_mismatch`` in its ``warnings``.
 
     Raises
     ------
@@ -683,6 +698,8 @@ def check(record, spec, tied=None) -> dict:
         When a hole's ``uncertainty`` holds a value that is not a finite number >= 0, or ``tied``
         names a hole or a nominal that is not there.
     """
+    declared = spec.units
+    spec, record, assumed = _spec_in_record_units(spec, record)
     holes = record["holes"]
     expected = spec.holes
     if tied is None:
@@ -700,6 +717,9 @@ def check(record, spec, tied=None) -> dict:
         in_frame = (tied is None or nominal is None or spec.registration is not None or nominal.center is None
                     or math.dist(hole["center"], nominal.center) <= nominal.match_radius)
         result.update(_verdict(hole, nominal, spec.decision_rule, spec.coverage_factor, in_frame))
+        mistake = _unit_mismatch_warning(hole, nominal)
+        if mistake is not None:
+            result["warnings"] = [*hole.get("warnings", ()), mistake]
         if not in_frame:
             distance = math.dist(hole["center"], nominal.center)
             result["notes"] = [*hole.get("notes", ()), {"code": NOT_IN_SPEC_FRAME, "message": (
@@ -716,6 +736,9 @@ def check(record, spec, tied=None) -> dict:
     verdict = {"checked": checked, "out_of_tolerance": failed, "undecided": undecided, "missing": missing,
                "in_tolerance": failed == 0 and undecided == 0 and not missing,
                "decision_rule": spec.decision_rule, "coverage_factor": spec.coverage_factor}
+    if declared is not None:  # (a spec without units: the verdict as before)
+        verdict["spec_units"] = declared
+        verdict["spec_units_assumed"] = assumed
     out = {}
     for key, value in record.items():
         out[key] = checked_holes if key == "holes" else value
@@ -761,6 +784,102 @@ def _tie(holes, nominals, tied) -> dict:
             raise ValueError(f"tied to {name!r}, which is not a hole of the spec")
         assigned[index] = by_name[name]
     return assigned
+def unit_scale_match(record, spec):
+    """``(factor, scan_unit, spec_unit)`` when no measured hole lies near a spec hole (:func:`far_from_spec`)
+    but every one of them would, the measured centers multiplied by a factor of units (1000, 25.4, ...,
+    and their inverses): the scan and the spec in different units; else None.
+
+    "Every one": as many pairs as the fewer of the measured and the spec holes (a scan may show part of
+    the part) match within the spec holes' match radii, and at least one.
+
+    Parameters
+    ----------
+    record : dict
+        A detect record, checked against ``spec`` (:func:`check`).
+    spec : Spec
+
+    Returns
+    -------
+    (float, str, str) or None
+        The factor the measured centers were multiplied by, the unit the scan would then be in and the
+        spec's (e.g. ``(1000.0, "m", "mm")``).
+    """
+    if far_from_spec(record, spec) is None:
+        return None
+    holes = record["holes"]
+    spec, _, _ = _spec_in_record_units(spec, record)
+    wanted = min(len(holes), len(spec.holes))
+    for factor, scan_unit, spec_unit in unit_factors():
+        scaled = [{**hole, "center": [c * factor for c in hole["center"]]} for hole in holes]
+        if len(_match(scaled, spec.holes)) == wanted:
+            return factor, scan_unit, spec_unit
+    return None
+
+
+def spec_in_units(spec, units):
+    """``spec`` with its lengths in ``units``, when it declares its own (:attr:`Spec.units`) and ``units``
+    is known; else ``spec`` itself (a spec without units is in the scan's unit, whatever it is; a known
+    spec unit against an unknown scan unit is taken as the scan's).
+
+    Parameters
+    ----------
+    spec : Spec
+    units : {"mm", "m", "in"} or None
+        The scan's unit.
+
+    Returns
+    -------
+    Spec
+        Its ``units`` still the declared one (what the file said); angles, normals and names unchanged.
+    """
+    if spec.units is None or units is None:
+        return spec
+    factor = scale_factor(spec.units, units)
+    if factor == 1.0:
+        return spec
+    return replace(spec, holes=tuple(_scaled_nominal(hole, factor) for hole in spec.holes))
+
+
+def _spec_in_record_units(spec, record):
+    """``(spec, record, assumed)``: ``spec`` with its lengths in the record's unit when it declares its own
+    and the record says one; the record labelled with the spec's unit when it says none (``assumed``
+    True: the spec's lengths are taken in the scan's unit, which is then said to be the spec's)."""
+    if spec.units is None:
+        return spec, record, False
+    if record.get("units") is None:
+        return spec, label_record(record, spec.units), True
+    return spec_in_units(spec, record["units"]), record, False
+
+
+# The lengths of a nominal hole (the others are angles, a direction and the name).
+_NOMINAL_LENGTHS = ("diameter", "position_tolerance", "countersink_diameter", "countersink_depth", "bore_diameter",
+                    "match_radius")
+_NOMINAL_BANDS = ("band", "countersink_diameter_band", "countersink_depth_band", "bore_diameter_band")
+
+
+def _scaled_nominal(hole, factor) -> NominalHole:
+    """``hole`` with every length multiplied by ``factor`` (angles, the normal and the name as they are)."""
+    values = {key: getattr(hole, key) * factor for key in _NOMINAL_LENGTHS if getattr(hole, key) is not None}
+    values.update({key: Band(lower=getattr(hole, key).lower * factor, upper=getattr(hole, key).upper * factor)
+                   for key in _NOMINAL_BANDS if getattr(hole, key) is not None})
+    if hole.center is not None:
+        values["center"] = tuple(c * factor for c in hole.center)
+    return replace(hole, **values)
+
+
+def _unit_mismatch_warning(hole, nominal):
+    """The ``unit_mismatch`` warning of a hole whose measured diameter is a unit's factor of its nominal
+    (:func:`holecli.units.unit_mistake`), or None."""
+    if nominal is None or nominal.diameter is None:
+        return None
+    mistake = unit_mistake(hole.get("diameter"), nominal.diameter)
+    if mistake is None:
+        return None
+    ratio, scan_unit, spec_unit = mistake
+    return {"code": UNIT_MISMATCH,
+            "message": f"measured diameter {hole['diameter']:.4g} is {ratio} of the nominal {nominal.diameter:.4g}: "
+                       f"the scan may be in {scan_unit} and the tolerances in {spec_unit}; give --units "
+                       f"(and units in the spec file)"}
 
 
 def _match(holes, nominals) -> dict:

@@ -33,11 +33,13 @@ Not converted: ``normal``, ``axis``, ``shape.direction`` (unit vectors), every `
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass
 from typing import Optional
 
-__all__ = ["LENGTH_CHECKS", "LENGTH_CONFORMANCE_CHECKS", "UNITS", "UnitChoice", "convert_length", "convert_record",
-           "label_record", "scale_factor", "table_decimals"]
+__all__ = ["LENGTH_CHECKS", "LENGTH_CONFORMANCE_CHECKS", "UNITS", "UNIT_MISMATCH", "UnitChoice", "convert_length",
+           "convert_record", "declared_units", "label_record", "min_diameter_beyond_scan", "scale_factor",
+           "table_decimals", "unit_factors", "unit_mistake"]
 
 # Millimetres per unit.
 UNITS = {"mm": 1.0, "m": 1000.0, "in": 25.4}
@@ -326,3 +328,144 @@ class UnitChoice:
         if length is None or self.output is None or self.file is None:
             return length
         return convert_length(length, self.output, self.file)
+
+
+# --------------------------------------------------------------------------------------------------
+# Declared units of the files a run reads (spec, panel), and the mistakes of units a result betrays
+
+# The warning a hole gets when its measured diameter is a unit's factor off its nominal
+# (:func:`unit_mistake`): in ``holes[].warnings``, on stderr, and a code ``--fail-on-warning`` takes.
+UNIT_MISMATCH = "unit_mismatch"
+
+# How close a ratio of a measured to a nominal length must come to a factor of units to be named a
+# likely unit mistake: 1 % (a hole is never 25 or 1000 times its nominal size by a drilling error, and a
+# diameter 1 % off is far outside any tolerance; within 1 % the factor is unmistakable).
+UNIT_MISTAKE_TOLERANCE = 0.01
+
+
+def declared_units(data, what="spec"):
+    """The ``units`` a TOML file declares at its top (``units = "in"``), or None; the key is removed.
+
+    Parameters
+    ----------
+    data : dict
+        The file's data (:func:`holecli.tolerance.load_toml`); ``units`` is popped from it.
+    what : str
+        What the file is, for the message.
+
+    Returns
+    -------
+    {"mm", "m", "in"} or None
+
+    Raises
+    ------
+    ValueError
+        For a ``units`` that is not one of :data:`UNITS`.
+
+    Examples
+    --------
+    >>> data = {"units": "in", "hole": []}
+    >>> declared_units(data), data
+    ('in', {'hole': []})
+    >>> declared_units({"hole": []}) is None
+    True
+    """
+    if "units" not in data:
+        return None
+    value = data.pop("units")
+    if not isinstance(value, str) or value not in UNITS:
+        shown = repr(value) if isinstance(value, str) else f"{type(value).__name__} {value!r}"[:80]
+        raise ValueError(f"units must be one of {', '.join(repr(unit) for unit in UNITS)} (the unit of every "
+                         f"length of the {what}), got {shown}")
+    return value
+
+
+def _unit_pairs():
+    """(factor, larger unit, smaller unit) for every pair of units with a factor other than 1."""
+    pairs = []
+    for big in UNITS:
+        for small in UNITS:
+            if UNITS[big] > UNITS[small]:
+                pairs.append((UNITS[big] / UNITS[small], big, small))
+    return sorted(pairs)
+
+
+def unit_mistake(measured, nominal):
+    """The unit mistake that would make ``measured`` of ``nominal``: its ratio a factor of units.
+
+    Parameters
+    ----------
+    measured, nominal : float
+        A measured length and its nominal (> 0), in the units the run took them in.
+
+    Returns
+    -------
+    (str, str, str) or None
+        ``(ratio, scan_unit, spec_unit)``: the ratio as said (``"1/1000"``, ``"25.4x"``) and the units
+        that would explain it (the measured value in ``scan_unit``, the nominal in ``spec_unit``), when
+        ``measured / nominal`` is within :data:`UNIT_MISTAKE_TOLERANCE` of 1000, 1/1000, 25.4, 1/25.4
+        (or 39.37, 1/39.37: m and in); else None.
+
+    Examples
+    --------
+    >>> unit_mistake(0.006, 6.0)
+    ('1/1000', 'm', 'mm')
+    >>> unit_mistake(76.2, 3.0)
+    ('25.4x', 'mm', 'in')
+    >>> unit_mistake(3.01, 3.0) is None
+    True
+    """
+    if not measured or not nominal or measured <= 0 or nominal <= 0:
+        return None
+    ratio = measured / nominal
+    for factor, big, small in _unit_pairs():
+        shown = f"{factor:g}"
+        if abs(ratio / factor - 1.0) <= UNIT_MISTAKE_TOLERANCE:
+            return f"{shown}x", small, big  # measured many times the nominal: the scan in the smaller unit
+        if abs(ratio * factor - 1.0) <= UNIT_MISTAKE_TOLERANCE:
+            return f"1/{shown}", big, small
+    return None
+
+
+def unit_factors():
+    """The factors between the units, both ways (25.4, 1/25.4, 1000, ...), with the pair they convert.
+
+    Returns
+    -------
+    list of (float, str, str)
+        ``(factor, from_unit, to_unit)``: a length in ``from_unit`` times ``factor`` is in ``to_unit``.
+    """
+    return [(factor, big, small) for factor, big, small in _unit_pairs()] + \
+        [(1.0 / factor, small, big) for factor, big, small in _unit_pairs()]
+
+
+def min_diameter_beyond_scan(min_diameter, points, point_spacing):
+    """The scan's size when ``min_diameter`` exceeds it (no hole of that size fits in the scan): a hint
+    that ``--min-diameter`` is in another unit than the scan; else None.
+
+    The size is that of a square holding ``points`` points at ``point_spacing`` (the median distance of
+    neighbours): ``sqrt(points) * point_spacing``, the side of the scanned area, which a hole, a void in
+    it, is smaller than.
+
+    Parameters
+    ----------
+    min_diameter : float or None
+        ``--min-diameter`` as given (in the scan's unit); None: not given.
+    points : int
+    point_spacing : float or None
+
+    Returns
+    -------
+    float or None
+
+    Examples
+    --------
+    >>> round(min_diameter_beyond_scan(2.0, 10000, 0.0002), 6)
+    0.02
+    >>> min_diameter_beyond_scan(2.0, 10000, 0.2) is None
+    True
+    """
+    if min_diameter is None or not point_spacing or points <= 0:
+        return None
+    size = math.sqrt(points) * point_spacing
+    return size if min_diameter > size else None

@@ -7,6 +7,7 @@ record as it comes and keeps the display (:mod:`holecli.cli.progress`) up to dat
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 
@@ -107,6 +108,42 @@ def batch_exit_code(tally, fail_on_warning=None):
     if tally.without_hole:
         return EXIT_NO_HOLE
     return EXIT_OK
+
+
+def unit_lines(record):
+    """The stderr lines of a record's mistakes of units: each ``unit_mismatch`` warning of its holes
+    (:func:`holecli.cli.detect.warning_lines`) and its ``spec_units_assumed``
+    (:func:`holecli.cli.detect.spec_units_line`).
+
+    Parameters
+    ----------
+    record : dict
+        A ``batch`` record (not an error record).
+
+    Returns
+    -------
+    list of str
+    """
+    from holecli.cli.detect import spec_units_line, warning_lines
+    from holecli.units import UNIT_MISMATCH
+
+    lines = [line for line in warning_lines(record) if f": {UNIT_MISMATCH}: " in line]
+    assumed = spec_units_line(record)
+    return lines + ([assumed] if assumed else [])
+
+
+def e57_units_overridden(files, units):
+    """The warning ``holecli: warning: batch: e57_units_overridden: ...`` when ``--units`` (``units``,
+    other than metres) is given for a batch that mixes E57 files (metres by the standard) with others:
+    the E57 files' records then say ``units`` too, as ``--units`` declares; else None."""
+    if units is None or units == "m":
+        return None
+    e57 = [path for path in files if os.path.splitext(str(path))[1].lower() == ".e57"]
+    if not e57 or len(e57) == len(files):
+        return None
+    return (f"holecli: warning: batch: e57_units_overridden: --units {units} is taken for the {len(e57)} E57 "
+            f"file{'' if len(e57) == 1 else 's'} too (E57 is in metres by the standard): their records say "
+            f"{units}; measure them in a batch of their own if they are in metres")
 
 
 @click.command(epilog=BATCH_EXIT_CODES_HELP)
@@ -231,6 +268,10 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ov
                 units_now = unit_choice(None, output_units, files)
             except click.UsageError as error:
                 raise Failure(f"{error.message}; not every file is .e57", EXIT_USAGE) from None
+        if not quiet:
+            overridden = e57_units_overridden(files, units_now.file)
+            if overridden:
+                click.echo(overridden, err=True)
         # lengths on the command line are in the output unit: the pipeline wants the file's
         options_now = dict(options, min_diameter=units_now.to_file_units(min_diameter),
                            gauge_depth=units_now.to_file_units(gauge_depth)) if method != "paper" else options
@@ -396,8 +437,12 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
             tally.add(record)
             if "error" in record:
                 display.message(f"holecli: failed: {record['error']}", error=True)
-            elif verbose:
-                display.message(verbose_text(record).rstrip("\n"))
+            else:
+                if not quiet:  # the mistakes of units, said at once: every hole of the file is off by them
+                    for line in unit_lines(record):
+                        display.message(line, error=True)
+                if verbose:
+                    display.message(verbose_text(record).rstrip("\n"))
     summary = batch_summary(tally, time.monotonic() - started, spec is not None, len(earlier), output)
     if reader_gone:
         name = output or "stdout"

@@ -368,6 +368,53 @@ def _rejected_table(rejected, digits=4):
     return table
 
 
+def scale_hint(factor, scan_unit, spec_unit):
+    """The words of :func:`holecli.tolerance.unit_scale_match`'s answer, for the far-from-spec hint:
+    ``every spec hole matches a measured one with the scan's coordinates times 1000: the scan may be in m
+    and the spec in mm; give --units m``."""
+    shown = f"{factor:g}" if factor >= 1 else f"1/{1 / factor:g}"
+    return (f"every spec hole matches a measured one with the scan's coordinates times {shown}: the scan may be "
+            f"in {scan_unit} and the spec in {spec_unit}; give --units {scan_unit} (and units = \"{spec_unit}\" "
+            f"in the spec)")
+
+
+def unit_mismatch_hint(record):
+    """`` (2 holes with unit_mismatch: the scan and the tolerances may be in different units; give --units)``
+    for the out-of-tolerance line of a record whose holes have that warning; else empty."""
+    from holecli.units import UNIT_MISMATCH
+
+    count = sum(any(w["code"] == UNIT_MISMATCH for w in hole.get("warnings", ())) for hole in record["holes"])
+    if not count:
+        return ""
+    return (f" ({count} hole{'' if count == 1 else 's'} with {UNIT_MISMATCH}: the scan and the tolerances may be "
+            f"in different units; give --units)")
+
+
+def spec_units_line(record):
+    """The stderr line of a record whose spec declared a unit the scan's was taken to be (the scan's unit
+    not known): ``holecli: warning: FILE: spec_units_assumed: ...``; else None."""
+    verdict = record.get("verdict") or {}
+    if not verdict.get("spec_units_assumed"):
+        return None
+    unit = verdict["spec_units"]
+    return (f"holecli: warning: {record['file']}: spec_units_assumed: the spec is in {unit} and the scan's unit is "
+            f"not known: the scan is taken to be in {unit} (give --units to say it)")
+
+
+def min_diameter_hint(record, min_diameter):
+    """``; --min-diameter 2 is larger than the whole scan (about 0.0253 across): is it in the scan's unit?
+    ...`` for the "no hole found" line, when the given ``--min-diameter`` (in the record's unit) exceeds
+    the scan's size (:func:`holecli.units.min_diameter_beyond_scan`); else empty."""
+    from holecli.units import min_diameter_beyond_scan
+
+    scales = record.get("scales") or {}
+    size = min_diameter_beyond_scan(min_diameter, record.get("points", 0), scales.get("point_spacing"))
+    if size is None:
+        return ""
+    return (f"; --min-diameter {min_diameter:g} is larger than the whole scan (about {size:.3g} across): is it in "
+            f"the scan's unit? (--units and --output-units say the units)")
+
+
 def warning_lines(record):
     """The stderr lines of a record's doubtful results: ``holecli: warning: FILE hole N: code: message``
     for each warning of a hole (the notes, which say why a value is null, are in the record, and with
@@ -565,6 +612,7 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
 
     refused = []  # the checks that refused candidates, for "no hole found"
     far = []  # (distance, name) when no measured hole lies near any spec hole
+    scaled = []  # (factor, scan unit, spec unit) when they would, in other units
 
     def body():
         from holecli.cli.progress import DetectStatus
@@ -594,7 +642,7 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
         record = choice.express(detection.to_dict(explain=explain), detection.units)
         if spec is not None:
             from holecli.inspection import Inspection, check_record
-            from holecli.tolerance import far_from_spec
+            from holecli.tolerance import far_from_spec, unit_scale_match
 
             try:
                 record = check_record(record, inspection, scan)
@@ -602,6 +650,7 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
                 raise Failure(str(error), EXIT_INPUT) from None
             mapped = inspection.spec_for(record.get("units")) if isinstance(inspection, Inspection) else spec
             far.append(far_from_spec(record, mapped))
+            scaled.append(unit_scale_match(record, mapped))
         outputs = [(output, render([record], fmt), "output")]
         if plot_file is not None:
             from holecli.cli.plot import PLOT_WHAT, plot_png
@@ -621,9 +670,13 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
     if not quiet:
         for line in warning_lines(record):
             click.echo(line, err=True)
+        assumed = spec_units_line(record)
+        if assumed:
+            click.echo(assumed, err=True)
     if not quiet and not record["holes"]:
         why = refused_summary(refused, explain) if method == "robust" else ""  # (the paper's has no candidates)
-        click.echo(f"holecli: no hole found in {record['file']}{why}", err=True)
+        click.echo(f"holecli: no hole found in {record['file']}{why}{min_diameter_hint(record, min_diameter)}",
+                   err=True)
     verdict = record.get("verdict")
     if verdict is not None and (verdict["out_of_tolerance"] or verdict["missing"]):
         if quiet:
@@ -639,8 +692,11 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
             hint = (f" (no measured hole lies near a spec hole: the nearest is {distance:.4g} from {name}; are the "
                     f"scan and the spec in the same frame and unit? holecli register gives the frame, --units "
                     f"the unit)")
+            if scaled and scaled[0] is not None:
+                hint = hint[:-1] + "; " + scale_hint(*scaled[0]) + ")"
         click.echo(f"holecli: out of tolerance: {verdict['out_of_tolerance']} of {verdict['checked']} checked "
-                   f"holes{unmeasured}{undecided}{missing} in {record['file']}{hint}", err=True)
+                   f"holes{unmeasured}{undecided}{missing} in {record['file']}{hint}{unit_mismatch_hint(record)}",
+                   err=True)
         sys.exit(EXIT_OUT_OF_TOLERANCE)
     if verdict is not None and verdict["undecided"]:
         if not quiet:

@@ -290,8 +290,9 @@ class WarningCodes(click.ParamType):
             return value
         from holecli.robust.doubts import DOUBT_CODES
         from holecli.robust.hole_shape import NOTE_CODES, WARNING_CODES
+        from holecli.units import UNIT_MISMATCH
 
-        known = [*WARNING_CODES, *DOUBT_CODES]
+        known = [*WARNING_CODES, *DOUBT_CODES, UNIT_MISMATCH]
         codes = frozenset(part.strip() for part in str(value).split(",") if part.strip())
         if codes == {"any"}:
             return codes
@@ -449,8 +450,8 @@ def tolerance_option_decorators(function):
                      help="Largest angle between the hole's axis (from its countersink cone, bore or floor) "
                           "and its surface normal, degrees."),
         click.option("--spec", "spec_file", type=click.Path(path_type=str), default=None, metavar="FILE",
-                     help="TOML file of the part's nominal holes ([[hole]] tables, see README); "
-                          "not with the options above."),
+                     help="TOML file of the part's nominal holes ([[hole]] tables, see README; units = \"in\" "
+                          "at its top converts its lengths into the scan's unit); not with the options above."),
         click.option("--decision-rule", type=click.Choice(DECISION_RULES), default=None,
                      help="How a check is decided (ISO 14253-1): simple, by the measured value alone "
                           "[default]; guarded, pass only when the value +- its expanded uncertainty U is "

@@ -159,6 +159,29 @@ def render(record, fmt):
     return render_table(record)
 
 
+def targets_in_units(targets, units):
+    """``targets`` with their points in ``units`` (the scans', else the spec's declared one), when the
+    targets file declares its own (``# units = in``) and ``units`` is known; else ``targets`` itself
+    (their numbers taken in the scans' unit).
+
+    Parameters
+    ----------
+    targets : holecli.io.targets.Targets
+    units : {"mm", "m", "in"} or None
+
+    Returns
+    -------
+    holecli.io.targets.Targets
+    """
+    import dataclasses
+
+    from holecli.units import scale_factor
+
+    if targets.units is None or units is None or targets.units == units:
+        return targets
+    return dataclasses.replace(targets, points=targets.points * scale_factor(targets.units, units), units=units)
+
+
 @click.command(epilog=REGISTER_EXIT_CODES_HELP)
 @click.argument("scans", metavar="SCAN...", nargs=-1, required=True, type=click.Path(path_type=str))
 @click.option("--spec", "spec_file", required=True, type=click.Path(dir_okay=False, path_type=str), metavar="FILE.toml",
@@ -245,6 +268,7 @@ def register(scans, spec_file, name_pairs, targets_file, targets_output, max_res
         measured, measured_names, origin, scan_records = [], [], [], []
         for scan in scans:
             detection = measure_file(scan, options)
+            scan_units = detection.units
             if not detection.holes:
                 raise Failure(f"{scan}: no hole found", EXIT_NO_HOLE)
             name = names[scan]
@@ -256,6 +280,12 @@ def register(scans, spec_file, name_pairs, targets_file, targets_output, max_res
                 measured_names.append(name)
                 origin.append((scan, hole.index))
             scan_records.append({"file": scan, "holes": len(detection.holes), "name": name})
+        # a spec that declares its unit, in the scans' when their format says it (E57: metres)
+        from holecli.tolerance import spec_in_units
+
+        spec = spec_in_units(spec, scan_units)
+        if targets is not None:
+            targets = targets_in_units(targets, scan_units or spec.units)
         try:
             result = register_holes(measured, spec.holes,
                                     measured_names=measured_names if any(measured_names) else None,

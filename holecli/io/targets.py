@@ -4,7 +4,9 @@ Input: a header row ``name,x,y,z,nx,ny,nz`` exactly, then one row per target: a 
 empty, no surrounding spaces), the point and its normal in the part (CAD) frame as plain decimals
 (:func:`holecli.io.decimal_text.parse_decimal`: no ``inf``, ``nan``, ``1_0``). The normal must not be
 zero and is normalised. Blank lines are skipped; anything else that is not such a row is refused with
-the line's number.
+the line's number. Before the header, one line ``# units = mm`` (``m``, ``in``; quoted or not) may
+declare the unit of the points (:attr:`Targets.units`; ``holecli register`` converts them into the
+scans' unit).
 
 Output (:func:`format_targets`): the header :data:`TARGET_COLUMNS`, then one row per target in the
 measuring frame: ``name,x,y,z,nx,ny,nz,u_x,u_y,u_z,u_normal_deg``. ``u_x, u_y, u_z`` are the standard
@@ -19,7 +21,9 @@ from __future__ import annotations
 import csv
 import io
 import math
+import re
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -45,11 +49,15 @@ class Targets:
         File units.
     normals : (n, 3) float
         Unit vectors.
+    units : {"mm", "m", "in"} or None
+        The unit the file declares for its points (``# units = mm`` before the header); None: not
+        declared (the unit of the spec and the scans).
     """
 
     names: tuple
     points: np.ndarray
     normals: np.ndarray
+    units: Optional[str] = None
 
 
 def parse_targets(text, source="targets"):
@@ -72,6 +80,7 @@ def parse_targets(text, source="targets"):
         not a plain finite decimal, a zero normal, an empty or repeated name; ``<source>: no target``
         for a file with the header only.
     """
+    text, units = _declared_units(text, source)
     rows = csv.reader(io.StringIO(text, newline=""))
     header_seen = False
     names, points, normals, seen = [], [], [], {}
@@ -120,7 +129,33 @@ def parse_targets(text, source="targets"):
         raise LoadError(source, f"empty: expected the header {','.join(INPUT_COLUMNS)} and one row per target")
     if not names:
         raise LoadError(source, "no target: expected at least one row after the header")
-    return Targets(tuple(names), np.array(points, dtype=np.float64), np.array(normals, dtype=np.float64))
+    return Targets(tuple(names), np.array(points, dtype=np.float64), np.array(normals, dtype=np.float64), units)
+
+
+_UNITS_LINE = re.compile(r"#\s*units\s*=\s*(.*?)\s*")
+
+
+def _declared_units(text, source):
+    """``(text, units)``: the text with its ``# units = ...`` line blanked (the line numbers stay), and the
+    unit it declares (None without one). Only the first line that is not blank may declare it."""
+    from holecli.units import UNITS
+
+    lines = text.splitlines(keepends=True)
+    for number, line in enumerate(lines, start=1):
+        stripped = line.strip().lstrip("\ufeff")
+        if not stripped:
+            continue
+        match = _UNITS_LINE.fullmatch(stripped)
+        if match is None:
+            return text, None
+        value = match.group(1)
+        if len(value) >= 2 and value[0] == value[-1] and value[0] in "\"'":
+            value = value[1:-1]
+        if value not in UNITS:
+            raise LoadError(source, f"line {number}: units must be one of {', '.join(UNITS)}, got {value!r}")
+        lines[number - 1] = "\n"
+        return "".join(lines), value
+    return text, None
 
 
 def read_targets(path):

@@ -1224,7 +1224,9 @@ _OPTIONAL_FEATURE_KEYS = {"countersink_angle_deg", "direction_deg"} | set(_TILT_
 def parse_panel_toml(text) -> PanelSpec:
     """A panel spec from the text of a TOML file.
 
-    The file holds one ``[panel]`` table (``width``, ``height``, ``thickness``; optional
+    The file may declare the unit of its lengths at its top, ``units = "in"`` (``"mm"``, ``"m"``): they
+    are converted into millimetres, the simulator's unit (without it they are millimetres). It holds
+    one ``[panel]`` table (``width``, ``height``, ``thickness``; optional
     ``curvature`` = "flat" | "convex" | "concave", ``radius`` (required when curved),
     ``chord_error``, ``segments``, ``grid_spacing``) and any number of ``[[feature]]`` tables
     (``kind``, ``center = [u, v]``, optional ``name``, and the keys of that kind: ``diameter``;
@@ -1251,10 +1253,18 @@ def parse_panel_toml(text) -> PanelSpec:
     """
     from holecli.tolerance import load_toml  # a BOM skipped, integers no float holds refused
 
+    from holecli.units import declared_units
+
     data = load_toml(text, "panel", first_index=0)
+    try:
+        units = declared_units(data, "panel")
+    except ValueError as error:
+        raise SpecError(str(error)) from None
     unknown = sorted(set(data) - {"panel", "feature"})
     if unknown:
-        raise SpecError(f"unknown top-level key {unknown[0]!r} (expected [panel] and [[feature]] tables)")
+        raise SpecError(f"unknown top-level key {unknown[0]!r} (expected units, [panel] and [[feature]] tables)")
+    if units is not None:
+        _in_millimetres(data, units)
     panel = data.get("panel")
     if not isinstance(panel, dict):
         raise SpecError("expected a [panel] table")
@@ -1310,6 +1320,30 @@ def parse_panel_toml(text) -> PanelSpec:
     # The gap and depth checks that need the exact loops run here too, so that a file is refused on reading.
     _checked_loops(spec, _Bend(spec.curvature, spec.radius), "feature")
     return spec
+
+
+# The keys of a panel file that are not lengths: the shape's word, a count, and the angles (``..._deg``).
+_NOT_LENGTHS = ("curvature", "segments", "kind", "name")
+
+
+def _in_millimetres(data, units):
+    """Multiply every length of a panel file's data (``[panel]`` and ``[[feature]]``: every number but
+    ``segments`` and the angles, ``..._deg``; both coordinates of ``center``) from ``units`` into mm, the
+    unit the simulator works in, in place. A value that is not a number is left for the checks to refuse."""
+    from holecli.units import scale_factor
+
+    factor = scale_factor(units, "mm")
+    tables = [data.get("panel")] + list(data.get("feature") or [])
+    for table in tables:
+        if not isinstance(table, dict):
+            continue
+        for key, value in table.items():
+            if key in _NOT_LENGTHS or key.endswith("_deg"):
+                continue
+            if _number(value):
+                table[key] = float(value) * factor
+            elif key == "center" and isinstance(value, list) and all(_number(v) for v in value):
+                table[key] = [float(v) * factor for v in value]
 
 
 def with_backing(panel, gap, margin=5.0):

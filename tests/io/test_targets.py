@@ -48,3 +48,19 @@ def test_format_round_trips_full_precision():
     assert tuple(rows[0]) == TARGET_COLUMNS
     assert float(rows[0]["x"]) == 0.1 + 0.2
     assert rows[0]["u_y"] == "inf" and rows[0]["u_z"] == "nan"
+
+
+@pytest.mark.parametrize("line, units", [("# units = in", "in"), ('# units = "mm"', "mm"), ("#units=m", "m"),
+                                         ("\n# units = 'in'", "in")])
+def test_a_targets_file_may_declare_its_unit(line, units):
+    targets = parse_targets(f"{line}\nname,x,y,z,nx,ny,nz\nT1,1,2,3,0,0,1\n")
+    assert targets.units == units and targets.points.tolist() == [[1.0, 2.0, 3.0]]
+    assert parse_targets("name,x,y,z,nx,ny,nz\nT1,1,2,3,0,0,1\n").units is None
+
+
+def test_a_targets_file_refuses_an_unknown_unit_with_its_line():
+    with pytest.raises(LoadError, match=r"t.csv: line 1: units must be one of mm, m, in, got 'cm'"):
+        parse_targets("# units = cm\nname,x,y,z,nx,ny,nz\nT1,1,2,3,0,0,1\n", "t.csv")
+    # the units line comes first, or it is no units line: the header is expected
+    with pytest.raises(LoadError, match=r"line 2: expected 7 fields"):
+        parse_targets("name,x,y,z,nx,ny,nz\n# units = mm\nT1,1,2,3,0,0,1\n", "t.csv")

@@ -825,3 +825,39 @@ def test_toml_tilt_keys():
 def test_toml_tilt_refusals(feature, match):
     with pytest.raises(SpecError, match=match):
         parse_panel_toml("[panel]\nwidth = 50\nheight = 40\nthickness = 3\n[[feature]]\n" + feature)
+
+
+def _panel_text_in(factor, units):
+    """The sample panel (mm) with every length times ``factor`` and ``units`` declared at its top."""
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[2] / "sample_clouds" / "panel.toml").read_text()
+
+    def scaled(match):
+        key, value = match.group(1), match.group(2)
+        if key.endswith("_deg") or key == "segments":
+            return match.group(0)
+        numbers = [float(v) * factor for v in re.findall(r"-?[\d.]+", value)]
+        shown = f"[{', '.join(repr(n) for n in numbers)}]" if value.startswith("[") else repr(numbers[0])
+        return f"{key} = {shown}"
+
+    return f'units = "{units}"\n' + re.sub(r"^(\w+) = (\[[^\]]*\]|-?[\d.]+)$", scaled, text, flags=re.M)
+
+
+@pytest.mark.parametrize("units, factor", [("in", 1 / 25.4), ("m", 1e-3), ("mm", 1.0)])
+def test_a_panel_file_declares_its_unit(units, factor):
+    """Issue 25: ``units`` at the top of a panel file; its lengths are converted into mm (angles not)."""
+    from pathlib import Path
+
+    reference = parse_panel_toml((Path(__file__).resolve().parents[2] / "sample_clouds" / "panel.toml").read_text())
+    declared = parse_panel_toml(_panel_text_in(factor, units))
+    assert declared.width == pytest.approx(reference.width) and declared.thickness == pytest.approx(reference.thickness)
+    for got, want in zip(declared.features, reference.features, strict=True):
+        assert got.center == pytest.approx(want.center) and got.diameter == pytest.approx(want.diameter)
+        assert got.countersink_angle_deg == want.countersink_angle_deg
+
+
+def test_a_panel_file_refuses_an_unknown_unit():
+    with pytest.raises(SpecError, match=r"units must be one of 'mm', 'm', 'in'.*panel.*got 'cm'"):
+        parse_panel_toml('units = "cm"\n[panel]\nwidth = 6\nheight = 4\nthickness = 0.3\n')
