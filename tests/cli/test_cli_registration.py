@@ -174,3 +174,28 @@ def test_a_registration_in_metres_is_converted_into_the_scans_millimetres(run, c
     assert _one_hole(result)[1]["conformance"]["position"]["value"] < 0.01
     unknown = run("detect", scan, "--spec", _spec(cell), "--registration", metres)  # the scan's unit not known
     assert _one_hole(unknown)[1]["conformance"]["position"]["decision"] == "fail"
+
+
+def test_a_spec_in_inches_is_converted_before_the_registration_maps_it(run, cell, tmp_path):
+    # the drawing in inches, the registration and the scan in mm (--units mm): the spec's lengths are
+    # put in mm first, then moved into the robot's frame; the other way round, every center would be
+    # mapped 25.4 times too close to the part's origin
+    import tomllib
+
+    drawn = tomllib.loads(_spec(cell).read_text())
+    lines = ['units = "in"']
+    for hole in drawn["hole"]:
+        lines += ["[[hole]]", f'name = "{hole["name"]}"',
+                  f"center = [{', '.join(repr(c / 25.4) for c in hole['center'])}]",
+                  f"normal = {hole['normal']!r}", f"diameter = {hole['diameter'] / 25.4!r}",
+                  f"tolerance = {hole['tolerance'] / 25.4!r}",
+                  f"position_tolerance = {hole['position_tolerance'] / 25.4!r}"]
+    spec = tmp_path / "part_in.toml"
+    spec.write_text("\n".join(lines) + "\n")
+    result = run("detect", cell / "cell" / "R2.ply", "--units", "mm", "--spec", spec,
+                 "--registration", cell / "registration.json")
+    assert result.exit_code == cli.EXIT_OK, result.stderr
+    record, hole = _one_hole(result)
+    assert record["units"] == "mm"
+    assert hole["name"] == "R2" and hole["conformance"]["position"]["decision"] == "pass"
+    assert hole["conformance"]["position"]["value"] < 0.01
