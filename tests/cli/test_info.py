@@ -94,3 +94,13 @@ def test_describe_cloud_is_pure_over_the_cloud():
     info = describe_cloud(cloud)
     assert info["points"] == {"total": 5, "finite": 2, "dropped": 3} and info["dimensions"] == [1.0, 2.0, 3.0]
     assert info["units"]["declared"] == "m" and info["units"]["declared_by"] == "format" and info["format"] == "e57"
+
+
+def test_the_readme_info_example_prints_what_the_readme_shows(run, repo_root, monkeypatch):
+    import re
+
+    readme = (repo_root / "README.md").read_text(encoding="utf-8")
+    match = re.search(r"```sh\nholecli info (\S+) --format table\n```\n\n```text\n(.*?)```", readme, re.DOTALL)
+    assert match, "the README's holecli info example is gone"
+    monkeypatch.chdir(repo_root)
+    assert run("info", match.group(1), "--format", "table").stdout == match.group(2)
