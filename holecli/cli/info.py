@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from holecli.cli.exits import EXIT_INPUT, EXIT_OK, Failure, run_guarded, write_stdout
-from holecli.cli.options import columns_option, input_format_option
+from holecli.cli.options import check_verbosity, columns_option, input_format_option, verbosity_option_decorators
 from holecli.errors import HoleCliError
 
 INFO_EXIT_CODES_HELP = (
@@ -74,13 +74,15 @@ def render_info(info, fmt):
                    "still made).")
 @click.option("--format", "fmt", type=click.Choice(["json", "table"]), default="json", show_default=True,
               help="JSON (indented) or lines for people.")
-def info(scan, input_format, columns, units, fmt):
+@verbosity_option_decorators
+def info(scan, input_format, columns, units, fmt, quiet, verbose):
     """Describe SCAN (.ply, .pcd, .csv, .txt, .xyz, .e57, .las or .laz; - reads it from stdin, with
     --input-format) before measuring it: its points (total, finite, dropped), extent and dimensions,
     the columns read as x, y, z (text tables) or the fields it holds (PLY, PCD, LAS), the point
     spacing (median distance to the nearest neighbour, on a sample of 2000 points), the unit the file
     declares (E57: m; a text header such as x_mm: mm) and a guess of the unit from the scale (only a
-    guess: give --units to detect). Lengths in the file's unit.
+    guess: give --units to detect). Lengths in the file's unit. It says nothing on stderr but errors
+    (-q and -v change nothing).
 
     \b
     Examples:
@@ -91,6 +93,7 @@ def info(scan, input_format, columns, units, fmt):
     """
     from holecli.cli.detect import STDIN, check_stdin_format
 
+    check_verbosity(quiet, verbose)
     check_stdin_format(scan, input_format)
 
     def body():
