@@ -283,8 +283,10 @@ def measure_record(path, options, spec=None, explain=False, scan=None, units=Non
 
             reading = dict(options)
             input_format = reading.pop("input_format", None)
-            detection, cloud = read_and_detect(lambda: read_cloud(path, scan=scan, input_format=input_format),
-                                               scan=scan, input_format=input_format, **reading)
+            columns = reading.pop("columns", None)
+            detection, cloud = read_and_detect(
+                lambda: read_cloud(path, scan=scan, input_format=input_format, columns=columns),
+                scan=scan, input_format=input_format, columns=columns, **reading)
     except HoleCliError as error:
         return error_record(path, failure_message(path, error), resolved)
     except _PASSED_ON:

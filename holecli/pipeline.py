@@ -213,7 +213,7 @@ def detect(points, *, method="robust", view_dir=None, min_diameter=None, max_hol
                      options=used, candidates=candidates)
 
 
-def detect_file(path, scan=None, *, input_format=None, **options) -> Detection:
+def detect_file(path, scan=None, *, input_format=None, columns=None, **options) -> Detection:
     """Read a point-cloud file and find the holes in it.
 
     The one sequence of ``holecli detect`` and of every file of ``holecli batch``: read the file with
@@ -230,6 +230,9 @@ def detect_file(path, scan=None, *, input_format=None, **options) -> Detection:
         :func:`holecli.io.read_cloud`).
     input_format : {"ply", "pcd", "csv", "txt", "xyz", "e57", "las", "laz"}, optional
         Read the file in this format, whatever its extension (``scan.asc`` as ``"xyz"``).
+    columns : sequence of 3 (str or int), optional
+        The x, y, z columns of a text table, header names or 0-based indices (``--columns``, see
+        :func:`holecli.io.read_cloud`).
     **options
         Keyword arguments of :func:`detect`: ``method``, ``view_dir``, ``min_diameter``,
         ``max_holes``, ``full_only``, ``gauge_depth``, ``settings``, ``rng``, ``progress``.
@@ -278,12 +281,12 @@ def detect_file(path, scan=None, *, input_format=None, **options) -> Detection:
         ...
     holecli.errors.LoadError: sample_clouds/missing.ply: file not found
     """
-    detection, _ = read_and_detect(lambda: read_cloud(path, scan=scan, input_format=input_format), scan=scan,
-                                   input_format=input_format, **options)
+    detection, _ = read_and_detect(lambda: read_cloud(path, scan=scan, input_format=input_format, columns=columns),
+                                   scan=scan, input_format=input_format, columns=columns, **options)
     return detection
 
 
-def read_and_detect(read, *, scan=None, input_format=None, **options):
+def read_and_detect(read, *, scan=None, input_format=None, columns=None, **options):
     """Read a cloud with ``read()``, timed, and find its holes (:func:`detect_cloud`).
 
     The sequence :func:`detect_file` runs on a file, for a caller that reads the cloud otherwise
@@ -293,7 +296,7 @@ def read_and_detect(read, *, scan=None, input_format=None, **options):
     ----------
     read : callable
         Returns the :class:`holecli.io.Cloud` (raising :class:`holecli.errors.LoadError`).
-    scan, input_format : optional
+    scan, input_format, columns : optional
         How it is read, for the record's ``options`` (see :func:`detect_cloud`).
     **options
         Keyword arguments of :func:`detect`.
@@ -308,11 +311,11 @@ def read_and_detect(read, *, scan=None, input_format=None, **options):
     started = time.perf_counter()
     cloud = read()
     read_ms = (time.perf_counter() - started) * 1000.0
-    detection = detect_cloud(cloud, scan=scan, input_format=input_format, **options)
+    detection = detect_cloud(cloud, scan=scan, input_format=input_format, columns=columns, **options)
     return replace(detection, timing=replace(detection.timing, read_ms=read_ms)), cloud
 
 
-def detect_cloud(cloud, *, scan=None, input_format=None, **options) -> Detection:
+def detect_cloud(cloud, *, scan=None, input_format=None, columns=None, **options) -> Detection:
     """Find the holes in a cloud already read (:func:`holecli.io.read_cloud`,
     :func:`holecli.io.read_stream`).
 
@@ -320,8 +323,9 @@ def detect_cloud(cloud, *, scan=None, input_format=None, **options) -> Detection
     ----------
     cloud : holecli.io.Cloud
         Its points, dropped rows, file name and declared unit.
-    scan, input_format : optional
-        How it was read (``scan`` of an E57 file, the format asked for), for the record's ``options``.
+    scan, input_format, columns : optional
+        How it was read (``scan`` of an E57 file, the format asked for, the columns asked for), for
+        the record's ``options``.
     **options
         Keyword arguments of :func:`detect`.
 
@@ -329,7 +333,8 @@ def detect_cloud(cloud, *, scan=None, input_format=None, **options) -> Detection
     -------
     Detection
         What :func:`detect` returns, with ``file`` (``cloud.path``), ``dropped_points``
-        (``cloud.dropped``) and ``units`` (``cloud.units``) filled in.
+        (``cloud.dropped``), ``units`` (``cloud.units``) and ``input_columns`` (``cloud.columns``)
+        filled in.
 
     Raises
     ------
@@ -338,4 +343,6 @@ def detect_cloud(cloud, *, scan=None, input_format=None, **options) -> Detection
     """
     detection = detect(cloud.points, **options)
     return replace(detection, file=str(cloud.path), dropped_points=cloud.dropped, units=cloud.units,
-                   options=replace(detection.options, scan=scan, input_format=input_format))
+                   input_columns=cloud.columns,
+                   options=replace(detection.options, scan=scan, input_format=input_format,
+                                   columns=None if columns is None else tuple(columns)))

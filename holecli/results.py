@@ -362,7 +362,8 @@ class Rejection:
 # added (a reader may ignore keys it does not know); MAJOR when a key is removed, renamed or moved or
 # its type or meaning changes. The README documents the rule; holecli/schema/record.schema.json
 # describes this version. 2.2 (issue 24): holes[].notes, the reasons a value is null, out of warnings.
-SCHEMA_VERSION = "2.2"
+# 2.3 (issue 25): input_columns, the columns of a text table read as x, y, z, and options.columns.
+SCHEMA_VERSION = "2.3"
 
 
 @dataclass(frozen=True)
@@ -458,6 +459,9 @@ class Options:
         The format the file was read in when it was given (``--input-format``; None: by its extension).
     scan : int or None
         The scan of an E57 file read (``--scan``; None: every scan, merged).
+    columns : (3,) tuple of (str or int), or None
+        The x, y, z columns of a text table as given (``--columns``: header names or 0-based
+        indices); None: found from the header or the data.
     """
 
     method: str = "robust"
@@ -470,6 +474,7 @@ class Options:
     settings: Optional[tuple[tuple[str, object], ...]] = None
     input_format: Optional[str] = None
     scan: Optional[int] = None
+    columns: Optional[tuple] = None
 
 
 @dataclass(frozen=True)
@@ -506,6 +511,9 @@ class Detection:
         The options the detection ran with.
     candidates : int
         Candidate voids examined (``robust``: every hole and every rejection; ``paper``: 1).
+    input_columns : holecli.io.text.TableColumns or None
+        Which columns of a text table were read as x, y, z (:attr:`holecli.io.Cloud.columns`);
+        None for other formats and for points not read from a file.
     """
 
     holes: tuple[Hole, ...]
@@ -520,6 +528,7 @@ class Detection:
     scales: Scales = Scales()
     options: Options = Options()
     candidates: int = 0
+    input_columns: Optional[object] = None
 
     @property
     def elapsed_ms(self) -> float:
@@ -565,6 +574,7 @@ class Detection:
                 name: list(value) if isinstance(value, tuple) else value for name, value in given.settings},
             "input_format": given.input_format,
             "scan": given.scan,
+            "columns": None if given.columns is None else list(given.columns),
             "tolerances": None,
         }
         record = {
@@ -573,6 +583,7 @@ class Detection:
             "file": self.file,
             "points": self.points,
             "dropped_points": self.dropped_points,
+            "input_columns": None if self.input_columns is None else self.input_columns.to_dict(),
             "method": self.method,
             "options": options,
             "scales": asdict(self.scales),

@@ -18,7 +18,7 @@ HOLE_KEYS = {
     "bias_correction", "partial", "arc_deg", "scan_lines", "type", "countersink", "counterbore", "bore", "axis",
     "perpendicularity_deg", "warnings", "notes", "uncertainty",
 }  # fmt: skip
-RECORD_KEYS = {"schema_version", "holecli_version", "file", "points", "dropped_points", "method", "options", "scales",
+RECORD_KEYS = {"schema_version", "holecli_version", "file", "points", "dropped_points", "input_columns", "method", "options", "scales",
                "candidates", "plane", "holes", "timing"}
 
 
@@ -262,7 +262,9 @@ def test_detect_file_is_detect_on_the_files_finite_points(table1_files, tmp_path
     assert detection.dropped_points == 2
     assert detection.points == len(points)
     assert detection.elapsed_ms > 0
-    expected = dataclasses.replace(detect(load_points(path), method="paper"), file=str(path), dropped_points=2)
+    assert detection.input_columns.indices == (0, 1, 2) and detection.input_columns.names == ("x", "y", "z")
+    expected = dataclasses.replace(detect(load_points(path), method="paper"), file=str(path), dropped_points=2,
+                                   input_columns=detection.input_columns)
     assert _without_timing(detection) == _without_timing(expected)
 
 

@@ -7,7 +7,7 @@ import json
 import pytest
 
 from holecli import report
-from holecli.results import Detection, Hole, Plane, Timing
+from holecli.results import SCHEMA_VERSION, Detection, Hole, Plane, Timing
 
 # The CSV columns as the README documents them, in order.
 DOCUMENTED_COLUMNS = (
@@ -132,7 +132,7 @@ def test_csv_record_without_holes_is_one_row_with_only_the_file_and_its_provenan
     record = _record(holes=0)
     rows = report.csv_rows(record)
     assert rows == [["scans/part 7, left.ply"] + [""] * (PROVENANCE - 1) + _provenance_cells(record)]
-    assert dict(zip(DOCUMENTED_COLUMNS[PROVENANCE:], rows[0][PROVENANCE:]))["schema_version"] == "2.2"
+    assert dict(zip(DOCUMENTED_COLUMNS[PROVENANCE:], rows[0][PROVENANCE:]))["schema_version"] == SCHEMA_VERSION
 
 
 def test_csv_record_without_file_or_holes():

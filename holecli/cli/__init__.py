@@ -14,6 +14,7 @@ Where things are:
                            corrected targets (JSON, CSV, the table)
 ``holecli.cli.simulate``   ``holecli simulate``
 ``holecli.cli.plot``       ``holecli plot`` and ``detect --plot`` (matplotlib, imported when drawing)
+``holecli.cli.info``       ``holecli info``: what a scan holds (:mod:`holecli.io.info` computes it)
 ``holecli.cli.options``    parameter types and the options ``detect`` and ``batch`` share
 ``holecli.cli.progress``   what ``holecli batch`` shows on stderr: progress bar, summary
 ``holecli.cli.exits``      exit codes, :class:`Failure`, :func:`run_guarded`, :func:`write_stdout`
@@ -62,14 +63,16 @@ def main():
       holecli register A1.ply A2.ply A3.ply --spec part.toml
       holecli simulate scene.ply
       holecli plot scan.ply -o fit.png
+      holecli info scan.csv --format table
     """
 
 
 # The commands, each in its module (imported after main, which none of them needs).
-from holecli.cli import batch, detect, plot, register, simulate  # noqa: E402
+from holecli.cli import batch, detect, info, plot, register, simulate  # noqa: E402
 
 main.add_command(detect.detect)
 main.add_command(batch.batch)
 main.add_command(simulate.simulate)
 main.add_command(plot.plot)
 main.add_command(register.register)
+main.add_command(info.info)

@@ -17,9 +17,10 @@ from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_BROKEN_PIPE, EXIT_FIL
                                EXIT_INTERRUPTED, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_UNDECIDED, EXIT_USAGE,
                                EXIT_WARNING, Failure, broken_pipe, run_guarded, write_stdout)
 from holecli.cli.options import (Decimal, check_verbosity, decision_from_options, detection_option_decorators, detection_options,
-                                 fail_on_warning_option, input_format_option, inspection_from_options,
-                                 nominal_from_options, read_spec, reading_option_decorators, refuse_same_files,
-                                 registration_option_decorators, tolerance_option_decorators,
+                                 columns_option, fail_on_warning_option, input_format_option,
+                                 inspection_from_options, nominal_from_options, read_spec,
+                                 reading_option_decorators, refuse_same_files, registration_option_decorators,
+                                 tolerance_option_decorators,
                                  unit_choice, verbosity_option_decorators, warned, with_decision)
 from holecli.cli.progress import BatchDisplay, batch_summary, verbose_text
 from holecli.errors import LoadError
@@ -155,6 +156,7 @@ def e57_units_overridden(files, units):
                    "a / is matched against the path below the folder), e.g. 'part7_*'.")
 @input_format_option("Read every file in this format, whatever its extension; a folder then contributes "
                      "every file (that --pattern matches), e.g. --input-format xyz --pattern '*.asc'.")
+@columns_option
 @click.option("--format", "fmt", type=click.Choice(["jsonl", "json", "csv"]), default="jsonl", show_default=True,
               help="JSON Lines (one detect record per file, each on one line; json is taken for it, the word "
                    "detect uses) or CSV (one row per hole).")
@@ -184,7 +186,7 @@ def e57_units_overridden(files, units):
 @registration_option_decorators(plain_name=False)
 @fail_on_warning_option
 @verbosity_option_decorators
-def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, overwrite, plot_dir, explain, file_timeout,
+def batch(paths, recursive, pattern, input_format, columns, fmt, output, jobs, resume, overwrite, plot_dir, explain, file_timeout,
           scan_index,
           units, output_units,
           method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor,
@@ -217,6 +219,8 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ov
     options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
     if input_format is not None:
         options["input_format"] = input_format
+    if columns is not None:
+        options["columns"] = columns
     # the tolerance options (--nominal-diameter, ..., --max-perpendicularity) by their parameter names
     nominal = nominal_from_options(spec_file, **nominal_options)
     decision = decision_from_options(decision_rule, coverage_factor, nominal is not None or spec_file is not None)

@@ -11,7 +11,8 @@ import click
 
 from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_UNDECIDED,
                                EXIT_WARNING, Failure, run_guarded, write_stdout)
-from holecli.cli.options import (INPUT_FORMATS, check_verbosity, decision_from_options, detection_option_decorators,
+from holecli.cli.options import (INPUT_FORMATS, check_verbosity, columns_option, decision_from_options,
+                                 detection_option_decorators,
                                  detection_options, fail_on_warning_option, input_format_option, nominal_from_options,
                                  inspection_from_options, read_spec, reading_option_decorators,
                                  refuse_same_files, registration_option_decorators, tolerance_option_decorators,
@@ -34,7 +35,7 @@ def measure_file(path, options, scan=None):
     options : dict
         Keyword arguments of :func:`holecli.detect_file`: those of :func:`holecli.detect` (see
         :func:`detection_options`) and, with ``--input-format``, ``input_format`` (needed for
-        standard input).
+        standard input), with ``--columns``, ``columns``.
     scan : int, optional
         ``--scan``: the scan of an E57 file (default: every scan).
 
@@ -79,7 +80,9 @@ def measure_stdin(options, scan=None):
 
     options = dict(options)
     input_format = options.pop("input_format")
-    return read_and_detect(lambda: read_stdin(input_format, scan), scan=scan, input_format=input_format, **options)
+    columns = options.pop("columns", None)
+    return read_and_detect(lambda: read_stdin(input_format, scan, columns), scan=scan, input_format=input_format,
+                           columns=columns, **options)
 
 
 def check_stdin_format(scan, input_format):
@@ -94,7 +97,7 @@ def check_stdin_format(scan, input_format):
                                "a stream has no extension to tell its format")
 
 
-def read_stdin(input_format, scan=None):
+def read_stdin(input_format, scan=None, columns=None):
     """The cloud on standard input (``holecli detect -``), read by :func:`holecli.io.read_stream`.
 
     Parameters
@@ -103,6 +106,8 @@ def read_stdin(input_format, scan=None):
         ``--input-format``.
     scan : int, optional
         ``--scan`` (an E57 stream's scan).
+    columns : tuple, optional
+        ``--columns`` (a text table's x, y, z columns).
 
     Returns
     -------
@@ -128,7 +133,7 @@ def read_stdin(input_format, scan=None):
     if terminal:
         raise LoadError(STDIN_NAME, f"is a terminal: pipe or redirect a cloud into it "
                                     f"(holecli detect - --input-format {input_format} < scan.{input_format})")
-    return read_stream(stream, input_format, scan=scan)
+    return read_stream(stream, input_format, scan=scan, columns=columns)
 
 
 def render(records, fmt):
@@ -538,6 +543,7 @@ def write_outputs(outputs):
 @click.command(epilog=EXIT_CODES_HELP)
 @click.argument("scan", type=click.Path(allow_dash=True, path_type=str))
 @input_format_option("Read SCAN in this format, whatever its extension (scan.asc as xyz); needed for - (stdin).")
+@columns_option
 @click.option("--format", "fmt", type=click.Choice(["json", "jsonl", "csv", "table"]), default="json", show_default=True,
               help="Output format: JSON record (indented), JSON Lines (the record on one compact line, as batch "
                    "writes it: for appending to a log), CSV (one row per hole) or a table for people.")
@@ -557,9 +563,9 @@ def write_outputs(outputs):
 @registration_option_decorators(plain_name=True)
 @fail_on_warning_option
 @verbosity_option_decorators
-def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, units, output_units, method, view_dir, min_diameter,
-           max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor, registration_file, name_pairs,
-           fail_on_warning, quiet, verbose, **nominal_options):
+def detect(scan, input_format, columns, fmt, output, plot_file, explain, scan_index, units, output_units, method,
+           view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor,
+           registration_file, name_pairs, fail_on_warning, quiet, verbose, **nominal_options):
     """Measure the holes in SCAN (.ply, .pcd, .csv, .txt, .xyz, .e57, .las or .laz; - reads it from
     stdin, with --input-format).
 
@@ -587,6 +593,7 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
       holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0 --plot plots/
       cat scan.ply | holecli detect - --input-format ply -o -
       holecli detect scan.asc --input-format xyz
+      holecli detect scan.csv --columns x_mm,y_mm,z_mm
       holecli detect site.e57 --scan 1 --output-units mm
       holecli detect scan.ply --units m --output-units mm --nominal-diameter 3 --tolerance 0.02
       holecli detect scan.ply -v
@@ -606,6 +613,8 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
                                 choice.to_file_units(gauge_depth))
     if input_format is not None:
         options["input_format"] = input_format
+    if columns is not None:
+        options["columns"] = columns
     # the tolerance options (--nominal-diameter, ..., --max-perpendicularity) by their parameter names
     nominal = nominal_from_options(spec_file, **nominal_options)
     decision = decision_from_options(decision_rule, coverage_factor, nominal is not None or spec_file is not None)

@@ -6,7 +6,7 @@
   their ``detect`` keyword arguments, :func:`detection_options`;
 * the tolerance options (``--nominal-diameter``, ``--spec``, ...): :func:`tolerance_option_decorators`,
   :func:`nominal_from_options` and :func:`read_spec`;
-* ``--input-format``: :func:`input_format_option`.
+* ``--input-format``: :func:`input_format_option`; ``--columns``: :func:`columns_option`.
 * ``--quiet`` and ``--verbose`` of every command: :func:`verbosity_option_decorators`.
 * ``--fail-on-warning`` of ``detect`` and ``batch``: :func:`fail_on_warning_option`, :func:`warned`.
 * ``--decision-rule`` and ``--coverage-factor`` (with the tolerance options): :func:`decision_from_options`,
@@ -115,6 +115,45 @@ def input_format_option(help_text):
     """
     return click.option("--input-format", type=click.Choice(INPUT_FORMATS, case_sensitive=False), default=None,
                         help=help_text)
+
+
+class Columns(click.ParamType):
+    """``--columns X,Y,Z``: three header names or 0-based indices (:func:`holecli.io.text.parse_columns`)."""
+
+    name = "X,Y,Z"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        from holecli.io.text import parse_columns
+
+        try:
+            return parse_columns(value)
+        except ValueError as error:
+            self.fail(str(error), param, ctx)
+
+
+# What --columns says in every command's help.
+COLUMNS_HELP = ("The x, y, z columns of a text table (.csv, .txt, .xyz): three header names (case ignored) or "
+                "0-based indices, e.g. x_mm,y_mm,z_mm or 1,2,3 [default: the columns the header names x, y, z "
+                "(x_mm, X [mm], pos_x, //X, ...), else the first three; a table where that is a guess is "
+                "refused with its columns]. Refused for other formats.")
+
+
+def columns_option(function):
+    """The ``--columns`` option of the commands that read scans (parameter ``columns``: a tuple or None).
+
+    Parameters
+    ----------
+    function : callable
+        A click command's function.
+
+    Returns
+    -------
+    callable
+        ``function`` with the option applied.
+    """
+    return click.option("--columns", type=Columns(), default=None, help=COLUMNS_HELP)(function)
 
 
 def detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth=None):

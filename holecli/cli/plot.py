@@ -13,7 +13,8 @@ import os
 import click
 
 from holecli.cli.exits import EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, Failure, run_guarded
-from holecli.cli.options import (check_verbosity, detection_option_decorators, detection_options, input_format_option,
+from holecli.cli.options import (check_verbosity, columns_option, detection_option_decorators, detection_options,
+                                 input_format_option,
                                  refuse_same_files, verbosity_option_decorators)
 from holecli.errors import HoleCliError
 
@@ -55,8 +56,10 @@ def measure_with_points(path, options, scan=None):
         else:
             options = dict(options)
             input_format = options.pop("input_format", None)
-            detection, cloud = read_and_detect(lambda: read_cloud(path, scan=scan, input_format=input_format),
-                                               scan=scan, input_format=input_format, **options)
+            columns = options.pop("columns", None)
+            detection, cloud = read_and_detect(
+                lambda: read_cloud(path, scan=scan, input_format=input_format, columns=columns),
+                scan=scan, input_format=input_format, columns=columns, **options)
     except HoleCliError as error:
         raise Failure(failure_message(STDIN_NAME if path == STDIN else path, error), EXIT_INPUT) from None
     return detection, cloud.points
@@ -214,6 +217,7 @@ def plot_path_type():
 @click.option("--output", "-o", type=plot_path_type(), required=True,
               help="The PNG to write (atomically; a FIFO must have its reader). Never SCAN itself.")
 @input_format_option("Read SCAN in this format, whatever its extension; needed for - (stdin).")
+@columns_option
 @click.option("--scan", "scan_index", type=click.IntRange(min=0), default=None, metavar="N",
               help="Draw scan N (from 0) of a multi-scan E57 file [default: every scan, merged].")
 @click.option("--units", type=click.Choice(("mm", "m", "in")), default=None,
@@ -224,7 +228,7 @@ def plot_path_type():
               help="Resolution of the PNG (the figure is 14 in wide).")
 @detection_option_decorators
 @verbosity_option_decorators
-def plot(scan, output, input_format, scan_index, units, max_panels, dpi, method, view_dir, min_diameter, max_holes,
+def plot(scan, output, input_format, columns, scan_index, units, max_panels, dpi, method, view_dir, min_diameter, max_holes,
          full_only, gauge_depth, quiet, verbose):
     """Draw the holes found in SCAN into a PNG, for an inspector: per hole the points around it seen
     along its normal (coloured by height above the surface) with the fitted edge circle, its center,
@@ -248,6 +252,8 @@ def plot(scan, output, input_format, scan_index, units, max_panels, dpi, method,
     options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
     if input_format is not None:
         options["input_format"] = input_format
+    if columns is not None:
+        options["columns"] = columns
 
     def body():
         refuse_same_files([("SCAN", scan)], [("-o/--output", output)])  # before anything is read

@@ -31,6 +31,30 @@ def _number(value, digits=4):
     return "none" if value is None else f"{value:.{digits}g}"
 
 
+def columns_text(columns):
+    """The columns of a text table read as x, y, z, for people: ``x_mm,y_mm,z_mm (1,2,3 of 5, 0-based; unit mm
+    from the header)``, ``columns 0,1,2 of 7, 0-based; no header``.
+
+    Parameters
+    ----------
+    columns : dict
+        A record's ``input_columns`` (:meth:`holecli.io.text.TableColumns.to_dict`).
+
+    Returns
+    -------
+    str
+    """
+    indices = ",".join(str(index) for index in columns["indices"])
+    how = [f"{indices} of {columns['width']}, 0-based"]
+    if columns["given"]:
+        how.append("given by --columns")
+    if columns["unit"]:
+        how.append(f"unit {columns['unit']} from the header")
+    if columns["names"] is None:
+        return f"columns {'; '.join(how + ['no header'])}"
+    return f"{','.join(columns['names'])} ({'; '.join(how)})"
+
+
 def verbose_text(record):
     """The ``--verbose`` account of one record: the scales the pipeline chose, the holes' notes (why a
     value is null) and where the time went.
@@ -52,6 +76,8 @@ def verbose_text(record):
     lines = [f"{record['file']}: {record['points']} points ({record['dropped_points']} dropped), "
              f"method {record['method']}, schema {record.get('schema_version')}, "
              f"holecli {record.get('holecli_version')}"]
+    if record.get("input_columns"):
+        lines.append(f"  columns read as x, y, z: {columns_text(record['input_columns'])}")
     if record["method"] == "robust":
         if scales["line_pitch"] is not None:
             pattern = f"line pitch {_number(scales['line_pitch'])} (stripes)"

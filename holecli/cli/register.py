@@ -19,7 +19,7 @@ import click
 
 from holecli.cli.exits import (EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_USAGE, Failure,
                                run_guarded)
-from holecli.cli.options import Decimal, detection_option_decorators, detection_options
+from holecli.cli.options import Decimal, columns_option, detection_option_decorators, detection_options
 
 REGISTER_EXIT_CODES_HELP = (
     "\b\nExit codes:\n"
@@ -209,9 +209,10 @@ def targets_in_units(targets, units):
 @click.option("--output", "-o", type=click.Path(dir_okay=False, allow_dash=True, path_type=str), default=None,
               help="Write the result to this file (atomically; - is stdout) instead of stdout; with "
                    "--targets-output, both are written or neither.")
+@columns_option
 @detection_option_decorators
 @click.option("--quiet", "-q", is_flag=True, help="Say nothing on stderr but errors (no warnings, notes or verdict line).")
-def register(scans, spec_file, name_pairs, targets_file, targets_output, max_residual, outlier_factor, outlier_floor,
+def register(scans, columns, spec_file, name_pairs, targets_file, targets_output, max_residual, outlier_factor, outlier_floor,
              fmt, output, method, view_dir, min_diameter, max_holes, full_only, gauge_depth, quiet):
     """Register a part: fit the rigid transform from the part (CAD) frame of --spec to the frame of the
     SCANs (a robot's, any measuring frame) from the part's reference holes.
@@ -239,6 +240,8 @@ def register(scans, spec_file, name_pairs, targets_file, targets_output, max_res
     if targets_output == "-" and (output is None or output == "-"):
         raise click.UsageError("--targets-output - and the result cannot both go to stdout: give --output FILE")
     options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
+    if columns is not None:
+        options["columns"] = columns
 
     def body():
         from holecli import __version__

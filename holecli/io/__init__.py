@@ -75,10 +75,10 @@ from holecli.io._common import _BadFile, _describe
 from holecli.io.outfile import write_bytes
 from holecli.io.pcd import encode_pcd, read_pcd
 from holecli.io.ply import encode_ply, read_ply
-from holecli.io.text import encode_table, read_table
+from holecli.io.text import TableColumns, encode_table, parse_columns, read_table_columns
 
 __all__ = ["INPUT_FORMATS", "MAX_STREAM_BYTES", "STDIN_NAME", "SUPPORTED_EXTENSIONS", "WRITE_EXTENSIONS", "Cloud",
-           "load_points", "read_cloud", "read_stream", "save_points"]
+           "TableColumns", "load_points", "parse_columns", "read_cloud", "read_stream", "save_points"]
 
 # What read_cloud reads, and what save_points writes.
 SUPPORTED_EXTENSIONS = (".ply", ".pcd", ".csv", ".txt", ".xyz", ".e57", ".las", ".laz")
@@ -112,17 +112,21 @@ class Cloud:
     path : str
         The file the points were read from.
     units : str or None
-        The length unit the format itself declares: ``"m"`` for E57 (the standard's unit); None
-        for every other format, whose files do not say.
+        The length unit the format itself declares: ``"m"`` for E57 (the standard's unit); for a
+        text table, the unit its header's names give (``x_mm,y_mm,z_mm``: ``"mm"``); None for
+        every other file, which does not say.
+    columns : holecli.io.text.TableColumns or None
+        Which columns of a text table were read as x, y, z; None for every other format.
     """
 
     points: np.ndarray
     dropped: int
     path: str
     units: Optional[str] = None
+    columns: Optional[TableColumns] = None
 
 
-def read_cloud(path, scan=None, input_format=None) -> Cloud:
+def read_cloud(path, scan=None, input_format=None, columns=None) -> Cloud:
     """Read the points of a PLY, PCD, CSV, TXT, XYZ, E57, LAS or LAZ file.
 
     Parameters
@@ -135,6 +139,10 @@ def read_cloud(path, scan=None, input_format=None) -> Cloud:
         format holds one scan, 0.
     input_format : {"ply", "pcd", "csv", "txt", "xyz", "e57", "las", "laz"}, optional
         The format to read the file in, whatever its extension (``scan.asc`` as ``"xyz"``).
+    columns : sequence of 3 (str or int), optional
+        The x, y, z columns of a text table: header names or 0-based indices
+        (:func:`holecli.io.text.parse_columns`); by default found from the header or the data
+        (:mod:`holecli.io.text`). Refused for any other format.
 
     Returns
     -------
@@ -155,11 +163,11 @@ def read_cloud(path, scan=None, input_format=None) -> Cloud:
     name = os.fspath(path)
     _check_scan(scan)
     extension = _extension(name, input_format)
-    raw, flagged, units = _read_checked(name, extension, name, scan)
-    return _finite_cloud(raw, name, flagged, units)
+    raw, flagged, units, read = _read_checked(name, extension, name, scan, columns)
+    return _finite_cloud(raw, name, flagged, units, read)
 
 
-def read_stream(stream, input_format, name=STDIN_NAME, max_bytes=None, scan=None) -> Cloud:
+def read_stream(stream, input_format, name=STDIN_NAME, max_bytes=None, scan=None, columns=None) -> Cloud:
     """Read the points of a cloud from a binary stream (standard input: ``sys.stdin.buffer``).
 
     The stream is copied, up to ``max_bytes``, into a temporary file in :func:`tempfile.gettempdir`,
@@ -185,6 +193,8 @@ def read_stream(stream, input_format, name=STDIN_NAME, max_bytes=None, scan=None
         read no further).
     scan : int, optional
         As for :func:`read_cloud` (an E57 stream's scan).
+    columns : sequence of 3 (str or int), optional
+        As for :func:`read_cloud`.
 
     Returns
     -------
@@ -220,8 +230,8 @@ def read_stream(stream, input_format, name=STDIN_NAME, max_bytes=None, scan=None
     try:
         with os.fdopen(descriptor, "wb", closefd=False) as copy:
             _copy_stream(stream, copy, max_bytes, name)
-        raw, flagged, units = _read_checked(path, extension, name, scan)
-        return _finite_cloud(raw, name, flagged, units)
+        raw, flagged, units, read = _read_checked(path, extension, name, scan, columns)
+        return _finite_cloud(raw, name, flagged, units, read)
     finally:
         os.close(descriptor)
         if temporary is not None:
@@ -317,10 +327,10 @@ def _check_scan(scan):
         raise ValueError(f"scan must be a whole number >= 0, got {scan!r}")
 
 
-def _read_checked(path, extension, name, scan=None):
+def _read_checked(path, extension, name, scan=None, columns=None):
     """:func:`_read_raw`, its problems raised as LoadError named ``name``."""
     try:
-        return _read_raw(path, extension, scan)
+        return _read_raw(path, extension, scan, columns)
     except _BadFile as exc:
         raise LoadError(name, str(exc)) from None
     except (OSError, ValueError, struct.error, csv.Error, OverflowError, MemoryError) as exc:
@@ -411,9 +421,10 @@ def save_points(path, points, float32=False) -> None:
 # --- checks every file goes through, and the dispatch by extension ----------------------------
 
 
-def _read_raw(name: str, extension: str, scan=None):
+def _read_raw(name: str, extension: str, scan=None, columns=None):
     """All coordinate rows of the file, non-finite ones included, as (n, 3) float64; the points
-    left out because the file flags them invalid; the unit the format declares (or None).
+    left out because the file flags them invalid; the unit the format declares (or None); the
+    columns read (:class:`TableColumns`, text tables; else None).
     ``extension`` (``.ply``, ...; the file's own or the one of the format asked for) selects the reader."""
     try:
         info = os.stat(name)
@@ -434,26 +445,29 @@ def _read_raw(name: str, extension: str, scan=None):
                        "under another name: give --input-format xyz, or csv)")
     if info.st_size == 0:
         raise _BadFile("empty file")
+    if columns is not None and extension not in _TEXT_EXTENSIONS:
+        raise _BadFile(f"--columns is for text tables (.csv, .txt, .xyz), not {extension} files")
     if extension == ".e57":
         from holecli.io.e57 import E57_UNITS, read_e57
 
         points, flagged = read_e57(name, _head(name), scan)
-        return points, flagged, E57_UNITS
+        return points, flagged, E57_UNITS, None
     if scan is not None and scan != 0:
         raise _BadFile(f"scan {scan} is out of range: a {extension} file holds 1 scan (scan 0)")
     if extension in (".las", ".laz"):
         from holecli.io.las import read_las
 
-        return read_las(name, _head(name)), 0, None
+        return read_las(name, _head(name)), 0, None, None
     if extension in _TEXT_EXTENSIONS:
-        return read_table(name), 0, None
+        points, read = read_table_columns(name, columns)
+        return points, 0, read.unit, read
     with open(name, "rb") as stream:
         data = stream.read()
     if data.isspace():
         raise _BadFile("empty file")
     if extension == ".ply":
-        return read_ply(name, data), 0, None
-    return read_pcd(name, data), 0, None
+        return read_ply(name, data), 0, None, None
+    return read_pcd(name, data), 0, None, None
 
 
 def _head(name: str) -> bytes:
@@ -487,7 +501,7 @@ def file_kind(mode: int) -> str:
     return f"file type {stat.S_IFMT(mode):#o}"
 
 
-def _finite_cloud(raw: np.ndarray, name: str, flagged: int = 0, units=None) -> Cloud:
+def _finite_cloud(raw: np.ndarray, name: str, flagged: int = 0, units=None, columns=None) -> Cloud:
     """Drop the rows with a non-finite coordinate and refuse a cloud with no point left (``flagged``:
     the points the reader left out as flagged invalid, counted as dropped too)."""
     finite = np.isfinite(raw).all(axis=1)
@@ -500,7 +514,7 @@ def _finite_cloud(raw: np.ndarray, name: str, flagged: int = 0, units=None) -> C
                                   "or have a NaN or infinite coordinate)")
         raise LoadError(name, f"no finite points (all {len(raw)} rows have a NaN or infinite coordinate)")
     points = raw if kept == len(raw) else raw[finite]
-    return Cloud(np.ascontiguousarray(points, dtype=np.float64), len(raw) - kept + flagged, name, units)
+    return Cloud(np.ascontiguousarray(points, dtype=np.float64), len(raw) - kept + flagged, name, units, columns)
 
 
 def _as_points(points) -> np.ndarray:

@@ -18,7 +18,7 @@ from holecli.simulation import synth
 
 SAMPLES = os.path.join(os.path.dirname(__file__), os.pardir, os.pardir, "sample_clouds")
 
-RECORD_KEYS = {"schema_version", "holecli_version", "file", "points", "dropped_points", "method", "options", "scales",
+RECORD_KEYS = {"schema_version", "holecli_version", "file", "points", "dropped_points", "input_columns", "method", "options", "scales",
                "candidates", "plane", "holes", "timing"}
 PLANE_KEYS = {"point", "normal", "rms", "inliers"}
 HOLE_KEYS = {

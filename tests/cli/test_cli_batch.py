@@ -20,7 +20,7 @@ from holecli import cli, report
 from holecli.io import save_points
 from holecli.simulation import synth
 
-RECORD_KEYS = {"schema_version", "holecli_version", "file", "points", "dropped_points", "method", "options", "scales",
+RECORD_KEYS = {"schema_version", "holecli_version", "file", "points", "dropped_points", "input_columns", "method", "options", "scales",
                "candidates", "plane", "holes", "timing"}
 BATCH_RECORD_KEYS = RECORD_KEYS | {"path"}
 VERDICT_HOLE_KEYS = {"diameter_deviation", "position_deviation", "tilt_deg", "countersink_diameter_deviation",

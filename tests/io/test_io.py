@@ -429,10 +429,21 @@ def test_csv_header_in_another_order_with_extra_columns(tmp_path):
     _check_cloud(read_cloud(_write(tmp_path / "a.csv", text)), _TABLE)
 
 
-def test_csv_header_without_xyz_uses_the_first_three_numeric_columns(tmp_path):
-    rows = [f"p{i};{x};{y};{z};7\n" for i, (x, y, z) in enumerate(_TABLE)]
-    text = "name;east;north;height;intensity\n" + "".join(rows)
+def test_csv_header_without_xyz_uses_its_three_numeric_columns(tmp_path):
+    rows = [f"p{i};{x};{y};{z}\n" for i, (x, y, z) in enumerate(_TABLE)]
+    text = "name;east;north;height\n" + "".join(rows)
     _check_cloud(read_cloud(_write(tmp_path / "a.csv", text)), _TABLE)
+
+
+def test_csv_header_without_xyz_over_four_numeric_columns_is_refused_then_read_with_columns(tmp_path):
+    # Which three of east, north, height, intensity are x, y, z is a guess: refused, the columns named.
+    rows = [f"p{i};{x};{y};{z};7\n" for i, (x, y, z) in enumerate(_TABLE)]
+    path = _write(tmp_path / "a.csv", "name;east;north;height;intensity\n" + "".join(rows))
+    with pytest.raises(LoadError, match=r"ambiguous columns: the header names no x, y, z and row 2 has 4 numeric "
+                                        r"columns \(columns 0 'name', 1 'east', .*, 4 'intensity'\); give --columns, "
+                                        r"e\.g\. --columns east,north,height$"):
+        read_cloud(path)
+    _check_cloud(read_cloud(path, columns=("east", "North", "HEIGHT")), _TABLE)
 
 
 def test_cloudcompare_style_header(tmp_path):
