@@ -11,8 +11,8 @@ import click
 
 from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_UNDECIDED,
                                EXIT_WARNING, Failure, run_guarded, write_stdout)
-from holecli.cli.options import (INPUT_FORMATS, check_verbosity, decision_from_options, detection_option_decorators,
-                                 detection_options, fail_on_warning_option, input_format_option, nominal_from_options,
+from holecli.cli.options import (INPUT_FORMATS, check_fields, check_verbosity, decision_from_options, detection_option_decorators,
+                                 detection_options, fail_on_warning_option, fields_option, input_format_option, nominal_from_options,
                                  read_spec, reading_option_decorators, refuse_same_files, tolerance_option_decorators,
                                  unit_choice,
                                  verbosity_option_decorators, warned, with_decision)
@@ -130,7 +130,7 @@ def read_stdin(input_format, scan=None):
     return read_stream(stream, input_format, scan=scan)
 
 
-def render(records, fmt):
+def render(records, fmt, fields=None):
     """The text of ``records`` in the requested format.
 
     Parameters
@@ -139,6 +139,8 @@ def render(records, fmt):
         ``detect`` records (:meth:`holecli.Detection.to_dict`, with verdicts when checked).
     fmt : {"json", "jsonl", "csv", "table"}
         ``--format``.
+    fields : tuple of str, optional
+        ``--fields``: the CSV's columns (default :data:`holecli.report.CSV_COLUMNS`).
 
     Returns
     -------
@@ -154,7 +156,7 @@ def render(records, fmt):
         return "".join(report.to_json_line(record) for record in records)
     if fmt == "csv":
         buffer = _stringio.StringIO()
-        report.write_csv(records, buffer)
+        report.write_csv(records, buffer, columns=fields or report.CSV_COLUMNS)
         return buffer.getvalue()
     return render_table(records)
 
@@ -493,6 +495,7 @@ def write_outputs(outputs):
 @click.option("--format", "fmt", type=click.Choice(["json", "jsonl", "csv", "table"]), default="json", show_default=True,
               help="Output format: JSON record (indented), JSON Lines (the record on one compact line, as batch "
                    "writes it: for appending to a log), CSV (one row per hole) or a table for people.")
+@fields_option()
 @click.option("--output", "-o", type=click.Path(dir_okay=False, allow_dash=True, path_type=str),
               help="Write the result to this file (a regular file atomically; - is stdout) instead of stdout; "
                    "with --plot, both are written or neither. Never SCAN, --spec or the --plot file.")
@@ -508,7 +511,7 @@ def write_outputs(outputs):
 @tolerance_option_decorators
 @fail_on_warning_option
 @verbosity_option_decorators
-def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, units, output_units, method, view_dir, min_diameter,
+def detect(scan, input_format, fmt, fields, output, plot_file, explain, scan_index, units, output_units, method, view_dir, min_diameter,
            max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor, fail_on_warning, quiet,
            verbose, **nominal_options):
     """Measure the holes in SCAN (.ply, .pcd, .csv, .txt, .xyz, .e57, .las or .laz; - reads it from
@@ -522,6 +525,7 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
     Examples:
       holecli detect scan.ply
       holecli detect scan.csv --format csv --output result.csv
+      holecli detect scan.ply --format csv --fields file,hole,diameter,u_diameter
       holecli detect scan.pcd --view-dir 0,0,-1 --full-only --format table
       holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0
       holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0 --decision-rule guarded
@@ -546,6 +550,7 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
     in the record's notes, and on stderr with --verbose.
     """
     check_verbosity(quiet, verbose)
+    check_fields(fields, fmt)
     check_stdin_format(scan, input_format)
     if explain and fmt == "csv":
         raise click.UsageError("--explain needs --format json or table (CSV has one row per hole)")
@@ -593,7 +598,7 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
 
             record = check(record, spec)
             far.append(far_from_spec(record, spec))
-        outputs = [(output, render([record], fmt), "output")]
+        outputs = [(output, render([record], fmt, fields), "output")]
         if plot_file is not None:
             from holecli.cli.plot import PLOT_WHAT, plot_png
 
