@@ -565,6 +565,30 @@ def warning_lines(record):
             for hole in record.get("holes", ()) for warning in hole.get("warnings", ())]
 
 
+def zone_note_lines(record):
+    """The stderr lines of the checks that a guarded decision can never pass (their U exceeds the
+    tolerance zone, note ``uncertainty_exceeds_tolerance``):
+    ``holecli: note: FILE hole N (NAME): uncertainty_exceeds_tolerance: diameter: 2U = ...``.
+
+    Parameters
+    ----------
+    record : dict
+        A ``detect`` record (checked, or not: then there is none).
+
+    Returns
+    -------
+    list of str
+    """
+    from holecli.tolerance import UNCERTAINTY_NOTE
+
+    lines = []
+    for hole in record.get("holes", ()):
+        name = f" ({hole['name']})" if hole.get("name") else ""
+        lines.extend(f"holecli: note: {record['file']} hole {hole['index']}{name}: {note['code']}: {note['message']}"
+                     for note in hole.get("notes", ()) if note["code"] == UNCERTAINTY_NOTE)
+    return lines
+
+
 def undecided_line(record):
     """The stderr line of a record whose verdict is undecided (no check failed, some undecided):
     ``holecli: undecided: 1 of 2 checked holes (guarded, k=2: conformance not proved) in FILE``.
@@ -795,6 +819,9 @@ def detect(scan, input_format, fmt, fields, output, plot_file, explain, scan_ind
     if not quiet:
         for line in warning_lines(record):
             click.echo(line, err=True)
+        if not verbose:  # (--verbose says every note)
+            for line in zone_note_lines(record):
+                click.echo(line, err=True)
     if not quiet and not record["holes"]:
         why = refused_summary(refused, explain) if method == "robust" else ""  # (the paper's has no candidates)
         click.echo(f"holecli: no hole found in {record['file']}{why}", err=True)
