@@ -145,9 +145,11 @@ def test_notes_are_apart_from_warnings_in_the_schema(panel_record):
     # schema 2.2: why a value is null is a note (a straight-down scan sees no bore wall), never a warning
     from holecli.robust.doubts import DOUBT_CODES
     from holecli.robust.hole_shape import NOTE_CODES, WARNING_CODES
+    from holecli.tolerance import UNCERTAINTY_NOTE
 
     defs = record_schema()["$defs"]
-    assert set(defs["note"]["properties"]["code"]["enum"]) == set(NOTE_CODES)
+    # the shape's notes, and the check's (issue 25: a U wider than the tolerance zone, guarded rule)
+    assert set(defs["note"]["properties"]["code"]["enum"]) == set(NOTE_CODES) | {UNCERTAINTY_NOTE}
     assert set(defs["warning"]["properties"]["code"]["enum"]) == set(WARNING_CODES) | set(DOUBT_CODES)
     holes = panel_record["holes"]
     assert all(hole["warnings"] == [] for hole in holes)

@@ -286,6 +286,9 @@ def _print_wide(console, record, title, caption, digits, k):
         console.print(table)
     if any(hole.get("type") for hole in record["holes"]):
         console.print(_shape_table(record["holes"], digits, k))
+    codes = _codes_table(record["holes"])
+    if codes is not None:
+        console.print(codes)
 
 
 def _print_narrow(console, record, title, caption, digits, k):
@@ -380,33 +383,48 @@ def _shape_table(holes, length_digits=4, k=2.0):
             return "-"
         return f"{value:.{digits}f}" + ("" if uncertainty is None else f"\nU {k * uncertainty:.2g}")
 
-    table = Table(title="below the edge")
-    # the words are never cut: the numbers' headers wrap instead (the table is 140 columns wide)
-    words = {"type": [hole.get("type") or "-" for hole in holes],
-             "warnings": [warning["code"] for hole in holes for warning in hole.get("warnings", [])],
-             "notes": [note["code"] for hole in holes for note in hole.get("notes", [])]}
-    for column in ("hole", "type", "csk dia", "csk angle", "csk depth", "cbore dia", "cbore depth", "bore dia",
-                   "floor depth", "perp deg", "warnings", "notes"):
-        if column in words:
-            table.add_column(column, justify="left", no_wrap=True, min_width=max(map(len, words[column]), default=1))
-        else:
-            table.add_column(column, justify="right")
+    rows = []
     for hole in holes:
         countersink, counterbore, bore = (hole.get(key) or {} for key in ("countersink", "counterbore", "bore"))
         u = hole.get("uncertainty") or {}
         u_countersink, u_counterbore, u_bore = (u.get(key) or {} for key in ("countersink", "counterbore", "bore"))
-        table.add_row(str(hole["index"]), hole.get("type") or "-",
-                      number(countersink.get("diameter"), uncertainty=u_countersink.get("diameter")),
-                      number(countersink.get("angle_deg"), 2, u_countersink.get("angle_deg")),
-                      number(countersink.get("depth"), uncertainty=u_countersink.get("depth")),
-                      number(counterbore.get("diameter"), uncertainty=u_counterbore.get("diameter")),
-                      number(counterbore.get("depth"), uncertainty=u_counterbore.get("depth")),
-                      number(bore.get("diameter"), uncertainty=u_bore.get("diameter")),
-                      number(bore.get("floor_depth"), uncertainty=u_bore.get("floor_depth")),
-                      number(hole.get("perpendicularity_deg"), 3, u.get("perpendicularity_deg")),
-                      # one code a line: the cells stay as narrow as the longest code
-                      "\n".join(warning["code"] for warning in hole.get("warnings", [])),
-                      "\n".join(note["code"] for note in hole.get("notes", [])))
+        rows.append([str(hole["index"]), hole.get("type") or "-",
+                     number(countersink.get("diameter"), uncertainty=u_countersink.get("diameter")),
+                     number(countersink.get("angle_deg"), 2, u_countersink.get("angle_deg")),
+                     number(countersink.get("depth"), uncertainty=u_countersink.get("depth")),
+                     number(counterbore.get("diameter"), uncertainty=u_counterbore.get("diameter")),
+                     number(counterbore.get("depth"), uncertainty=u_counterbore.get("depth")),
+                     number(bore.get("diameter"), uncertainty=u_bore.get("diameter")),
+                     number(bore.get("floor_depth"), uncertainty=u_bore.get("floor_depth")),
+                     number(hole.get("perpendicularity_deg"), 3, u.get("perpendicularity_deg"))])
+    table = Table(title="below the edge")
+    # the words and the values over their U are never cut: the numbers' headers wrap instead
+    for index, column in enumerate(("hole", "type", "csk dia", "csk angle", "csk depth", "cbore dia", "cbore depth",
+                                    "bore dia", "floor depth", "perp deg")):
+        widest = max((len(line) for row in rows for line in row[index].split("\n")), default=1)
+        table.add_column(column, justify="left" if column == "type" else "right", min_width=widest)
+    for row in rows:
+        table.add_row(*row)
+    return table
+
+
+def _codes_table(holes):
+    """The table of the holes' warning and note codes (one a line: the cells as narrow as the longest code),
+    None when no hole has any."""
+    from rich.table import Table
+
+    rows = [(str(hole["index"]), "\n".join(warning["code"] for warning in hole.get("warnings", [])),
+             "\n".join(note["code"] for note in hole.get("notes", [])))
+            for hole in holes if hole.get("warnings") or hole.get("notes")]
+    if not rows:
+        return None
+    table = Table(title="warnings and notes")
+    for index, column in enumerate(("hole", "warnings", "notes")):
+        widest = max((len(line) for row in rows for line in row[index].split("\n")), default=1)
+        table.add_column(column, justify="right" if column == "hole" else "left", no_wrap=True,
+                         min_width=max(widest, len(column)))
+    for row in rows:
+        table.add_row(*row)
     return table
 # The value a failed check is shown with in the table: the field of the checked hole (a deviation, or
 # the measured angle for tilt and perpendicularity).
