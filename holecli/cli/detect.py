@@ -246,7 +246,7 @@ def render_table(records, width=None):
 
 
 def _print_wide(console, record, title, caption, digits, k):
-    """One row per hole, the checks below, then the table below the edge (140 columns)."""
+    """One row per hole, the checks below, then the tables below the edge and of the codes (100 columns or more)."""
     from rich.table import Table
 
     verdict = record.get("verdict")
@@ -714,7 +714,8 @@ def write_outputs(outputs):
 @input_format_option("Read SCAN in this format, whatever its extension (scan.asc as xyz); needed for - (stdin).")
 @click.option("--format", "fmt", type=click.Choice(["json", "jsonl", "csv", "table"]), default="json", show_default=True,
               help="Output format: JSON record (indented), JSON Lines (the record on one compact line, as batch "
-                   "writes it: for appending to a log), CSV (one row per hole) or a table for people.")
+                   "writes it: for appending to a log), CSV (one row per hole) or a table for people (fitted to the "
+                   "terminal, with U = k·u beside the values; a block per hole under 100 columns).")
 @fields_option()
 @click.option("--output", "-o", type=click.Path(dir_okay=False, allow_dash=True, path_type=str),
               help="Write the result to this file (a regular file atomically; - is stdout) instead of stdout; "
