@@ -583,7 +583,8 @@ def figure(detection, points, max_panels=None, unit=None, title=None, checked=No
         for check, nominal, smallest, largest, exceeded in tolerance_zones(checked_hole, zone_factor):
             words = check.replace("_", " ")
             ax.add_patch(Wedge((0, 0), largest / 2.0, 0, 360, width=(largest - smallest) / 2.0, color="tab:green",
-                               alpha=0.25, lw=0, hatch="xx" if exceeded else None, gid=f"tolerance zone {check} {hole.index}",
+                               alpha=0.25, lw=0, hatch="xx" if exceeded else None,
+                               gid=f"tolerance zone {check} {hole.index}",
                                label=f"{words} zone {smallest:.4g} … {largest:.4g}" + (" (U wider)" if exceeded else "")))
             ax.add_patch(Circle((0, 0), nominal / 2.0, fill=False, color="darkgreen", lw=1.2, ls="-.",
                                 gid=f"nominal {check} {hole.index}",

@@ -15,11 +15,11 @@ import click
 from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_BROKEN_PIPE, EXIT_FILE_FAILED, EXIT_INPUT,
                                EXIT_INTERRUPTED, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_UNDECIDED, EXIT_USAGE,
                                EXIT_WARNING, Failure, broken_pipe, run_guarded, write_stdout)
-from holecli.cli.options import (Decimal, check_fields, check_verbosity, decision_from_options, detection_option_decorators, detection_options,
-                                 fail_on_warning_option, fields_option, input_format_option, nominal_from_options,
-                                 read_spec,
+from holecli.cli.options import (Decimal, check_verbosity, decision_from_options, detection_option_decorators, detection_options,
+                                 fail_on_warning_option, input_format_option, nominal_from_options, read_spec,
                                  reading_option_decorators, refuse_same_files, tolerance_option_decorators,
                                  unit_choice, verbosity_option_decorators, warned, with_decision)
+from holecli.cli.options import check_fields, fields_option
 from holecli.cli.progress import BatchDisplay, batch_summary, verbose_text
 from holecli.errors import LoadError
 

@@ -11,11 +11,12 @@ import click
 
 from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_UNDECIDED,
                                EXIT_WARNING, Failure, run_guarded, write_stdout)
-from holecli.cli.options import (INPUT_FORMATS, check_fields, check_verbosity, decision_from_options, detection_option_decorators,
-                                 detection_options, fail_on_warning_option, fields_option, input_format_option, nominal_from_options,
+from holecli.cli.options import (INPUT_FORMATS, check_verbosity, decision_from_options, detection_option_decorators,
+                                 detection_options, fail_on_warning_option, input_format_option, nominal_from_options,
                                  read_spec, reading_option_decorators, refuse_same_files, tolerance_option_decorators,
                                  unit_choice,
                                  verbosity_option_decorators, warned, with_decision)
+from holecli.cli.options import check_fields, fields_option
 from holecli.errors import HoleCliError
 
 
