@@ -48,6 +48,8 @@ FORMATS = ("jsonl", "csv")
 _SCHEMA_1_COLUMNS = CSV_COLUMNS[:CSV_COLUMNS.index("schema_version")] + ("error", "path")
 # The batch CSV header of schema 2.1 (and 2.0 since the decision rules), before the notes column.
 _SCHEMA_2_1_COLUMNS = CSV_COLUMNS[:CSV_COLUMNS.index("notes")] + ("error", "path")
+# The batch CSV header of schema 2.2 before issue 25's u_* columns.
+_SCHEMA_2_2_COLUMNS = CSV_COLUMNS[:CSV_COLUMNS.index("u_center_in_plane")] + ("error", "path")
 
 # Files handed to the pool ahead of the free workers, per worker: enough to keep every worker busy
 # while the parent writes, few enough that an interrupt has little queued work to throw away.
@@ -789,22 +791,25 @@ class RecordWriter:
         The format; CSV has the columns :data:`holecli.report.BATCH_CSV_COLUMNS`.
     header : bool
         Write the CSV header now (not when appending to a file that has it).
+    columns : sequence of str
+        The CSV's columns (``--fields``), by default :data:`holecli.report.BATCH_CSV_COLUMNS`.
     """
 
-    def __init__(self, write, fmt, header=True):
+    def __init__(self, write, fmt, header=True, columns=BATCH_CSV_COLUMNS):
         if fmt not in FORMATS:
             raise ValueError(f"fmt must be one of {FORMATS}, got {fmt!r}")
         self._write = write
         self.fmt = fmt
+        self.columns = tuple(columns)
         if fmt == "csv" and header:
-            self._write(csv_text([], BATCH_CSV_COLUMNS, header=True))
+            self._write(csv_text([], self.columns, header=True))
 
     def write(self, record):
         """Write one record (all the rows of a file in one write, for CSV)."""
         if self.fmt == "jsonl":
             self._write(to_json_line(record))
         else:
-            self._write(csv_text([record], BATCH_CSV_COLUMNS, header=False))
+            self._write(csv_text([record], self.columns, header=False))
 
 
 class OutputBusyError(HoleCliError):
@@ -963,6 +968,8 @@ def _earlier_records(path, complete, fmt):
             why = " (it was written before schema 2.0, without the provenance columns: start a new output)"
         elif header == _SCHEMA_2_1_COLUMNS:
             why = " (it was written before schema 2.2, without the notes column: start a new output)"
+        elif header == _SCHEMA_2_2_COLUMNS:
+            why = " (it was written before the u_* columns of the uncertainties: start a new output)"
         else:
             why = ""
         raise ResumeError(f"{path}: cannot resume: its header is not the header of holecli batch --format csv"

@@ -30,8 +30,9 @@ import numpy as np
 
 from holecli.geometry.kernels import robust_sigma
 
-__all__ = ["VIEW_RADII", "RimPoints", "edge_residuals", "figure", "hole_text", "plane_frame", "png_bytes", "rim_points",
-           "scale_length", "verdict_lines"]
+__all__ = ["PICTURE_UNIT", "VIEW_RADII", "ZONE_CHECKS", "RimPoints", "edge_residuals", "figure", "hole_text",
+           "in_unit", "plane_frame", "png_bytes", "rim_points", "scale_length", "tolerance_zones", "verdict_lines",
+           "zone_notes"]
 
 # Points within this many hole radii of its center (in its plane) are drawn.
 VIEW_RADII = 2.0
@@ -339,6 +340,112 @@ def verdict_lines(checked_hole, unit=None):
 _VERDICT_COLOURS = {"pass": "#e3f5e1", "fail": "#fbe0e0", "undecided": "#fdf0d0"}
 
 
+# The fields of a detection's dataclasses (Plane, Hole, Countersink, ..., Uncertainty) that are lengths:
+# scaled into the picture's unit (:func:`in_unit`); every other number (angles, counts) is kept.
+_LENGTH_FIELDS = frozenset({"point", "rms", "center", "diameter", "fit_rms", "max_residual", "roundness",
+                            "bias_correction", "depth", "diameter_at_depth", "gauge_depth", "floor_depth", "floor_rms",
+                            "depth_range", "center_in_plane", "center_along_normal"})
+
+# The unit a picture's lengths are drawn in when the scan's unit is known.
+PICTURE_UNIT = "mm"
+
+# The band checks drawn as a nominal circle and a tolerance zone in the view along the normal: check ->
+# the path of its measured diameter in a checked hole (the nominal is that value minus the check's
+# deviation). A new diameter check shows in the picture by its entry here.
+ZONE_CHECKS = {"diameter": ("diameter",), "countersink_diameter": ("countersink", "diameter"),
+               "bore_diameter": ("bore", "diameter")}
+
+
+def in_unit(value, factor):
+    """A detection (or any of its parts) with every length multiplied by ``factor``.
+
+    Parameters
+    ----------
+    value : holecli.Detection, dataclass, tuple or float
+    factor : float
+
+    Returns
+    -------
+    The same kind of value; the very object when ``factor`` is 1.
+    """
+    from dataclasses import fields, is_dataclass, replace
+
+    if factor == 1.0:
+        return value
+    if is_dataclass(value):
+        changes = {}
+        for field in fields(value):
+            item = getattr(value, field.name)
+            if field.name in _LENGTH_FIELDS and item is not None and not is_dataclass(item):
+                changes[field.name] = _times(item, factor)
+            elif is_dataclass(item) or (isinstance(item, tuple) and item and is_dataclass(item[0])):
+                changes[field.name] = (in_unit(item, factor) if is_dataclass(item)
+                                       else tuple(in_unit(part, factor) for part in item))
+        return replace(value, **changes)
+    return value
+
+
+def _times(value, factor):
+    if isinstance(value, (tuple, list, np.ndarray)):
+        return tuple(float(part) * factor for part in value)
+    return value * factor if isinstance(value, (int, float)) and not isinstance(value, bool) else value
+
+
+def tolerance_zones(checked_hole, factor=1.0):
+    """The nominal diameters and tolerance zones of a checked hole's diameter checks (:data:`ZONE_CHECKS`).
+
+    Parameters
+    ----------
+    checked_hole : dict or None
+        A hole of a checked record.
+    factor : float
+        Multiplies the record's lengths into the picture's unit.
+
+    Returns
+    -------
+    list of (str, float, float, float, bool)
+        ``(check, nominal, smallest, largest, exceeded)`` diameters; ``exceeded``: the check's U is wider
+        than its zone (:func:`holecli.tolerance.uncertainty_exceeds_zone`). A check whose value is not
+        measured has no nominal here (the record does not hold it) and is left out.
+
+    Examples
+    --------
+    >>> hole = {"diameter": 3.99, "conformance": {"diameter": {"value": -0.01, "lower": -0.02, "upper": 0.02,
+    ...                                                       "expanded_uncertainty": 0.046}}}
+    >>> [(check, round(nominal, 6), round(low, 6), round(high, 6), exceeded)
+    ...  for check, nominal, low, high, exceeded in tolerance_zones(hole)]
+    [('diameter', 4.0, 3.98, 4.02, True)]
+    """
+    from holecli.tolerance import uncertainty_exceeds_zone
+
+    zones = []
+    for check, entry in ((checked_hole or {}).get("conformance") or {}).items():
+        path = ZONE_CHECKS.get(check)
+        if path is None or entry.get("value") is None or entry.get("lower") is None:
+            continue
+        measured = checked_hole
+        for key in path:
+            measured = (measured or {}).get(key)
+        if measured is None:
+            continue
+        nominal = measured - entry["value"]
+        zones.append((check, nominal * factor, (nominal + entry["lower"]) * factor, (nominal + entry["upper"]) * factor,
+                      uncertainty_exceeds_zone(entry)))
+    return zones
+
+
+def zone_notes(checked_hole):
+    """The text box's notes of the checks whose U exceeds their tolerance zone: ``note: diameter: 2U = ...``."""
+    from holecli.tolerance import uncertainty_exceeds_zone, uncertainty_zone_message
+
+    import textwrap
+
+    return [line for check, entry in ((checked_hole or {}).get("conformance") or {}).items()
+            if uncertainty_exceeds_zone(entry)
+            for line in textwrap.wrap("note: " + uncertainty_zone_message(check, entry), 56,
+                                      subsequent_indent="  ")]
+
+
 def _add_scale_bar(ax, span, label_unit, gid):
     """A scale bar of a round length (:func:`scale_length`) in the lower left corner of ``ax``."""
     from matplotlib.font_manager import FontProperties
@@ -355,7 +462,8 @@ def _add_scale_bar(ax, span, label_unit, gid):
     return bar
 
 
-def figure(detection, points, max_panels=None, unit=None, title=None, checked=None, checked_unit=None):
+def figure(detection, points, max_panels=None, unit=None, title=None, checked=None, checked_unit=None,
+           picture_unit=PICTURE_UNIT):
     """Draw the holes of a detection.
 
     Parameters
@@ -375,7 +483,11 @@ def figure(detection, points, max_panels=None, unit=None, title=None, checked=No
         to the detection's by ``index``: each text box ends with their conformance and verdict
         (:func:`verdict_lines`). None: "verdict: no tolerance given".
     checked_unit : str, optional
-        The unit of the checked record's values (``--output-units``), for the text box.
+        The unit of the checked record's values (``--output-units``), for the text box (the record's
+        conformance stays in it) and the tolerance zones (by default ``unit``).
+    picture_unit : str or None
+        The unit the lengths are drawn and labelled in when ``unit`` is known (default mm); None: the
+        file's. Unknown ``unit``: the file's numbers, labelled "units".
 
     Returns
     -------
@@ -386,11 +498,23 @@ def figure(detection, points, max_panels=None, unit=None, title=None, checked=No
         ``"inside N"``, its scale bar ``"scale bar N"``; the legend below it); its polar axes
         ``"edge N"``, its text axes ``"text N"`` (the text ``"values N"``). Without a hole, one axes
         ``"no hole"`` shows the scan from above the plane with "no hole found" (and ``"scale bar"``).
+        A checked hole's diameter checks (:data:`ZONE_CHECKS`) add the nominal circle (``gid``
+        ``"nominal CHECK N"``, dash-dotted) and the tolerance zone between the smallest and the largest
+        diameter (``"tolerance zone CHECK N"``, a shaded ring); a check whose U exceeds its zone is
+        said in the text box (``note: ...``) and its zone is hatched.
     """
     from matplotlib.figure import Figure
-    from matplotlib.patches import Circle
+    from matplotlib.patches import Circle, Wedge
+
+    from holecli.units import scale_factor
 
     unit = unit or detection.units
+    record_unit = checked_unit or unit
+    zone_factor = scale_factor(record_unit, unit) if record_unit and unit else 1.0
+    if unit and picture_unit and unit != picture_unit:  # the picture in mm: the detection and points scaled
+        factor = scale_factor(unit, picture_unit)
+        detection, points, unit = in_unit(detection, factor), np.asarray(points, dtype=float) * factor, picture_unit
+        zone_factor *= factor
     label_unit = unit or "units"
     points = np.asarray(points, dtype=float)
     holes = list(detection.holes if max_panels is None else detection.holes[:max_panels])
@@ -456,6 +580,15 @@ def figure(detection, points, max_panels=None, unit=None, title=None, checked=No
         if bore is not None:
             ax.add_patch(Circle((0, 0), bore / 2.0, fill=False, color="magenta", lw=1.4, ls=":",
                                 gid=f"bore {hole.index}", label=f"bore Ø {bore:.4f} {label_unit}"))
+        for check, nominal, smallest, largest, exceeded in tolerance_zones(checked_hole, zone_factor):
+            words = check.replace("_", " ")
+            ax.add_patch(Wedge((0, 0), largest / 2.0, 0, 360, width=(largest - smallest) / 2.0, color="tab:green",
+                               alpha=0.25, lw=0, hatch="xx" if exceeded else None,
+                               gid=f"tolerance zone {check} {hole.index}",
+                               label=f"{words} zone {smallest:.4g} … {largest:.4g}" + (" (U wider)" if exceeded else "")))
+            ax.add_patch(Circle((0, 0), nominal / 2.0, fill=False, color="darkgreen", lw=1.2, ls="-.",
+                                gid=f"nominal {check} {hole.index}",
+                                label=f"nominal {words} Ø {nominal:.4g}"))
         extent = VIEW_RADII * radius
         ax.set_xlim(-extent, extent)
         ax.set_ylim(-extent, extent)
@@ -489,8 +622,9 @@ def figure(detection, points, max_panels=None, unit=None, title=None, checked=No
         # the values
         text = fig.add_subplot(grid[row, 2], gid=f"text {hole.index}")
         text.axis("off")
-        verdict = verdict_lines(checked_hole, checked_unit)
-        state = verdict[-1].removeprefix("verdict: ").split(":")[0]
+        verdict = verdict_lines(checked_hole, checked_unit) + zone_notes(checked_hole)
+        state = next(line for line in reversed(verdict) if line.startswith("verdict: ")).removeprefix("verdict: ")
+        state = state.split(":")[0]
         text.text(0.02, 0.98, hole_text(hole, unit) + "\n" + "\n".join(verdict), transform=text.transAxes,
                   va="top", ha="left", family="monospace", fontsize=8.5,
                   bbox={"boxstyle": "round", "facecolor": _VERDICT_COLOURS.get(state, "#fff8e0"), "edgecolor": "0.5"},

@@ -35,6 +35,13 @@ CSV_COLUMNS = (
 ) + (
     # The notes' codes (schema 2.2: why a value is null, out of warnings), after the older columns too.
     "notes",
+) + (
+    # The standard uncertainties (k = 1) of the hole's values, the JSON's holes[].uncertainty (issue 25),
+    # after the older columns too; uncertainty_estimator says what measured the edge.
+    "u_center_in_plane", "u_center_along_normal", "u_diameter", "u_normal_deg",
+    "u_countersink_diameter", "u_countersink_angle_deg", "u_countersink_depth", "u_countersink_diameter_at_depth",
+    "u_counterbore_diameter", "u_counterbore_depth", "u_bore_diameter", "u_floor_depth", "u_axis_deg",
+    "u_perpendicularity_deg", "uncertainty_estimator",
 )
 
 # The columns of the provenance that come from the record's options and scales.
@@ -47,6 +54,56 @@ _SCALE_COLUMNS = ("point_spacing", "gap_scale", "line_pitch", "period", "lattice
 # ``holecli batch`` adds the message of a file that could not be measured, and the file's resolved
 # absolute path (what --resume matches on).
 BATCH_CSV_COLUMNS = CSV_COLUMNS + ("error", "path")
+
+# The u_* columns from holes[].uncertainty: column -> (sub-object or None, key).
+_UNCERTAINTY_COLUMNS = {
+    "u_center_in_plane": (None, "center_in_plane"), "u_center_along_normal": (None, "center_along_normal"),
+    "u_diameter": (None, "diameter"), "u_normal_deg": (None, "normal_deg"),
+    "u_countersink_diameter": ("countersink", "diameter"), "u_countersink_angle_deg": ("countersink", "angle_deg"),
+    "u_countersink_depth": ("countersink", "depth"),
+    "u_countersink_diameter_at_depth": ("countersink", "diameter_at_depth"),
+    "u_counterbore_diameter": ("counterbore", "diameter"), "u_counterbore_depth": ("counterbore", "depth"),
+    "u_bore_diameter": ("bore", "diameter"), "u_floor_depth": ("bore", "floor_depth"),
+    "u_axis_deg": (None, "axis_deg"), "u_perpendicularity_deg": (None, "perpendicularity_deg"),
+    "uncertainty_estimator": (None, "estimator"),
+}
+
+
+def csv_fields(text, columns=CSV_COLUMNS):
+    """The CSV columns that ``--fields`` names, in its order.
+
+    Parameters
+    ----------
+    text : str
+        Comma-separated column names (:data:`CSV_COLUMNS`, and for a batch ``error`` and ``path``);
+        spaces around a name are ignored.
+    columns : sequence of str
+        The columns that may be named.
+
+    Returns
+    -------
+    tuple of str
+
+    Raises
+    ------
+    ValueError
+        When a name is not a column, is given twice, or none is given; the message lists the valid names.
+
+    Examples
+    --------
+    >>> csv_fields("file, hole,diameter,u_diameter")
+    ('file', 'hole', 'diameter', 'u_diameter')
+    """
+    names = [name.strip() for name in text.split(",")]
+    unknown = [name for name in names if name not in columns]
+    if not any(names) or unknown:
+        what = "no field named" if not any(names) else \
+            f"unknown field{'s' if len(unknown) > 1 else ''} {', '.join(repr(name) for name in unknown)}"
+        raise ValueError(f"{what}; valid fields: {','.join(columns)}")
+    twice = sorted({name for name in names if names.count(name) > 1})
+    if twice:
+        raise ValueError(f"field {twice[0]!r} given twice")
+    return tuple(names)
 
 
 def to_json(record):
@@ -163,6 +220,9 @@ def csv_rows(record, columns=CSV_COLUMNS):
                        "notes": [note["code"] for note in hole.get("notes", [])]})
         for axis, name in enumerate("xyz"):
             values[f"axis_{name}"] = None if hole.get("axis") is None else hole["axis"][axis]
+        uncertainty = hole.get("uncertainty") or {}
+        for column, (part, key) in _UNCERTAINTY_COLUMNS.items():
+            values[column] = (uncertainty if part is None else uncertainty.get(part) or {}).get(key)
         position = hole.get("position_deviation") or {}
         values["position_in_plane"] = position.get("in_plane")
         values["position_along_normal"] = position.get("along_normal")

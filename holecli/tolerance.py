@@ -726,6 +726,10 @@ def check(record, spec, tied=None) -> dict:
                 f"tied to spec hole {nominal.name} but {distance:.4g} from its center (match radius "
                 f"{nominal.match_radius:g}): the scan is in another frame, position and tilt not checked "
                 f"(--registration maps the spec into the scan's frame)")}]
+        if spec.decision_rule == "guarded" and result.get("conformance"):
+            zone_notes = uncertainty_zone_notes(result["conformance"])
+            if zone_notes:
+                result["notes"] = [*(result.get("notes") or ()), *zone_notes]
         if nominal is not None:
             checked += 1
             failed += bool(result["failed_checks"])
@@ -747,6 +751,73 @@ def check(record, spec, tied=None) -> dict:
         elif key == "options" and isinstance(value, dict):
             out[key] = {**value, "tolerances": describe(spec)}
     return out
+
+
+# The note of a check whose expanded uncertainty leaves no value a guarded decision could pass.
+UNCERTAINTY_NOTE = "uncertainty_exceeds_tolerance"
+
+
+def uncertainty_exceeds_zone(entry):
+    """Whether a check's expanded uncertainty ``U`` is too wide for its tolerance zone: no measured value
+    could pass it under the guarded rule (``2U`` wider than a band ``upper - lower``; ``U`` above a
+    largest value's ``upper``).
+
+    Parameters
+    ----------
+    entry : dict
+        A conformance entry (``lower``, ``upper``, ``expanded_uncertainty``).
+
+    Returns
+    -------
+    bool
+        False when ``U`` is not known.
+
+    Examples
+    --------
+    >>> uncertainty_exceeds_zone({"lower": -0.02, "upper": 0.02, "expanded_uncertainty": 0.046})
+    True
+    >>> uncertainty_exceeds_zone({"lower": None, "upper": 0.1, "expanded_uncertainty": 0.004})
+    False
+    """
+    expanded = entry.get("expanded_uncertainty")
+    if expanded is None:
+        return False
+    if entry.get("lower") is None:
+        return expanded > entry["upper"]
+    return 2.0 * expanded > entry["upper"] - entry["lower"]
+
+
+def uncertainty_zone_message(check, entry):
+    """Why ``check`` can never pass under the guarded rule (:func:`uncertainty_exceeds_zone`), in words.
+
+    Examples
+    --------
+    >>> uncertainty_zone_message("diameter", {"lower": -0.02, "upper": 0.02, "expanded_uncertainty": 0.046})
+    'diameter: 2U = 0.092 is wider than its tolerance zone 0.04: a guarded decision can never pass it'
+    """
+    expanded = entry["expanded_uncertainty"]
+    if entry.get("lower") is None:
+        what = f"U = {expanded:.2g} exceeds its largest value {entry['upper']:.4g}"
+    else:
+        what = f"2U = {2.0 * expanded:.2g} is wider than its tolerance zone {entry['upper'] - entry['lower']:.4g}"
+    return f"{check}: {what}: a guarded decision can never pass it"
+
+
+def uncertainty_zone_notes(conformance):
+    """The notes (:data:`UNCERTAINTY_NOTE`) of a hole's checks whose U exceeds their tolerance zone.
+
+    Parameters
+    ----------
+    conformance : dict
+        A checked hole's ``conformance``.
+
+    Returns
+    -------
+    list of dict
+        ``{"code", "message"}``, one per such check.
+    """
+    return [{"code": UNCERTAINTY_NOTE, "message": uncertainty_zone_message(check, entry)}
+            for check, entry in conformance.items() if uncertainty_exceeds_zone(entry)]
 
 
 def far_from_spec(record, spec):

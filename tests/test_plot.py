@@ -253,3 +253,49 @@ def test_the_text_box_verdict_pass_and_undecided():
     assert plot.verdict_lines(hole)[-1] == "verdict: fail: position; undecided: diameter"
     assert plot.verdict_lines(dict(hole, in_tolerance=None)) == ["verdict: not checked (no nominal applies)"]
     assert plot.verdict_lines(None) == ["verdict: no tolerance given"]
+
+
+# --- issue 25: the unit, the nominal and the tolerance zone ------------------------------------------
+
+
+def _patch(fig, gid):
+    [patch] = [patch for ax in fig.axes for patch in ax.patches if patch.get_gid() == gid]
+    return patch
+
+
+def test_the_nominal_circle_and_the_tolerance_zone_are_drawn():
+    path = REPO_ROOT / "sample_clouds" / "table1.ply"
+    detection, record = _checked(path, diameter=3, tolerance="+0.036/-0.01")
+    fig = plot.figure(detection, read_cloud(path).points, checked=record["holes"], unit="mm")
+    nominal, zone = _patch(fig, "nominal diameter 0"), _patch(fig, "tolerance zone diameter 0")
+    assert nominal.radius == pytest.approx(1.5, abs=1e-12)
+    assert zone.r == pytest.approx(3.036 / 2, abs=1e-12) and zone.width == pytest.approx(0.046 / 2, abs=1e-12)
+    assert zone.get_hatch() is None and "note:" not in _text(fig)
+    unchecked = plot.figure(detection, read_cloud(path).points, unit="mm")
+    assert not [p for ax in unchecked.axes for p in ax.patches if "nominal" in (p.get_gid() or "")]
+
+
+def test_a_u_wider_than_the_zone_is_noted_and_hatched():
+    path = REPO_ROOT / "sample_clouds" / "table1.ply"
+    detection, record = _checked(path, diameter=3, tolerance=0.002)  # 2U 0.019 > the 0.004 zone
+    fig = plot.figure(detection, read_cloud(path).points, checked=record["holes"], unit="mm")
+    text = _text(fig)
+    assert "note: diameter: 2U = 0.019 is wider than its tolerance" in text and "zone 0.004" in text
+    assert _patch(fig, "tolerance zone diameter 0").get_hatch() == "xx"
+
+
+def test_lengths_are_drawn_in_mm_when_the_unit_is_known():
+    path = REPO_ROOT / "sample_clouds" / "table1.ply"
+    detection, record = _checked(path, diameter=3, tolerance=0.05)
+    points = read_cloud(path).points
+    in_m = plot.figure(detection, points, checked=record["holes"], unit="m", checked_unit="m")
+    [view] = [ax for ax in in_m.axes if ax.get_gid() == "hole 0"]
+    assert view.get_xlabel() == "in-plane offset u [mm]"
+    assert _patch(in_m, "edge 0").radius == pytest.approx(1000 * detection.holes[0].diameter / 2)
+    assert _patch(in_m, "nominal diameter 0").radius == pytest.approx(1500.0)
+    assert f"diameter: {1000 * detection.holes[0].diameter:.4f}" in _text(in_m)
+    unknown = plot.figure(detection, points)
+    [view] = [ax for ax in unknown.axes if ax.get_gid() == "hole 0"]
+    assert view.get_xlabel() == "in-plane offset u [units]"
+    kept = plot.figure(detection, points, unit="m", picture_unit=None)
+    assert _patch(kept, "edge 0").radius == pytest.approx(detection.holes[0].diameter / 2)

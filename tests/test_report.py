@@ -20,7 +20,10 @@ DOCUMENTED_COLUMNS = (
     "countersink_depth_deviation,bore_diameter_deviation,in_tolerance,failed_checks,"
     "schema_version,holecli_version,units,method,view_dir,min_diameter,min_diameter_effective,max_holes,full_only,"
     "gauge_depth,rng,settings,input_format,scan,spec_file,spec_sha256,nominal,point_spacing,gap_scale,line_pitch,period,lattice,"
-    "height_noise,triangle_area_bound,candidates,undecided_checks,conformance,decision_rule,coverage_factor,notes"
+    "height_noise,triangle_area_bound,candidates,undecided_checks,conformance,decision_rule,coverage_factor,notes,"
+    "u_center_in_plane,u_center_along_normal,u_diameter,u_normal_deg,u_countersink_diameter,u_countersink_angle_deg,"
+    "u_countersink_depth,u_countersink_diameter_at_depth,u_counterbore_diameter,u_counterbore_depth,u_bore_diameter,"
+    "u_floor_depth,u_axis_deg,u_perpendicularity_deg,uncertainty_estimator"
 ).split(",")
 # The provenance columns (issue 13): the same in every row of a record.
 PROVENANCE = DOCUMENTED_COLUMNS.index("schema_version")

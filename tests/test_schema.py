@@ -145,12 +145,13 @@ def test_notes_are_apart_from_warnings_in_the_schema(panel_record):
     # schema 2.2: why a value is null is a note (a straight-down scan sees no bore wall), never a warning
     from holecli.robust.doubts import DOUBT_CODES
     from holecli.robust.hole_shape import NOTE_CODES, WARNING_CODES
+    from holecli.tolerance import NOT_IN_SPEC_FRAME, UNCERTAINTY_NOTE
     from holecli.units import UNIT_MISMATCH
 
     defs = record_schema()["$defs"]
-    from holecli.tolerance import NOT_IN_SPEC_FRAME  # the note of a check (tied hole in another frame)
-
-    assert set(defs["note"]["properties"]["code"]["enum"]) == set(NOTE_CODES) | {NOT_IN_SPEC_FRAME}
+    # the shape's notes, and the check's (issue 25: a tied hole in another frame; a U wider than the
+    # tolerance zone, guarded rule)
+    assert set(defs["note"]["properties"]["code"]["enum"]) == set(NOTE_CODES) | {NOT_IN_SPEC_FRAME, UNCERTAINTY_NOTE}
     # (unit_mismatch: a tolerance check's, issue 25)
     assert set(defs["warning"]["properties"]["code"]["enum"]) == set(WARNING_CODES) | set(DOUBT_CODES) | {UNIT_MISMATCH}
     holes = panel_record["holes"]

@@ -890,3 +890,28 @@ def test_a_normal_whose_length_overflows_is_the_direction_it_gives():
     tilt = check(record, plain)["holes"][0]["tilt_deg"]
     assert tilt == pytest.approx(90.0)
     assert check(record, huge)["holes"][0]["tilt_deg"] == pytest.approx(tilt)
+
+
+# --- issue 25: a U wider than the tolerance zone -------------------------------------------------------
+
+
+def test_guarded_notes_a_check_whose_u_exceeds_its_zone():
+    import dataclasses
+
+    from holecli.tolerance import UNCERTAINTY_NOTE, check, nominal_spec, uncertainty_exceeds_zone
+
+    hole = {"index": 0, "center": [0.0, 0.0, 0.0], "diameter": 3.001, "normal": [0.0, 0.0, 1.0], "notes": [],
+            "uncertainty": {"center_in_plane": 0.001, "center_along_normal": 0.001, "diameter": 0.004,
+                            "normal_deg": 0.01}}
+    record = {"holes": [hole]}
+    tight = dataclasses.replace(nominal_spec(diameter=3.0, tolerance=0.005), decision_rule="guarded")  # 2U 0.016
+    (checked,) = check(record, tight)["holes"]
+    assert [note["code"] for note in checked["notes"]] == [UNCERTAINTY_NOTE]
+    assert checked["notes"][0]["message"].startswith("diameter: 2U = 0.016 is wider than its tolerance zone 0.01")
+    assert hole["notes"] == []  # the record given is not changed
+    wide = dataclasses.replace(nominal_spec(diameter=3.0, tolerance=0.05), decision_rule="guarded")
+    assert check(record, wide)["holes"][0]["notes"] == []
+    simple = nominal_spec(diameter=3.0, tolerance=0.005)
+    assert check(record, simple)["holes"][0]["notes"] == []
+    assert uncertainty_exceeds_zone({"lower": None, "upper": 0.1, "expanded_uncertainty": 0.11})
+    assert not uncertainty_exceeds_zone({"lower": 0.0, "upper": 0.1, "expanded_uncertainty": None})

@@ -51,7 +51,10 @@ CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 
 @click.group(context_settings=CONTEXT, epilog=EXIT_CODES_HELP)
 @click.version_option(__version__, "--version", "-V", prog_name="holecli")
-def main():
+@click.option("--quiet", "-q", is_flag=True, help="As the command's --quiet: say nothing on stderr but errors.")
+@click.option("--verbose", "-v", is_flag=True, help="As the command's --verbose: also say what the run chose.")
+@click.pass_context
+def main(context, quiet, verbose):
     """Measure drilled holes in 3D scans: center, diameter and surface normal.
 
     \b
@@ -64,7 +67,44 @@ def main():
       holecli simulate scene.ply
       holecli plot scan.ply -o fit.png
       holecli info scan.csv --format table
+      holecli -v detect scan.ply
     """
+    global_verbosity(context, quiet, verbose)
+
+
+def global_verbosity(context, quiet, verbose):
+    """``holecli -q COMMAND`` / ``holecli -v COMMAND``: the command's own ``--quiet`` / ``--verbose``.
+
+    They become the defaults of the command's options (click's ``default_map``), so that
+    ``holecli -v detect x.ply`` is ``holecli detect -v x.ply``, and a global ``-q`` with the command's
+    ``-v`` is refused as the two together are.
+
+    Parameters
+    ----------
+    context : click.Context
+        The group's context.
+    quiet, verbose : bool
+
+    Raises
+    ------
+    click.UsageError
+        When both are given.
+    """
+    if quiet and verbose:
+        raise click.UsageError("--quiet and --verbose cannot be combined")
+    chosen = {name: True for name, value in (("quiet", quiet), ("verbose", verbose)) if value}
+    if not chosen:
+        return
+    defaults = dict(context.default_map or {})
+    for name, command in context.command.commands.items():
+        params = {param.name for param in command.params}
+        missing = set(chosen) - params
+        if missing:  # a command without --verbose refuses a global -v rather than ignoring it
+            if context.invoked_subcommand == name:
+                raise click.UsageError(f"holecli {name} has no --{missing.pop()}")
+            continue
+        defaults[name] = {**defaults.get(name, {}), **chosen}
+    context.default_map = defaults
 
 
 # The commands, each in its module (imported after main, which none of them needs).

@@ -22,6 +22,7 @@ from holecli.cli.options import (Decimal, check_verbosity, decision_from_options
                                  reading_option_decorators, refuse_same_files, registration_option_decorators,
                                  tolerance_option_decorators,
                                  unit_choice, verbosity_option_decorators, warned, with_decision)
+from holecli.cli.options import check_fields, fields_option
 from holecli.cli.progress import BatchDisplay, batch_summary, verbose_text
 from holecli.errors import LoadError
 
@@ -160,6 +161,7 @@ def e57_units_overridden(files, units):
 @click.option("--format", "fmt", type=click.Choice(["jsonl", "json", "csv"]), default="jsonl", show_default=True,
               help="JSON Lines (one detect record per file, each on one line; json is taken for it, the word "
                    "detect uses) or CSV (one row per hole).")
+@fields_option(batch=True)
 @click.option("--output", "-o", type=click.Path(dir_okay=False, allow_dash=True, path_type=str), default=None,
               help="Write the records to this file (each as soon as its file is measured; - is stdout) instead "
                    "of stdout.")
@@ -186,7 +188,7 @@ def e57_units_overridden(files, units):
 @registration_option_decorators(plain_name=False)
 @fail_on_warning_option
 @verbosity_option_decorators
-def batch(paths, recursive, pattern, input_format, columns, fmt, output, jobs, resume, overwrite, plot_dir, explain, file_timeout,
+def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output, jobs, resume, overwrite, plot_dir, explain, file_timeout,
           scan_index,
           units, output_units,
           method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor,
@@ -204,6 +206,7 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, output, jobs, r
     Examples:
       holecli batch scans/ --output results.jsonl
       holecli batch scans/ --recursive --pattern 'panel7_*' --format csv -o panel7.csv
+      holecli batch scans/ --format csv --fields file,hole,diameter,u_diameter,in_tolerance -o shift.csv
       holecli batch scans/ --spec part.toml --jobs 4 -o shift.jsonl
       holecli batch scans/ --spec part.toml -o shift.jsonl --resume
       holecli batch scans/ --spec part.toml --decision-rule guarded --coverage-factor 2 -o shift.jsonl
@@ -232,6 +235,11 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, output, jobs, r
         raise click.UsageError("--resume keeps the output's records and --overwrite replaces them: give one")
     if explain and fmt == "csv":
         raise click.UsageError("--explain needs --format jsonl (CSV has one row per hole)")
+    check_fields(fields, fmt)
+    if fields is not None and resume:
+        # resuming reads each earlier file's verdict from the whole header's columns
+        raise click.UsageError("--resume needs the whole CSV (it reads the earlier files' verdicts from its columns): "
+                               "drop --fields")
     if output == "-":  # stdout, as without --output
         output = None
 
@@ -310,7 +318,7 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, output, jobs, r
                              units=units_now if units_now.file or units_now.output else None, quiet=quiet,
                              verbose=verbose, fail_on_warning=fail_on_warning,
                              plots=None if plots is None else {path: plots[path] for path in todo},
-                             file_timeout=file_timeout, unlisted=unlisted)
+                             file_timeout=file_timeout, unlisted=unlisted, fields=fields)
         finally:
             if output_file is not None:
                 output_file.close()
@@ -321,7 +329,7 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, output, jobs, r
 
 def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False, scan=None,
               units=None, *, quiet=False, verbose=False, fail_on_warning=None, plots=None, file_timeout=None,
-              unlisted=()):
+              unlisted=(), fields=None):
     """The measuring loop of ``holecli batch``: records out, progress and summary on stderr.
 
     Parameters
@@ -369,6 +377,8 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         ``--file-timeout``: seconds per file (None or 0: no limit), see :func:`holecli.batch.measure_all`.
     unlisted : sequence of dict
         The error records of the subfolders that could not be listed, written first.
+    fields : tuple of str, optional
+        ``--fields``: the CSV's columns (default :data:`holecli.report.BATCH_CSV_COLUMNS`).
 
     Returns
     -------
@@ -394,7 +404,8 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         return Failure(f"{output or 'stdout'}: cannot write output: {error.strerror or error}", EXIT_INPUT)
 
     try:
-        writer = batching.RecordWriter(write, fmt, header=header)
+        writer = batching.RecordWriter(write, fmt, header=header,
+                                       **({} if fields is None else {"columns": fields}))
     except BrokenPipeError:
         raise
     except OSError as error:

@@ -18,6 +18,7 @@ from holecli.cli.options import (INPUT_FORMATS, check_verbosity, columns_option,
                                  refuse_same_files, registration_option_decorators, tolerance_option_decorators,
                                  unit_choice,
                                  verbosity_option_decorators, warned, with_decision)
+from holecli.cli.options import check_fields, fields_option
 from holecli.errors import HoleCliError
 
 
@@ -136,7 +137,7 @@ def read_stdin(input_format, scan=None, columns=None):
     return read_stream(stream, input_format, scan=scan, columns=columns)
 
 
-def render(records, fmt):
+def render(records, fmt, fields=None):
     """The text of ``records`` in the requested format.
 
     Parameters
@@ -145,6 +146,8 @@ def render(records, fmt):
         ``detect`` records (:meth:`holecli.Detection.to_dict`, with verdicts when checked).
     fmt : {"json", "jsonl", "csv", "table"}
         ``--format``.
+    fields : tuple of str, optional
+        ``--fields``: the CSV's columns (default :data:`holecli.report.CSV_COLUMNS`).
 
     Returns
     -------
@@ -160,37 +163,70 @@ def render(records, fmt):
         return "".join(report.to_json_line(record) for record in records)
     if fmt == "csv":
         buffer = _stringio.StringIO()
-        report.write_csv(records, buffer)
+        report.write_csv(records, buffer, columns=fields or report.CSV_COLUMNS)
         return buffer.getvalue()
     return render_table(records)
 
 
-def render_table(records):
+# A terminal narrower than this gets the narrow table layout: one block of ``field value`` rows per hole.
+NARROW_TABLE_BELOW = 100
+
+
+def table_width():
+    """The width ``--format table`` fits its tables to: the terminal's (``COLUMNS`` when set, as
+    :func:`shutil.get_terminal_size` reads it), 140 when stdout is not a terminal and ``COLUMNS`` is unset.
+
+    Returns
+    -------
+    int
+    """
+    import shutil
+
+    return max(40, shutil.get_terminal_size(fallback=(140, 24)).columns)
+
+
+def expanded(u, k):
+    """``U = k·u`` as table text (``-`` when ``u`` is not known)."""
+    return "-" if u is None else f"{k * u:.2g}"
+
+
+def render_table(records, width=None):
     """The ``--format table`` text of ``records``: one table per record (and one of its rejected
-    candidates, with ``--explain``).
+    candidates, with ``--explain``), fitted to ``width``.
+
+    From :data:`NARROW_TABLE_BELOW` columns on, one row per hole (the checks of a checked hole in a
+    table of their own below it); narrower, one block of ``field value`` rows per hole. Beside the
+    center, the diameter and the values below the edge: their expanded uncertainty ``U = k·u``
+    (``k`` the record's coverage factor, 2 when it was not checked), ``-`` when not known.
 
     Parameters
     ----------
     records : list of dict
         ``detect`` records.
+    width : int, optional
+        The width of the text (default :func:`table_width`).
 
     Returns
     -------
     str
-        The tables as rich draws them, 140 columns wide, without colour.
+        The tables as rich draws them, no line longer than ``width``, without colour.
     """
     from rich.console import Console
     from rich.table import Table
 
-    buffer = _stringio.StringIO()
-    console = Console(file=buffer, width=140, force_terminal=False, color_system=None)
+    from holecli.tolerance import DEFAULT_COVERAGE_FACTOR
     from holecli.units import table_decimals
 
+    width = table_width() if width is None else width
+    narrow = width < NARROW_TABLE_BELOW
+    buffer = _stringio.StringIO()
+    console = Console(file=buffer, width=width, force_terminal=False, color_system=None)
     for record in records:
         plane = record["plane"]
         verdict = record.get("verdict")
         unit = record.get("units")
         digits = table_decimals(unit)
+        k = (verdict or {}).get("coverage_factor", DEFAULT_COVERAGE_FACTOR)
         caption = (f"plane rms {plane['rms']:.{digits}f} {unit}" if unit else f"plane rms {plane['rms']:.4g}") \
             + f", {record['timing']['elapsed_ms']:.1f} ms"
         if verdict is not None:
@@ -203,63 +239,199 @@ def render_table(records):
                 caption += ", missing: " + ", ".join(str(name) for name in verdict["missing"])
             if "decision_rule" in verdict:
                 caption += f" ({verdict['decision_rule']} rule, k={verdict['coverage_factor']:g})"
+        if record["holes"]:
+            caption += f"; U = {k:g}u" + ("" if narrow else ", U ctr in the hole's plane")
         units_note = f", lengths in {unit}" if unit else ""
-        table = Table(title=f"{record['file']}  ({record['points']} points, method {record['method']}{units_note})",
-                      caption=caption)
-        columns = ["hole", "center x", "center y", "center z", "diameter", "normal", "rim pts", "fit rms", "partial"]
-        if verdict is not None:
-            columns.append("tolerance")
-        for column in columns:
-            table.add_column(column, justify="right")
-        for hole in record["holes"]:
-            cells = [
-                str(hole["index"]), *(f"{v:.{digits}f}" for v in hole["center"]), f"{hole['diameter']:.{digits}f}",
-                "(" + ", ".join(f"{v:.4f}" for v in hole["normal"]) + ")", str(hole["rim_points"]),
-                f"{hole['fit_rms']:.{digits}f}" if unit else f"{hole['fit_rms']:.2g}",
-                "yes" if hole.get("partial") else "no",
-            ]
-            if verdict is not None:
-                cells.append(verdict_cell(hole))
-            table.add_row(*cells)
-        if not record["holes"]:
-            table.add_row("-", "", "", "", "no hole found", *[""] * (len(columns) - 5))
-        console.print(table)
-        if any(hole.get("type") for hole in record["holes"]):
-            console.print(_shape_table(record["holes"], digits))
+        title = f"{record['file']}  ({record['points']} points, method {record['method']}{units_note})"
+        if narrow:
+            _print_narrow(console, record, title, caption, digits, k)
+        else:
+            _print_wide(console, record, title, caption, digits, k)
         if "rejected" in record:
-            console.print(_rejected_table(record["rejected"], digits))
+            console.print(_rejected_table(record["rejected"], digits, narrow))
     return buffer.getvalue()
 
 
-def _shape_table(holes, length_digits=4):
-    """The table of what each hole shows below its edge: type, countersink, counterbore, bore, axis
-    (lengths with ``length_digits`` decimals)."""
+def _print_wide(console, record, title, caption, digits, k):
+    """One row per hole, the checks below, then the tables below the edge and of the codes (100 columns or more)."""
     from rich.table import Table
 
-    def number(value, digits=length_digits):
-        return "-" if value is None else f"{value:.{digits}f}"
+    verdict = record.get("verdict")
+    table = Table(title=title, caption=caption)
+    columns = ["hole", "center x", "center y", "center z", "U ctr", "diameter", "U dia", "normal", "rim pts",
+               "fit rms", "partial"]
+    if verdict is not None:
+        columns.append("tolerance")
+    for column in columns:  # numbers are never broken: the normal wraps instead
+        table.add_column(column, justify="left" if column == "tolerance" else "right",
+                         no_wrap=column not in ("normal", "tolerance"))
+    for hole in record["holes"]:
+        u = hole.get("uncertainty") or {}
+        cells = [
+            str(hole["index"]), *(f"{v:.{digits}f}" for v in hole["center"]), expanded(u.get("center_in_plane"), k),
+            f"{hole['diameter']:.{digits}f}", expanded(u.get("diameter"), k),
+            "(" + ", ".join(f"{v:.4f}" for v in hole["normal"]) + ")", str(hole["rim_points"]),
+            f"{hole['fit_rms']:.{digits}f}" if record.get("units") else f"{hole['fit_rms']:.2g}",
+            "yes" if hole.get("partial") else "no",
+        ]
+        if verdict is not None:
+            cells.append(verdict_state(hole))
+        table.add_row(*cells)
+    if not record["holes"]:
+        table.add_row("-", "", "", "", "", "no hole found", *[""] * (len(columns) - 6))
+    console.print(table)
+    checked = [hole for hole in record["holes"] if hole.get("in_tolerance") is not None]
+    if checked:
+        # the verdict of each checked hole, then one row per check (generic: every entry of conformance)
+        table = Table(title="checks")
+        table.add_column("hole", justify="right", no_wrap=True)
+        table.add_column("tolerance; each check: value, limits, U, decision", justify="left")
+        for hole in checked:
+            table.add_row(str(hole["index"]), verdict_summary(hole))
+            for check, entry in (hole.get("conformance") or {}).items():
+                table.add_row("", "  " + conformance_text(check, entry))
+        console.print(table)
+    if any(hole.get("type") for hole in record["holes"]):
+        console.print(_shape_table(record["holes"], digits, k))
+    codes = _codes_table(record["holes"])
+    if codes is not None:
+        console.print(codes)
 
-    table = Table(title="below the edge")
-    # the words are never cut: the numbers' headers wrap instead (the table is 140 columns wide)
-    words = {"type": [hole.get("type") or "-" for hole in holes],
-             "warnings": [warning["code"] for hole in holes for warning in hole.get("warnings", [])],
-             "notes": [note["code"] for hole in holes for note in hole.get("notes", [])]}
-    for column in ("hole", "type", "csk dia", "csk angle", "csk depth", "cbore dia", "cbore depth", "bore dia",
-                   "floor depth", "perp deg", "warnings", "notes"):
-        if column in words:
-            table.add_column(column, justify="left", no_wrap=True, min_width=max(map(len, words[column]), default=1))
-        else:
-            table.add_column(column, justify="right")
+
+def _print_narrow(console, record, title, caption, digits, k):
+    """One block of ``field value`` rows per hole (a terminal narrower than :data:`NARROW_TABLE_BELOW`)."""
+    from rich.table import Table
+
+    console.print(title, overflow="fold")
+    if not record["holes"]:
+        console.print("no hole found")
+    for hole in record["holes"]:
+        table = Table(title=f"hole {hole['index']}" + (f" ({hole['name']})" if hole.get("name") else ""),
+                      show_header=False)
+        table.add_column("field", justify="left", no_wrap=True)
+        table.add_column("value", justify="left")
+        for field, value in hole_fields(hole, digits, k, bool(record.get("units"))):
+            table.add_row(field, value)
+        console.print(table)
+    console.print(caption)
+
+
+def hole_fields(hole, digits, k, unit_known=True):
+    """The ``(field, value)`` rows of a hole in the narrow table: its values with their ``U = k·u``, what
+    it shows below the edge, its warnings and notes, and, checked, its verdict and one row per check.
+
+    Parameters
+    ----------
+    hole : dict
+        A hole of a ``detect`` record (checked or not).
+    digits : int
+        Decimals of a length.
+    k : float
+        The coverage factor of ``U``.
+    unit_known : bool
+        Whether the record's unit is known (the fit rms then has ``digits`` decimals).
+
+    Returns
+    -------
+    list of (str, str)
+    """
+    u = hole.get("uncertainty") or {}
+
+    def with_u(value, uncertainty, decimals=digits):
+        if value is None:
+            return "-"
+        return f"{value:.{decimals}f}" + ("" if uncertainty is None else f"  U {k * uncertainty:.2g}")
+
+    rows = [("center", ", ".join(f"{v:.{digits}f}" for v in hole["center"])),
+            ("U center", f"{expanded(u.get('center_in_plane'), k)} in plane, "
+                         f"{expanded(u.get('center_along_normal'), k)} along normal"),
+            ("diameter", with_u(hole["diameter"], u.get("diameter"))),
+            ("normal", ", ".join(f"{v:.4f}" for v in hole["normal"])
+             + ("" if u.get("normal_deg") is None else f"  U {k * u['normal_deg']:.2g} deg")),
+            ("rim points", str(hole["rim_points"])),
+            ("fit rms", f"{hole['fit_rms']:.{digits}f}" if unit_known else f"{hole['fit_rms']:.2g}"),
+            ("partial", "yes" if hole.get("partial") else "no")]
+    if hole.get("type"):
+        rows.append(("type", hole["type"]))
+        for part, key, label, decimals in _SHAPE_VALUES:
+            value = (hole.get(part) or {}).get(key) if part else hole.get(key)
+            if value is not None:
+                uncertainty = ((u.get(part) or {}).get(key) if part else u.get(key))
+                rows.append((label, with_u(value, uncertainty, digits if decimals is None else decimals)))
+    for kind in ("warnings", "notes"):
+        codes = [item["code"] for item in hole.get(kind) or ()]
+        if codes:
+            rows.append((kind, ", ".join(codes)))
+    if "in_tolerance" in hole:
+        rows.append(("tolerance", verdict_summary(hole)))
+        for check, entry in (hole.get("conformance") or {}).items():
+            rows.append(("check", conformance_text(check, entry)))
+    return rows
+
+
+# The values below the edge in the tables: (part of the hole or None, key, label, decimals or None for
+# a length's); the uncertainty of each is at the same place in holes[].uncertainty.
+_SHAPE_VALUES = (
+    ("countersink", "diameter", "csk dia", None), ("countersink", "angle_deg", "csk angle", 2),
+    ("countersink", "depth", "csk depth", None), ("countersink", "diameter_at_depth", "csk dia at depth", None),
+    ("counterbore", "diameter", "cbore dia", None), ("counterbore", "depth", "cbore depth", None),
+    ("bore", "diameter", "bore dia", None), ("bore", "floor_depth", "floor depth", None),
+    (None, "perpendicularity_deg", "perp deg", 3),
+)
+
+
+def _shape_table(holes, length_digits=4, k=2.0):
+    """The table of what each hole shows below its edge: type, countersink, counterbore, bore, axis
+    (lengths with ``length_digits`` decimals), each value over its ``U = k·u`` when known."""
+    from rich.table import Table
+
+    def number(value, digits=length_digits, uncertainty=None):
+        if value is None:
+            return "-"
+        return f"{value:.{digits}f}" + ("" if uncertainty is None else f"\nU {k * uncertainty:.2g}")
+
+    rows = []
     for hole in holes:
         countersink, counterbore, bore = (hole.get(key) or {} for key in ("countersink", "counterbore", "bore"))
-        table.add_row(str(hole["index"]), hole.get("type") or "-", number(countersink.get("diameter")),
-                      number(countersink.get("angle_deg"), 2), number(countersink.get("depth")),
-                      number(counterbore.get("diameter")), number(counterbore.get("depth")),
-                      number(bore.get("diameter")), number(bore.get("floor_depth")),
-                      number(hole.get("perpendicularity_deg"), 3),
-                      # one code a line: the cells stay as narrow as the longest code
-                      "\n".join(warning["code"] for warning in hole.get("warnings", [])),
-                      "\n".join(note["code"] for note in hole.get("notes", [])))
+        u = hole.get("uncertainty") or {}
+        u_countersink, u_counterbore, u_bore = (u.get(key) or {} for key in ("countersink", "counterbore", "bore"))
+        rows.append([str(hole["index"]), hole.get("type") or "-",
+                     number(countersink.get("diameter"), uncertainty=u_countersink.get("diameter")),
+                     number(countersink.get("angle_deg"), 2, u_countersink.get("angle_deg")),
+                     number(countersink.get("depth"), uncertainty=u_countersink.get("depth")),
+                     number(counterbore.get("diameter"), uncertainty=u_counterbore.get("diameter")),
+                     number(counterbore.get("depth"), uncertainty=u_counterbore.get("depth")),
+                     number(bore.get("diameter"), uncertainty=u_bore.get("diameter")),
+                     number(bore.get("floor_depth"), uncertainty=u_bore.get("floor_depth")),
+                     number(hole.get("perpendicularity_deg"), 3, u.get("perpendicularity_deg"))])
+    table = Table(title="below the edge")
+    # the words and the values over their U are never cut: the numbers' headers wrap instead
+    for index, column in enumerate(("hole", "type", "csk dia", "csk angle", "csk depth", "cbore dia", "cbore depth",
+                                    "bore dia", "floor depth", "perp deg")):
+        widest = max((len(line) for row in rows for line in row[index].split("\n")), default=1)
+        table.add_column(column, justify="left" if column == "type" else "right", min_width=widest)
+    for row in rows:
+        table.add_row(*row)
+    return table
+
+
+def _codes_table(holes):
+    """The table of the holes' warning and note codes (one a line: the cells as narrow as the longest code),
+    None when no hole has any."""
+    from rich.table import Table
+
+    rows = [(str(hole["index"]), "\n".join(warning["code"] for warning in hole.get("warnings", [])),
+             "\n".join(note["code"] for note in hole.get("notes", [])))
+            for hole in holes if hole.get("warnings") or hole.get("notes")]
+    if not rows:
+        return None
+    table = Table(title="warnings and notes")
+    for index, column in enumerate(("hole", "warnings", "notes")):
+        widest = max((len(line) for row in rows for line in row[index].split("\n")), default=1)
+        table.add_column(column, justify="right" if column == "hole" else "left", no_wrap=True,
+                         min_width=max(widest, len(column)))
+    for row in rows:
+        table.add_row(*row)
     return table
 # The value a failed check is shown with in the table: the field of the checked hole (a deviation, or
 # the measured angle for tilt and perpendicularity).
@@ -268,6 +440,23 @@ _FAILED_CHECK_VALUES = {
     "countersink_diameter": "countersink_diameter_deviation", "countersink_angle": "countersink_angle_deviation",
     "countersink_depth": "countersink_depth_deviation", "bore_diameter": "bore_diameter_deviation",
 }
+
+
+def verdict_summary(hole):
+    """The first line of :func:`verdict_cell`: the hole's name and ``in``, ``not checked``, ``OUT: ...`` or
+    ``UNDECIDED: ...`` (the table's ``tolerance`` column; the checks are in a table of their own)."""
+    return verdict_cell(hole).split("\n", 1)[0]
+
+
+def verdict_state(hole):
+    """The ``tolerance`` cell of a hole in the wide table: its name and ``in``, ``OUT``, ``UNDECIDED`` or
+    ``not checked`` (what failed and every check are in the table ``checks`` below)."""
+    name = f"{hole['name']}: " if hole.get("name") else ""
+    if hole["in_tolerance"] is None:
+        return name + "not checked"
+    if hole["in_tolerance"]:
+        return name + "in"
+    return name + ("OUT" if hole.get("failed_checks") else "UNDECIDED")
 
 
 def verdict_cell(hole):
@@ -357,15 +546,25 @@ def refused_summary(checks, explain=False):
     return f" ({len(checks)} candidate{plural} refused: {reasons}{hint})"
 
 
-def _rejected_table(rejected, digits=4):
+def _rejected_table(rejected, digits=4, narrow=False):
     from rich.table import Table
 
     def number(value):
         return "" if value is None else (str(value) if isinstance(value, int) else f"{value:.4g}")
 
     table = Table(title=f"{len(rejected)} candidate{'' if len(rejected) == 1 else 's'} not reported as holes")
+    if narrow:  # the check, then the candidate's values and why on lines of their own
+        table.add_column("check", justify="left", no_wrap=True)
+        table.add_column("candidate", justify="left")
+        for rejection in rejected:
+            table.add_row(rejection["check"],
+                          "center " + ", ".join(f"{v:.{digits}f}" for v in rejection["center"])
+                          + f"\nsize {rejection['diameter']:.{digits}f}, value {number(rejection['value']) or '-'}, "
+                            f"limit {number(rejection['limit']) or '-'}\n{rejection['reason']}")
+        return table
     for column in ("check", "center x", "center y", "center z", "size", "value", "limit", "why"):
-        table.add_column(column, justify="left" if column in ("check", "why") else "right")
+        table.add_column(column, justify="left" if column in ("check", "why") else "right",
+                         no_wrap=column == "check")
     for rejection in rejected:
         table.add_row(rejection["check"], *(f"{v:.{digits}f}" for v in rejection["center"]),
                       f"{rejection['diameter']:.{digits}f}",
@@ -436,6 +635,30 @@ def warning_lines(record):
     """
     return [f"holecli: warning: {record['file']} hole {hole['index']}: {warning['code']}: {warning['message']}"
             for hole in record.get("holes", ()) for warning in hole.get("warnings", ())]
+
+
+def zone_note_lines(record):
+    """The stderr lines of the checks that a guarded decision can never pass (their U exceeds the
+    tolerance zone, note ``uncertainty_exceeds_tolerance``):
+    ``holecli: note: FILE hole N (NAME): uncertainty_exceeds_tolerance: diameter: 2U = ...``.
+
+    Parameters
+    ----------
+    record : dict
+        A ``detect`` record (checked, or not: then there is none).
+
+    Returns
+    -------
+    list of str
+    """
+    from holecli.tolerance import UNCERTAINTY_NOTE
+
+    lines = []
+    for hole in record.get("holes", ()):
+        name = f" ({hole['name']})" if hole.get("name") else ""
+        lines.extend(f"holecli: note: {record['file']} hole {hole['index']}{name}: {note['code']}: {note['message']}"
+                     for note in hole.get("notes", ()) if note["code"] == UNCERTAINTY_NOTE)
+    return lines
 
 
 def undecided_line(record):
@@ -546,7 +769,9 @@ def write_outputs(outputs):
 @columns_option
 @click.option("--format", "fmt", type=click.Choice(["json", "jsonl", "csv", "table"]), default="json", show_default=True,
               help="Output format: JSON record (indented), JSON Lines (the record on one compact line, as batch "
-                   "writes it: for appending to a log), CSV (one row per hole) or a table for people.")
+                   "writes it: for appending to a log), CSV (one row per hole) or a table for people (fitted to the "
+                   "terminal, with U = k·u beside the values; a block per hole under 100 columns).")
+@fields_option()
 @click.option("--output", "-o", type=click.Path(dir_okay=False, allow_dash=True, path_type=str),
               help="Write the result to this file (a regular file atomically; - is stdout) instead of stdout; "
                    "with --plot, both are written or neither. Never SCAN, --spec or the --plot file.")
@@ -563,9 +788,9 @@ def write_outputs(outputs):
 @registration_option_decorators(plain_name=True)
 @fail_on_warning_option
 @verbosity_option_decorators
-def detect(scan, input_format, columns, fmt, output, plot_file, explain, scan_index, units, output_units, method,
-           view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor,
-           registration_file, name_pairs, fail_on_warning, quiet, verbose, **nominal_options):
+def detect(scan, input_format, columns, fmt, fields, output, plot_file, explain, scan_index, units, output_units,
+           method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, decision_rule,
+           coverage_factor, registration_file, name_pairs, fail_on_warning, quiet, verbose, **nominal_options):
     """Measure the holes in SCAN (.ply, .pcd, .csv, .txt, .xyz, .e57, .las or .laz; - reads it from
     stdin, with --input-format).
 
@@ -577,6 +802,7 @@ def detect(scan, input_format, columns, fmt, output, plot_file, explain, scan_in
     Examples:
       holecli detect scan.ply
       holecli detect scan.csv --format csv --output result.csv
+      holecli detect scan.ply --format csv --fields file,hole,diameter,u_diameter
       holecli detect scan.pcd --view-dir 0,0,-1 --full-only --format table
       holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0
       holecli detect scan.ply --nominal-diameter 3 --tolerance +0.036/-0 --decision-rule guarded
@@ -604,6 +830,7 @@ def detect(scan, input_format, columns, fmt, output, plot_file, explain, scan_in
     in the record's notes, and on stderr with --verbose.
     """
     check_verbosity(quiet, verbose)
+    check_fields(fields, fmt)
     check_stdin_format(scan, input_format)
     if explain and fmt == "csv":
         raise click.UsageError("--explain needs --format json or table (CSV has one row per hole)")
@@ -660,7 +887,7 @@ def detect(scan, input_format, columns, fmt, output, plot_file, explain, scan_in
             mapped = inspection.spec_for(record.get("units")) if isinstance(inspection, Inspection) else spec
             far.append(far_from_spec(record, mapped))
             scaled.append(unit_scale_match(record, mapped))
-        outputs = [(output, render([record], fmt), "output")]
+        outputs = [(output, render([record], fmt, fields), "output")]
         if plot_file is not None:
             from holecli.cli.plot import PLOT_WHAT, plot_png
 
@@ -682,6 +909,9 @@ def detect(scan, input_format, columns, fmt, output, plot_file, explain, scan_in
         assumed = spec_units_line(record)
         if assumed:
             click.echo(assumed, err=True)
+        if not verbose:  # (--verbose says every note)
+            for line in zone_note_lines(record):
+                click.echo(line, err=True)
     if not quiet and not record["holes"]:
         why = refused_summary(refused, explain) if method == "robust" else ""  # (the paper's has no candidates)
         click.echo(f"holecli: no hole found in {record['file']}{why}{min_diameter_hint(record, min_diameter)}",

@@ -887,3 +887,60 @@ def inspection_from_options(spec, spec_file, registration_file, name_pairs, scan
     if registration_file is not None:
         registration, provenance = read_registration(registration_file)
     return Inspection(spec, registration, provenance, tuple(name_pairs))
+
+
+class CsvFields(click.ParamType):
+    """``--fields``'s value: comma-separated CSV column names (:func:`holecli.report.csv_fields`), kept in
+    the order given. A name that is not a column is refused with the list of the valid ones.
+
+    Parameters
+    ----------
+    batch : bool
+        Whether the columns are ``holecli batch``'s (:data:`holecli.report.BATCH_CSV_COLUMNS`, with
+        ``error`` and ``path``) rather than ``detect``'s.
+    """
+
+    name = "FIELD[,FIELD...]"
+
+    def __init__(self, batch=False):
+        self.batch = batch
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple) or value is None:
+            return value
+        from holecli.report import BATCH_CSV_COLUMNS, CSV_COLUMNS, csv_fields
+
+        try:
+            return csv_fields(str(value), BATCH_CSV_COLUMNS if self.batch else CSV_COLUMNS)
+        except ValueError as error:
+            self.fail(str(error), param, ctx)
+
+
+def fields_option(batch=False):
+    """``--fields FIELD[,FIELD...]``: the columns of ``--format csv``, in this order (:class:`CsvFields`).
+
+    Parameters
+    ----------
+    batch : bool
+        ``holecli batch``'s columns (with ``error`` and ``path``).
+
+    Returns
+    -------
+    callable
+        The decorator; the command gets ``fields`` (None, or a tuple of column names).
+    """
+    return click.option(
+        "--fields", "fields", type=CsvFields(batch), default=None,
+        help="With --format csv: write only these columns, in this order (comma-separated names of the CSV's "
+             "header, e.g. file,hole,diameter,u_diameter,in_tolerance; README, Output, CSV lists them).")
+
+
+def check_fields(fields, fmt):
+    """Refuse ``--fields`` with a format other than CSV (a JSON record has every field).
+
+    Raises
+    ------
+    click.UsageError
+    """
+    if fields is not None and fmt != "csv":
+        raise click.UsageError("--fields chooses the columns of --format csv; the JSON record has every field")

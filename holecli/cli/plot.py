@@ -221,7 +221,8 @@ def plot_path_type():
 @click.option("--scan", "scan_index", type=click.IntRange(min=0), default=None, metavar="N",
               help="Draw scan N (from 0) of a multi-scan E57 file [default: every scan, merged].")
 @click.option("--units", type=click.Choice(("mm", "m", "in")), default=None,
-              help="The unit of the file's coordinates, for the labels [default: the file's (E57: m), else 'units'].")
+              help="The unit of the file's coordinates [default: the file's (E57: m), else not known]; when known, "
+                   "the picture is drawn in mm.")
 @click.option("--max-panels", type=click.IntRange(min=1), default=None, metavar="N",
               help="Draw the first N holes only [default: every hole].")
 @click.option("--dpi", type=click.IntRange(min=20, max=600), default=100, show_default=True,
@@ -234,8 +235,10 @@ def plot(scan, output, input_format, columns, scan_index, units, max_panels, dpi
     along its normal (coloured by height above the surface) with the fitted edge circle, its center,
     the countersink and bore circles, the rim points used and rejected, the points inside the hole and
     a scale bar; the edge's radial residuals against the angle; and a box of its values (diameter ± U,
-    center, normal, type, countersink, warnings, verdict). Lengths in the file's units. (holecli detect
-    --plot and holecli batch --plot draw the same, with the tolerance verdict.)
+    center, normal, type, countersink, warnings, verdict). Lengths in mm when the unit is known (--units,
+    E57), else in the file's units. (holecli detect --plot and holecli batch --plot draw the same, with
+    the tolerance verdict, each diameter check's nominal circle and tolerance zone, and a note where U
+    is wider than the zone.)
 
     Needs matplotlib: pip install 'holecli[plot]'.
 

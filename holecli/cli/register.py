@@ -108,27 +108,57 @@ def render_csv(record):
     return buffer.getvalue()
 
 
-def render_table(record):
-    """The ``--format table`` text: the transform with its uncertainties, then one row per hole."""
+def render_table(record, width=None):
+    """The ``--format table`` text: the transform with its uncertainties, then one row per hole.
+
+    Parameters
+    ----------
+    record : dict
+        A ``register`` record.
+    width : int, optional
+        The width of the text (default: the terminal's, :func:`holecli.cli.detect.table_width`); under
+        :data:`holecli.cli.detect.NARROW_TABLE_BELOW` the transform is one row per quantity, its three
+        values over their standard uncertainties.
+
+    Returns
+    -------
+    str
+        No line longer than ``width``.
+    """
     from rich.console import Console
     from rich.table import Table
 
+    from holecli.cli.detect import NARROW_TABLE_BELOW, table_width
+
+    width = table_width() if width is None else width
     buffer = _stringio.StringIO()
-    console = Console(file=buffer, width=140, force_terminal=False, color_system=None)
+    console = Console(file=buffer, width=width, force_terminal=False, color_system=None)
 
     def number(value, digits=4):
         return "-" if value is None else f"{value:.{digits}f}"
 
     transform, uncertainty = record["transform"], record["uncertainty"]
-    table = Table(title=f"part -> measuring frame ({len(record['holes'])} holes, spec {record['spec']['file']})",
-                  caption=("free: " + ", ".join(record["free_dofs"])) if record["free_dofs"] else None)
-    for column in ("quantity", "x", "y", "z", "u x", "u y", "u z"):
-        table.add_column(column, justify="left" if column == "quantity" else "right")
-    table.add_row("translation", *(number(v) for v in transform["translation"]),
-                  *(number(v, 6) for v in uncertainty["translation"]))
-    table.add_row("roll/pitch/yaw deg", *(number(v, 5) for v in transform["roll_pitch_yaw_deg"]),
-                  *(number(v, 6) for v in uncertainty["rotation_deg"]))
-    table.add_row("quaternion w,x,y,z", ", ".join(f"{v:.8f}" for v in transform["quaternion_wxyz"]), "", "", "", "", "")
+    quaternion = ", ".join(f"{v:.8f}" for v in transform["quaternion_wxyz"])
+    free = ("free: " + ", ".join(record["free_dofs"])) if record["free_dofs"] else None
+    title = f"part -> measuring frame ({len(record['holes'])} holes, spec {record['spec']['file']})"
+    if width < NARROW_TABLE_BELOW:
+        table = Table(title=title, caption=free)
+        table.add_column("quantity", justify="left", no_wrap=True)
+        table.add_column("x, y, z; u x, y, z", justify="left")
+        table.add_row("translation", ", ".join(number(v) for v in transform["translation"]) + "\nu "
+                      + ", ".join(number(v, 6) for v in uncertainty["translation"]))
+        table.add_row("roll/pitch/yaw deg", ", ".join(number(v, 5) for v in transform["roll_pitch_yaw_deg"]) + "\nu "
+                      + ", ".join(number(v, 6) for v in uncertainty["rotation_deg"]))
+        table.add_row("quaternion w,x,y,z", quaternion)
+    else:
+        table = Table(title=title, caption=free)
+        for column in ("quantity", "x", "y", "z", "u x", "u y", "u z"):
+            table.add_column(column, justify="left" if column == "quantity" else "right")
+        table.add_row("translation", *(number(v) for v in transform["translation"]),
+                      *(number(v, 6) for v in uncertainty["translation"]))
+        table.add_row("roll/pitch/yaw deg", *(number(v, 5) for v in transform["roll_pitch_yaw_deg"]),
+                      *(number(v, 6) for v in uncertainty["rotation_deg"]))
+        table.add_row("quaternion w,x,y,z", quaternion, "", "", "", "", "")
     console.print(table)
     verdict = record["verdict"]
     caption = f"rms {number(record['rms'], 6)}"
@@ -138,7 +168,8 @@ def render_table(record):
             caption += " (" + "; ".join(record["failed"]) + ")"
     holes = Table(title="residuals after the fit", caption=caption)
     for column in ("hole", "scan", "used", "in plane", "along normal", "normal deg"):
-        holes.add_column(column, justify="left" if column in ("hole", "scan", "used") else "right")
+        holes.add_column(column, justify="left" if column in ("hole", "scan", "used") else "right",
+                         no_wrap=column in ("hole", "used"))
     for hole in record["holes"]:
         residual = hole["residual"]
         holes.add_row(hole["name"], f"{hole['scan']} #{hole['scan_hole']}",
@@ -146,6 +177,54 @@ def render_table(record):
                       number(residual["along_normal"], 6), number(residual["normal_angle_deg"], 4))
     console.print(holes)
     return buffer.getvalue()
+
+
+def verbose_lines(record):
+    """What ``register --verbose`` says on stderr after each scan's account: the match (how, the holes
+    left unmatched) and, per matched hole, the scan and hole it is, whether it was used and its residuals.
+
+    Parameters
+    ----------
+    record : dict
+        A ``register`` record.
+
+    Returns
+    -------
+    list of str
+        Lines starting with ``holecli: ``.
+
+    Examples
+    --------
+    >>> record = {"match": {"method": "names", "ambiguous": False, "unmatched_measured": [],
+    ...                     "unmatched_nominal": ["A5"]}, "rms": 0.0001, "dof": 3, "free_dofs": [],
+    ...           "holes": [{"name": "A1", "scan": "A1.ply", "scan_hole": 0, "used": True, "outlier": False,
+    ...                      "residual": {"in_plane": 0.00012, "along_normal": 1e-07, "normal_angle_deg": 6e-06}}]}
+    >>> print("\\n".join(verbose_lines(record)))
+    holecli: register: match by names, 1 hole; spec holes not measured: A5
+    holecli:   A1 = A1.ply hole 0: used; residual 0.00012 in plane, 1e-07 along normal, 6e-06 deg
+    holecli:   rms 0.0001, 3 degrees of freedom left, no free rotation or translation
+    """
+    match = record["match"]
+    count = len(record["holes"])
+    line = f"holecli: register: match by {match['method']}, {count} hole{'' if count == 1 else 's'}"
+    if match.get("ambiguous"):
+        line += " (ambiguous: other pairings fit as well)"
+    if match.get("unmatched_nominal"):
+        line += "; spec holes not measured: " + ", ".join(map(str, match["unmatched_nominal"]))
+    if match.get("unmatched_measured"):
+        line += "; measured holes matching no spec hole: " + ", ".join(
+            f"{item['scan']} hole {item['scan_hole']}" for item in match["unmatched_measured"])
+    lines = [line]
+    for hole in record["holes"]:
+        residual = hole["residual"]
+        used = "OUTLIER, left out" if hole["outlier"] else ("used" if hole["used"] else "not used")
+        lines.append(f"holecli:   {hole['name']} = {hole['scan']} hole {hole['scan_hole']}: {used}; residual "
+                     f"{residual['in_plane']:.3g} in plane, {residual['along_normal']:.3g} along normal, "
+                     f"{residual['normal_angle_deg']:.3g} deg")
+    free = ", ".join(record.get("free_dofs") or ()) or "no free rotation or translation"
+    rms = "-" if record.get("rms") is None else f"{record['rms']:.3g}"
+    lines.append(f"holecli:   rms {rms}, {record.get('dof')} degrees of freedom left, {free}")
+    return lines
 
 
 def render(record, fmt):
@@ -212,8 +291,11 @@ def targets_in_units(targets, units):
 @columns_option
 @detection_option_decorators
 @click.option("--quiet", "-q", is_flag=True, help="Say nothing on stderr but errors (no warnings, notes or verdict line).")
+@click.option("--verbose", "-v", is_flag=True,
+              help="Also say on stderr what each scan's measurement chose (as detect -v), the match and each "
+                   "hole's residuals.")
 def register(scans, columns, spec_file, name_pairs, targets_file, targets_output, max_residual, outlier_factor, outlier_floor,
-             fmt, output, method, view_dir, min_diameter, max_holes, full_only, gauge_depth, quiet):
+             fmt, output, method, view_dir, min_diameter, max_holes, full_only, gauge_depth, quiet, verbose):
     """Register a part: fit the rigid transform from the part (CAD) frame of --spec to the frame of the
     SCANs (a robot's, any measuring frame) from the part's reference holes.
 
@@ -232,7 +314,10 @@ def register(scans, columns, spec_file, name_pairs, targets_file, targets_output
       holecli register left.ply right.ply --spec part.toml --name left.ply=A1 --name right.ply=A2
       holecli register panel.ply --spec part.toml --format csv -o registration.csv
       holecli register A*.ply --spec part.toml --targets targets.csv --targets-output corrected.csv
+      holecli register A1.ply A2.ply A3.ply --spec part.toml -v
     """
+    if quiet and verbose:
+        raise click.UsageError("--quiet and --verbose cannot be combined")
     if targets_output is not None and targets_file is None:
         raise click.UsageError("--targets-output needs --targets")
     if targets_file is not None and targets_output is None:
@@ -272,6 +357,10 @@ def register(scans, columns, spec_file, name_pairs, targets_file, targets_output
         for scan in scans:
             detection = measure_file(scan, options)
             scan_units = detection.units
+            if verbose:
+                from holecli.cli.progress import verbose_text
+
+                accounts.append(verbose_text(detection.to_dict()))
             if not detection.holes:
                 raise Failure(f"{scan}: no hole found", EXIT_NO_HOLE)
             name = names[scan]
@@ -320,7 +409,10 @@ def register(scans, columns, spec_file, name_pairs, targets_file, targets_output
         write_outputs(outputs)
         return record
 
+    accounts = []  # --verbose: what each scan's measurement chose
     record = run_guarded(body)
+    if verbose:
+        click.echo("".join(accounts) + "\n".join(verbose_lines(record)), err=True)
     if not quiet:
         for warning in record["warnings"]:
             click.echo(f"holecli: warning: register: {warning['code']}: {warning['message']}", err=True)

@@ -368,3 +368,18 @@ def test_the_h9_example_of_issue_14_is_undecided_in_guarded_mode(run, repo_root)
     assert guarded.exit_code == EXIT_UNDECIDED, guarded.stderr
     entry = json.loads(guarded.stdout)["holes"][0]["conformance"]["diameter"]
     assert (entry["decision"], entry["reason"]) == ("undecided", "straddles_lower")
+
+
+def test_guarded_says_on_stderr_a_check_that_can_never_pass(run):
+    import os
+
+    table1 = os.path.join(os.path.dirname(__file__), "..", "..", "sample_clouds", "table1.ply")
+    options = ["--nominal-diameter", "3", "--tolerance", "0.002"]  # zone 0.004, U(d) 0.0095
+    result = run("detect", table1, *options, "--decision-rule", "guarded")
+    assert result.exit_code in (cli.EXIT_UNDECIDED, cli.EXIT_OUT_OF_TOLERANCE)
+    line = next(line for line in result.stderr.splitlines() if "uncertainty_exceeds_tolerance" in line)
+    assert line.startswith("holecli: note: ") and "hole 0: uncertainty_exceeds_tolerance: diameter: 2U = 0.019" in line
+    record = json.loads(result.stdout)
+    assert "uncertainty_exceeds_tolerance" in [note["code"] for note in record["holes"][0]["notes"]]
+    assert "uncertainty_exceeds_tolerance" not in run("detect", table1, *options).stderr
+    assert run("detect", table1, *options, "--decision-rule", "guarded", "-q").stderr == ""

@@ -342,3 +342,20 @@ def test_spec_of_the_mirror_image_is_refused_and_nothing_is_replaced(reg, part, 
     assert not any(hole["normal_flipped"] for hole in record["holes"])
     assert _rotation_error_deg(record["transform"]["matrix"]) < 0.01
     assert "normals_reversed" not in result.stderr
+
+
+def test_verbose_says_each_scan_the_match_and_the_residuals(reg, run, part):
+    result = reg(*_paths(part, "A1", "A2", "A3"), "--spec", part / "part.toml", "-v")
+    assert result.exit_code == cli.EXIT_OK, result.stderr
+    record = json.loads(result.stdout)
+    assert result.stderr.count("point spacing") == 3  # each scan's account, as detect -v gives it
+    assert "holecli: register: match by names, 3 holes; spec holes not measured: A4, A5" in result.stderr
+    for hole in record["holes"]:
+        assert (f"holecli:   {hole['name']} = {hole['scan']} hole 0: used; residual "
+                f"{hole['residual']['in_plane']:.3g} in plane") in result.stderr
+    assert "degrees of freedom left" in result.stderr
+    assert "match by" not in reg(*_paths(part, "A1", "A2", "A3"), "--spec", part / "part.toml").stderr
+    before = run("-v", "register", *_paths(part, "A1", "A2", "A3"), "--spec", part / "part.toml")
+    assert "match by names" in before.stderr
+    both = reg(*_paths(part, "A1", "A2"), "--spec", part / "part.toml", "-q", "-v")
+    assert both.exit_code == cli.EXIT_USAGE and "--quiet and --verbose cannot be combined" in both.stderr

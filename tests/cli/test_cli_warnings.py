@@ -155,7 +155,8 @@ def test_batch_csv_resume_refuses_a_csv_without_the_notes_column(run, samples, t
     rows = list(csv.reader(io.StringIO(output.read_text())))
     notes = BATCH_CSV_COLUMNS.index("notes")
     assert rows[1][notes] == "bore_not_seen;axis_not_measured" and rows[1][BATCH_CSV_COLUMNS.index("warnings")] == ""
-    output.write_text("".join(",".join(row[:notes] + row[notes + 1:]) + "\n" for row in rows))
+    # a 2.1 CSV: no notes column, nor the later u_* ones (issue 25), then error and path
+    output.write_text("".join(",".join(row[:notes] + row[-2:]) + "\n" for row in rows))
     resumed = run("batch", samples[1], "--format", "csv", "-o", output, "--resume")
     assert resumed.exit_code == 3
     assert "written before schema 2.2, without the notes column" in resumed.stderr

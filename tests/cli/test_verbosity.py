@@ -226,3 +226,33 @@ def test_bash_completion_of_the_installed_program_works(tmp_path, repo_root):
                             timeout=60)
     assert result.returncode == 0, result.stderr
     assert result.stdout.splitlines() == ["complete -o nosort -F _holecli_completion holecli", "detect", "--quiet"]
+
+
+# --- before the command (issue 25) -------------------------------------------------------------------
+
+
+def test_verbose_before_the_command_is_the_commands_verbose(run):
+    before, after = run("-v", "detect", TABLE1), run("detect", "-v", TABLE1)
+    assert before.exit_code == after.exit_code == cli.EXIT_OK
+    strip = lambda text: [line for line in text.splitlines() if "time " not in line]  # noqa: E731
+    assert strip(before.stderr) == strip(after.stderr) and "point spacing" in before.stderr
+    assert _without_timing(before.stdout) == _without_timing(after.stdout)
+
+
+def test_quiet_before_the_command_silences_it(run):
+    result = run("-q", "detect", NO_HOLE)
+    assert result.exit_code == cli.EXIT_NO_HOLE and result.stderr == ""
+    assert "no hole found" in run("detect", NO_HOLE).stderr
+
+
+@pytest.mark.parametrize("args", [["-q", "-v", "detect", TABLE1], ["-q", "detect", "-v", TABLE1],
+                                  ["-v", "batch", "-q", TABLE1]])
+def test_quiet_and_verbose_before_and_after_the_command_are_a_usage_error(run, args):
+    result = run(*args)
+    assert result.exit_code == cli.EXIT_USAGE
+    assert "--quiet and --verbose cannot be combined" in result.stderr
+
+
+def test_the_global_options_are_in_the_help(run):
+    text = run("--help").stdout
+    assert "-q, --quiet" in text and "-v, --verbose" in text
