@@ -1048,6 +1048,8 @@ class Tally:
     undecided: int = 0
     missing: int = 0
     doubtful_holes: int = 0  # holes with a warning (a doubtful result; notes are not warnings)
+    rejected_parts: int = 0  # files (parts) with a hole out of tolerance or a nominal hole missing
+    undecided_parts: int = 0  # files with an undecided hole and none out of tolerance or missing
     warning_codes: dict = field(default_factory=dict)  # every warning code -> holes with it
 
     def add(self, summary):
@@ -1063,6 +1065,9 @@ class Tally:
         self.out_of_tolerance += summary.out_of_tolerance
         self.undecided += summary.undecided
         self.missing += summary.missing
+        rejected = bool(summary.out_of_tolerance or summary.missing)
+        self.rejected_parts += rejected
+        self.undecided_parts += not rejected and bool(summary.undecided)
         for codes in summary.warnings:
             self.doubtful_holes += bool(codes)
             for code in set(codes):

@@ -193,10 +193,11 @@ def test_batch_exit_5_out_of_tolerance_over_6_and_4(run, good_scans, tmp_path):
     assert records[str(plain)]["verdict"] == {"checked": 0, "out_of_tolerance": 0, "missing": [None],
                                               "in_tolerance": False, **SIMPLE_VERDICT}
     assert all(records[str(path)]["verdict"]["in_tolerance"] for path in good_scans)
-    assert "0 out of tolerance, 1 nominal hole missing" in result.stderr
+    # the part without a hole is rejected, and its hole counted as missing (not as out of tolerance)
+    assert "parts rejected: 1 of 4; holes out of tolerance: 0, nominal holes missing: 1" in result.stderr
     result = run("batch", *good_scans, "--nominal-diameter", "2.0", "--tolerance", "0.1")
     assert result.exit_code == cli.EXIT_OUT_OF_TOLERANCE
-    assert "3 out of tolerance" in result.stderr
+    assert "parts rejected: 3 of 3; holes out of tolerance: 3, nominal holes missing: 0" in result.stderr
 
 
 def test_batch_exit_6_failed_before_4_no_hole(run, good_scans, tmp_path):
