@@ -126,7 +126,8 @@ def batch_exit_code(tally, fail_on_warning=None):
 @click.option("--jobs", "-j", type=click.IntRange(min=1), default=None, metavar="N",
               help="Worker processes [default: the number of cores].")
 @click.option("--resume", is_flag=True,
-              help="Keep the records already in --output, skip their files and append the others.")
+              help="Keep the records already in --output, skip their files and append the others; refused (exit 2, "
+                   "the file untouched) when the options differ from its first record's.")
 @click.option("--overwrite", is_flag=True,
               help="Replace an --output that is not empty (without it, or --resume, such a file is refused and "
                    "left as it is).")
@@ -234,10 +235,13 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ov
         try:
             if output is not None:
                 try:
-                    output_file = batching.BatchOutput(output, fmt, resume=resume, overwrite=overwrite)
+                    expected = _run_provenance(batching, method, view_dir, min_diameter, max_holes, full_only,
+                                               gauge_depth, input_format, scan_index, units_now, spec)
+                    output_file = batching.BatchOutput(output, fmt, resume=resume, overwrite=overwrite,
+                                                       expected=expected)
                 except (batching.ResumeError, batching.OutputBusyError) as error:
                     raise Failure(str(error), EXIT_INPUT) from None
-                except batching.OutputNotEmptyError as error:
+                except (batching.OutputNotEmptyError, batching.ResumeOptionsError) as error:
                     raise Failure(str(error), EXIT_USAGE) from None
                 except OSError as error:
                     action = "resume" if resume else "write output"
@@ -262,6 +266,20 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ov
 
     with StopRequests() as stop:
         sys.exit(run_guarded(body, stop))
+
+
+def _run_provenance(batching, method, view_dir, min_diameter, max_holes, full_only, gauge_depth, input_format,
+                    scan_index, units, spec):
+    """The provenance cells this run's records will carry (:func:`holecli.batch.provenance_cells`), for
+    ``--resume`` to compare with the output's first record: the options as given (lengths in the
+    output unit, as the records give them), the unit, the tolerances."""
+    from holecli.tolerance import describe
+
+    options = {"method": method, "view_dir": None if view_dir is None else list(view_dir),
+               "min_diameter": min_diameter, "max_holes": max_holes, "full_only": bool(full_only),
+               "gauge_depth": gauge_depth, "input_format": input_format, "scan": scan_index,
+               "tolerances": None if spec is None else describe(spec)}
+    return batching.provenance_cells({"units": units.output or units.file, "options": options})
 
 
 def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False, scan=None,
