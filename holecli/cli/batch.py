@@ -17,6 +17,7 @@ from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_BROKEN_PIPE, EXIT_FIL
                                EXIT_WARNING, Failure, broken_pipe, run_guarded, write_stdout)
 from holecli.cli.options import (Decimal, check_verbosity, decision_from_options, detection_option_decorators, detection_options,
                                  fail_on_warning_option, input_format_option, nominal_from_options, read_spec,
+                                 require_gauge_depth,
                                  reading_option_decorators, refuse_same_files, tolerance_option_decorators,
                                  unit_choice, verbosity_option_decorators, warned, with_decision)
 from holecli.cli.progress import BatchDisplay, batch_summary, verbose_text
@@ -181,6 +182,7 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ov
     # the tolerance options (--nominal-diameter, ..., --max-perpendicularity) by their parameter names
     nominal = nominal_from_options(spec_file, **nominal_options)
     decision = decision_from_options(decision_rule, coverage_factor, nominal is not None or spec_file is not None)
+    require_gauge_depth(nominal, gauge_depth)
     if fmt == "json":  # detect's word: a batch's records are JSON, one per line
         fmt = "jsonl"
     if resume and (output is None or output == "-"):
@@ -199,6 +201,7 @@ def batch(paths, recursive, pattern, input_format, fmt, output, jobs, resume, ov
         # the output never replaces the spec or a file named to be measured (issue 23, item 4)
         refuse_same_files([("--spec", spec_file), *(("PATH", path) for path in paths)], [("-o/--output", output)])
         spec = with_decision(read_spec(spec_file) if spec_file is not None else nominal, decision)
+        require_gauge_depth(spec, gauge_depth, spec_file)
         if plot_dir is not None:
             from holecli.cli.plot import require_matplotlib
 

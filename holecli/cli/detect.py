@@ -13,6 +13,7 @@ from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_O
                                EXIT_WARNING, Failure, run_guarded, write_stdout)
 from holecli.cli.options import (INPUT_FORMATS, check_verbosity, decision_from_options, detection_option_decorators,
                                  detection_options, fail_on_warning_option, input_format_option, nominal_from_options,
+                                 require_gauge_depth,
                                  read_spec, reading_option_decorators, refuse_same_files, tolerance_option_decorators,
                                  unit_choice,
                                  verbosity_option_decorators, warned, with_decision)
@@ -220,6 +221,8 @@ def render_table(records):
         console.print(table)
         if any(hole.get("type") for hole in record["holes"]):
             console.print(_shape_table(record["holes"], digits))
+        if any((hole.get("countersink") or {}).get("gauge_depth") is not None for hole in record["holes"]):
+            console.print(_gauge_table(record["holes"], digits))
         if "rejected" in record:
             console.print(_rejected_table(record["rejected"], digits))
     return buffer.getvalue()
@@ -255,12 +258,41 @@ def _shape_table(holes, length_digits=4):
                       "\n".join(warning["code"] for warning in hole.get("warnings", [])),
                       "\n".join(note["code"] for note in hole.get("notes", [])))
     return table
+def _gauge_table(holes, length_digits=4):
+    """The table of the countersink gauge readings (``--gauge-depth``): per countersunk hole the gauge
+    depth, the countersink's diameter there, and with a gauge check its nominal, deviation, U and
+    decision."""
+    from rich.table import Table
+
+    def number(value, signed=False):
+        return "-" if value is None else (f"{value:+.{length_digits}f}" if signed else f"{value:.{length_digits}f}")
+
+    table = Table(title="countersink gauge (diameter at the gauge depth)")
+    for column in ("hole", "name", "gauge depth", "diameter there", "nominal", "deviation", "U", "decision"):
+        table.add_column(column, justify="left" if column in ("name", "decision") else "right")
+    for hole in holes:
+        countersink = hole.get("countersink") or {}
+        if hole.get("type") != "countersunk" and (hole.get("conformance") or {}).get("countersink_gauge") is None:
+            continue
+        entry = (hole.get("conformance") or {}).get("countersink_gauge")
+        measured = countersink.get("diameter_at_depth")
+        deviation = None if entry is None else entry["value"]
+        nominal = None if entry is None or deviation is None or measured is None else measured - deviation
+        table.add_row(str(hole["index"]), hole.get("name") or "-", number(countersink.get("gauge_depth")),
+                      number(measured), number(nominal), number(deviation, signed=True),
+                      "-" if entry is None or entry["expanded_uncertainty"] is None
+                      else f"{entry['expanded_uncertainty']:.2g}",
+                      "not checked" if entry is None else entry["decision"])
+    return table
+
+
 # The value a failed check is shown with in the table: the field of the checked hole (a deviation, or
 # the measured angle for tilt and perpendicularity).
 _FAILED_CHECK_VALUES = {
     "diameter": "diameter_deviation", "tilt": "tilt_deg", "perpendicularity": "perpendicularity_deg",
     "countersink_diameter": "countersink_diameter_deviation", "countersink_angle": "countersink_angle_deviation",
     "countersink_depth": "countersink_depth_deviation", "bore_diameter": "bore_diameter_deviation",
+    "countersink_gauge": "countersink_gauge_deviation",
 }
 
 
@@ -558,6 +590,7 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
     # the tolerance options (--nominal-diameter, ..., --max-perpendicularity) by their parameter names
     nominal = nominal_from_options(spec_file, **nominal_options)
     decision = decision_from_options(decision_rule, coverage_factor, nominal is not None or spec_file is not None)
+    require_gauge_depth(nominal, gauge_depth)
 
     refused = []  # the checks that refused candidates, for "no hole found"
     far = []  # (distance, name) when no measured hole lies near any spec hole
@@ -574,6 +607,7 @@ def detect(scan, input_format, fmt, output, plot_file, explain, scan_index, unit
         # before anything is read or made: no output may replace an input or another output
         refuse_same_files([("SCAN", scan), ("--spec", spec_file)], [("-o/--output", output), ("--plot", plot_path)])
         spec = with_decision(read_spec(spec_file) if spec_file is not None else nominal, decision)
+        require_gauge_depth(spec, gauge_depth, spec_file)
         if plot_file is not None:
             from holecli.cli.plot import measure_with_points, plot_destination, require_matplotlib
 
