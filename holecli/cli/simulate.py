@@ -304,16 +304,16 @@ def _simulate_lot(ctx, directory, quiet=False, verbose=False):
                 scanned = scan_part(built.vertices, built.triangles, features, _profiler_spec(p, built.vertices),
                                     rng=truth["scan_seed"])
             except (SpecError, ValueError) as error:
-                raise Failure(f"{panel_file}: part {truth['part']} ({', '.join(d['defect'] for d in truth['defects'])}): "
-                              f"{error}", EXIT_INPUT) from None
+                given = ", ".join(defect["defect"] for defect in truth["defects"]) or "no defect"
+                raise Failure(f"{panel_file}: part {truth['part']} ({given}): {error}", EXIT_INPUT) from None
             scan_truth = dict(scanned.truth, part=truth["part"], seed=truth["scan_seed"], file=name,
                               units="m" if p["metres"] else "mm")
             _write_scan(os.path.join(staging, name), scanned.scan.points, scan_truth, None, p["float64"])
             manifest_parts.append({"file": name, **truth})
             if verbose:
+                given = ", ".join(defect["defect"] for defect in truth["defects"])
                 click.echo(f"holecli: {name}: {len(scanned.scan.points)} points, "
-                           f"{'defects ' + ', '.join(d['defect'] for d in truth['defects']) if truth['defects'] else 'no defect'}",
-                           err=True)
+                           + (f"defects {given}" if given else "no defect"), err=True)
         manifest = {"panel": panel_file, "parts": p["parts"], "seed": p["seed"], "defects": list(p["defects"]),
                     "scatter": {"position_sigma": POSITION_SIGMA, "diameter_sigma": DIAMETER_SIGMA},
                     "units": "m" if p["metres"] else "mm",

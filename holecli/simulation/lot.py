@@ -223,7 +223,9 @@ def _resized(feature, key, change, defect):
 def _hole_truth(feature, name):
     if feature is None:
         return {"name": name, "drilled": False}
+    def length(value):
+        return None if value is None else float(value)
+
     return {"name": name, "kind": feature.kind, "drilled": True, "center": [float(c) for c in feature.center],
-            "diameter": float(feature.diameter),
-            "countersink_diameter": None if feature.countersink_diameter is None else float(feature.countersink_diameter),
-            "counterbore_diameter": None if feature.counterbore_diameter is None else float(feature.counterbore_diameter)}
+            "diameter": float(feature.diameter), "countersink_diameter": length(feature.countersink_diameter),
+            "counterbore_diameter": length(feature.counterbore_diameter)}
