@@ -332,7 +332,8 @@ def _simulate_lot(ctx, directory, quiet=False, verbose=False):
         raise
     if not quiet:
         defective = sum(part["defective"] for part in manifest_parts)
-        click.echo(f"wrote {p['parts']} scans of {panel_file} ({defective} with defects) and manifest.json to "
+        click.echo(f"wrote {p['parts']} scan{'' if p['parts'] == 1 else 's'} of {panel_file} ({defective} with "
+                   f"defects) and manifest.json to "
                    f"{directory} in {time.perf_counter() - started:.1f} s", err=True)
     return EXIT_OK
 
