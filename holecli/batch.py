@@ -38,7 +38,7 @@ from holecli.io import SUPPORTED_EXTENSIONS
 from holecli.report import BATCH_CSV_COLUMNS, CSV_COLUMNS, csv_text, to_json_line
 
 __all__ = ["DEFAULT_FILE_TIMEOUT", "FORMATS", "BatchOutput", "FileSummary", "FileTimeout", "OutputBusyError",
-           "RecordWriter", "ResumeError", "Tally", "default_jobs", "error_record", "failure_message", "files_to_do",
+           "RecordWriter", "ResumeError", "ResumeOptionsError", "Tally", "default_jobs", "error_record", "failure_message", "files_to_do",
            "find_scans", "internal_error_message", "measure_all", "measure_record", "plot_files", "resolved_path",
            "scan_stem", "timeout_message", "unlistable_message"]
 
@@ -816,6 +816,11 @@ class OutputBusyError(HoleCliError):
     """The output file is locked by another running batch."""
 
 
+class ResumeOptionsError(HoleCliError):
+    """``resume`` with other options than those of the output's first record (issue 25, item 4): the
+    output would mix records measured or checked differently. The message names the options."""
+
+
 class OutputNotEmptyError(HoleCliError):
     """The output file holds something (an earlier run's records) and neither ``resume`` nor
     ``overwrite`` says what to do with it."""
@@ -845,6 +850,10 @@ class BatchOutput:
     overwrite : bool
         Empty a file that holds something; without it (or ``resume``) such a file is refused with
         :class:`OutputNotEmptyError` and left as it is.
+    expected : dict, optional
+        With ``resume``: this run's provenance cells (:func:`provenance_cells` of the options it
+        would write); when they differ from the first measured record's (:func:`differing_options`),
+        :class:`ResumeOptionsError` is raised before the file is changed.
 
     Attributes
     ----------
@@ -852,6 +861,9 @@ class BatchOutput:
         One per file already in the output (with ``resume``), in file order.
     needs_header : bool
         True when the file still needs the CSV header (a new, emptied or empty file).
+    first_provenance : dict or None
+        With ``resume``: the provenance cells of the first record that was measured (not an error
+        record), None when there is none.
 
     Raises
     ------
@@ -859,6 +871,8 @@ class BatchOutput:
         When another batch holds the lock.
     OutputNotEmptyError
         When the file holds something and neither ``resume`` nor ``overwrite`` is given.
+    ResumeOptionsError
+        With ``resume`` and ``expected``, when the options differ from the first record's.
     ResumeError
         With ``resume``, when the file is not a regular file or not a batch output of that format
         (a line that is not a JSON object with a ``file``; a CSV header other than the batch's).
@@ -866,11 +880,12 @@ class BatchOutput:
         When the file cannot be opened, read or cut.
     """
 
-    def __init__(self, path, fmt, resume=False, overwrite=False):
+    def __init__(self, path, fmt, resume=False, overwrite=False, expected=None):
         from holecli.io.outfile import destination
 
         self.path = path
         self.earlier, self.needs_header = [], True
+        self.first_provenance = None
         try:
             kind, _ = destination(path)
         except OSError:
@@ -900,6 +915,10 @@ class BatchOutput:
                 data = _read_all(descriptor)
                 complete = data[: data.rfind(b"\n") + 1]
                 self.earlier, self.needs_header = _earlier_records(path, complete, fmt)
+                self.first_provenance = _first_provenance(complete, fmt)
+                differing = [] if expected is None else differing_options(self.first_provenance, expected)
+                if differing:  # before anything is cut: the file stays as it was
+                    raise ResumeOptionsError(resume_options_message(path, differing))
                 if len(complete) != len(data):
                     os.ftruncate(descriptor, len(complete))
             else:
@@ -996,6 +1015,137 @@ def _json_records(path, text):
         yield record
 
 
+# The provenance cells that --resume compares (holecli.report's CSV columns), with the options that
+# set them. spec_file is left out: the same spec read from another folder has another name, and its
+# SHA-256 says whether it is the same; rng and settings are not options of the command line.
+RESUMED_OPTIONS = {
+    "method": "--method", "view_dir": "--view-dir", "min_diameter": "--min-diameter", "max_holes": "--max-holes",
+    "full_only": "--full-only", "gauge_depth": "--gauge-depth", "input_format": "--input-format", "scan": "--scan",
+    "units": "--units/--output-units", "spec_sha256": "--spec (the file's content)",
+    "nominal": "the tolerance options (--nominal-diameter, --tolerance, ...)",
+    "decision_rule": "--decision-rule", "coverage_factor": "--coverage-factor",
+}
+
+
+def provenance_cells(record) -> dict:
+    """The cells of the options in ``record``'s provenance that ``--resume`` compares.
+
+    Parameters
+    ----------
+    record : dict
+        A record (or a dict with its ``units`` and ``options``, ``options.tolerances`` included).
+
+    Returns
+    -------
+    dict
+        ``{column: cell}`` for the columns of :data:`RESUMED_OPTIONS`, each cell as the batch CSV
+        writes it (:func:`holecli.report.csv_cell`).
+    """
+    from holecli.report import _provenance, csv_cell
+
+    values = _provenance(record)
+    return {column: csv_cell(values.get(column)) for column in RESUMED_OPTIONS}
+
+
+def _first_provenance(complete, fmt):
+    """The :func:`provenance_cells` of the first measured record in an output's text, or None."""
+    text = complete.decode("utf-8", "surrogateescape")
+    if fmt == "jsonl":
+        for line in text.splitlines():
+            record = json.loads(line) if line.strip() else {}
+            if isinstance(record, dict) and isinstance(record.get("options"), dict):
+                return provenance_cells(record)
+        return None
+    rows = list(csv.DictReader(io.StringIO(text)))
+    for row in rows:
+        if not row.get("error") and row.get("method"):
+            return {column: row.get(column) or "" for column in RESUMED_OPTIONS}
+    return None
+
+
+def _same_cell(earlier, now) -> bool:
+    """Whether two provenance cells say the same: equal text, or equal numbers (lists, JSON) within
+    a relative 1e-9 (a length converted from the output unit to the file's and back)."""
+    if earlier == now:
+        return True
+
+    def parsed(cell):
+        if ";" in cell:
+            return [parsed(item) for item in cell.split(";")]
+        try:
+            return json.loads(cell)
+        except ValueError:
+            return cell
+
+    def same(a, b):
+        if isinstance(a, bool) or isinstance(b, bool):
+            return a is b
+        if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+            return math.isclose(a, b, rel_tol=1e-9, abs_tol=0.0)
+        if isinstance(a, list) and isinstance(b, list):
+            return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b))
+        if isinstance(a, dict) and isinstance(b, dict):
+            return a.keys() == b.keys() and all(same(a[key], b[key]) for key in a)
+        return a == b
+
+    return same(parsed(earlier), parsed(now))
+
+
+def differing_options(earlier, now) -> list:
+    """The options whose provenance cells differ between an output's first record and this run.
+
+    Parameters
+    ----------
+    earlier : dict or None
+        :attr:`BatchOutput.first_provenance` (None: no measured record, nothing to compare).
+    now : dict
+        This run's :func:`provenance_cells`. A ``units`` cell empty here is not compared: the
+        earlier records may then carry the unit their files declare (E57), which this run's do too.
+
+    Returns
+    -------
+    list of (str, str, str)
+        ``(column, earlier cell, this run's cell)`` of each differing option, in
+        :data:`RESUMED_OPTIONS` order.
+    """
+    if earlier is None:
+        return []
+    differing = []
+    for column in RESUMED_OPTIONS:
+        before, after = earlier.get(column, ""), now.get(column, "")
+        if column == "units" and not after:
+            continue
+        if not _same_cell(before, after):
+            differing.append((column, *_differing_keys(before, after)))
+    return differing
+
+
+def _differing_keys(before, after):
+    """Two cells of compact JSON objects (the nominal) cut down to their differing keys; others as they are."""
+    try:
+        a, b = json.loads(before), json.loads(after)
+    except ValueError:
+        return before, after
+    if not isinstance(a, dict) or not isinstance(b, dict):
+        return before, after
+    keys = [key for key in {**a, **b} if not _same_cell(json.dumps(a.get(key)), json.dumps(b.get(key)))]
+    def cut(value):
+        return json.dumps({key: value.get(key) for key in keys}, separators=(",", ":"))
+
+    return cut(a), cut(b)
+
+
+def resume_options_message(path, differing) -> str:
+    """The one-line message of :class:`ResumeOptionsError` for :func:`differing_options`."""
+    def shown(cell):
+        return "none" if cell == "" else (cell if len(cell) <= 100 else cell[:97] + "...")
+
+    parts = "; ".join(f"{RESUMED_OPTIONS[column]}: {shown(before)} there, {shown(after)} now"
+                      for column, before, after in differing)
+    return (f"{path}: cannot resume with other options than its records were made with ({parts}): give the "
+            f"same options, or another --output (or --overwrite to replace its records)")
+
+
 @dataclass(frozen=True)
 class FileSummary:
     """What the summary and the exit code need from the record of one file."""
@@ -1062,6 +1212,8 @@ class Tally:
     undecided: int = 0
     missing: int = 0
     doubtful_holes: int = 0  # holes with a warning (a doubtful result; notes are not warnings)
+    rejected_parts: int = 0  # files (parts) with a hole out of tolerance or a nominal hole missing
+    undecided_parts: int = 0  # files with an undecided hole and none out of tolerance or missing
     warning_codes: dict = field(default_factory=dict)  # every warning code -> holes with it
 
     def add(self, summary):
@@ -1077,6 +1229,9 @@ class Tally:
         self.out_of_tolerance += summary.out_of_tolerance
         self.undecided += summary.undecided
         self.missing += summary.missing
+        rejected = bool(summary.out_of_tolerance or summary.missing)
+        self.rejected_parts += rejected
+        self.undecided_parts += not rejected and bool(summary.undecided)
         for codes in summary.warnings:
             self.doubtful_holes += bool(codes)
             for code in set(codes):

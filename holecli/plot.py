@@ -16,7 +16,9 @@ One row per hole (the first ``max_panels``):
   the scan), a scale bar of a round length (:func:`scale_length`) and the legend below the view;
 * the radial residuals of the edge against the angle (polar): for each angular sector, the
   nearest surface point to the center, minus the fitted radius, the rejected ones marked;
-* a text box with the hole's values: diameter ± U, center, normal, type, countersink, bore,
+* the countersink gauge reading (with ``--gauge-depth``): the cone's circle at the gauge depth,
+  dash-dotted, labelled with its diameter and depth;
+* a text box with the hole's values: diameter ± U, center, normal, type, countersink, gauge, bore,
   warnings, notes (when there are), and, last, its conformance and verdict (:func:`verdict_lines`) when the checked record
   is given.
 """
@@ -275,6 +277,8 @@ def hole_text(hole, unit=None):
         c = hole.countersink
         lines.append(f"countersink: dia {_number(c.diameter, u)}, angle {_number(c.angle_deg, '°')}, "
                      f"depth {_number(c.depth, u)}")
+        if c.gauge_depth is not None:
+            lines.append(f"gauge: dia {_number(c.diameter_at_depth, u)} at depth {_number(c.gauge_depth, u)}")
     if hole.counterbore is not None:
         lines.append(f"counterbore: dia {_number(hole.counterbore.diameter, u)}, "
                      f"depth {_number(hole.counterbore.depth, u)}")
@@ -353,7 +357,7 @@ PICTURE_UNIT = "mm"
 # the path of its measured diameter in a checked hole (the nominal is that value minus the check's
 # deviation). A new diameter check shows in the picture by its entry here.
 ZONE_CHECKS = {"diameter": ("diameter",), "countersink_diameter": ("countersink", "diameter"),
-               "bore_diameter": ("bore", "diameter")}
+               "bore_diameter": ("bore", "diameter"), "countersink_gauge": ("countersink", "diameter_at_depth")}
 
 
 def in_unit(value, factor):
@@ -444,6 +448,20 @@ def zone_notes(checked_hole):
             if uncertainty_exceeds_zone(entry)
             for line in textwrap.wrap("note: " + uncertainty_zone_message(check, entry), 56,
                                       subsequent_indent="  ")]
+
+
+def _add_gauge_circle(ax, hole, label_unit):
+    """The countersink gauge reading in the view along the normal: the cone's circle at the gauge depth
+    (``countersink.diameter_at_depth`` at ``gauge_depth`` below the surface), dash-dotted, when measured."""
+    from matplotlib.patches import Circle
+
+    countersink = hole.countersink
+    if countersink is None or countersink.diameter_at_depth is None:
+        return
+    ax.add_patch(Circle((0, 0), countersink.diameter_at_depth / 2.0, fill=False, color="darkviolet", lw=1.4,
+                        ls="-.", gid=f"gauge {hole.index}",
+                        label=f"gauge Ø {countersink.diameter_at_depth:.4f} at depth {countersink.gauge_depth:g} "
+                              f"{label_unit}"))
 
 
 def _add_scale_bar(ax, span, label_unit, gid):
@@ -576,6 +594,7 @@ def figure(detection, points, max_panels=None, unit=None, title=None, checked=No
             ax.add_patch(Circle((0, 0), countersink / 2.0, fill=False, color="orange", lw=1.4, ls="--",
                                 gid=f"countersink {hole.index}",
                                 label=f"countersink Ø {countersink:.4f} {label_unit}"))
+        _add_gauge_circle(ax, hole, label_unit)
         bore = hole.bore.diameter if hole.bore is not None else None
         if bore is not None:
             ax.add_patch(Circle((0, 0), bore / 2.0, fill=False, color="magenta", lw=1.4, ls=":",

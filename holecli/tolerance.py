@@ -25,6 +25,12 @@ countersink_diameter, countersink_angle, countersink_depth, bore_diameter
 perpendicularity
     the hole's ``perpendicularity_deg`` (the angle between its axis and its surface normal) at most
     ``max_perpendicularity`` degrees.
+countersink_gauge
+    the countersink gauge reading: the countersink's diameter at the run's gauge depth
+    (``countersink.diameter_at_depth``, at ``--gauge-depth`` below the surface, what a gauge whose
+    stop is set to that depth reads) minus the nominal ``countersink_gauge_diameter``, within the band
+    ``countersink_gauge_tolerance`` (spec keys of those names). Not measured without a gauge depth, or
+    when the depth is not within the countersink.
 
 A check whose measured value is null (a hole without a countersink, a bore wall not seen, no axis) is
 *not measured*: it fails, with ``<check>_not_measured`` in ``failed_checks`` (``"bore_diameter_not_measured"``)
@@ -119,12 +125,17 @@ _SPEC_KEYS = ("name", "center", "diameter", "tolerance", "position_tolerance", "
               *_FEATURE_KEYS, "max_perpendicularity")
 _REQUIRED_KEYS = ("name", "center", "diameter", "tolerance")
 
+# The countersink gauge (issue 25, item 8): the nominal diameter at the gauge depth and its band.
+_GAUGE_KEYS = ("countersink_gauge_diameter", "countersink_gauge_tolerance")
+_SPEC_KEYS = (*_SPEC_KEYS, *_GAUGE_KEYS)
+
 # How the command line calls the values (for messages); the spec file uses the keys themselves.
 _KEY_NAMES = {key: key for key in _SPEC_KEYS}
 
 # The keys that make a nominal hole check something (the others only say what to check against).
 _TOLERANCE_KEYS = ("tolerance", "position_tolerance", "max_tilt",
-                   *(f"{feature.name}_tolerance" for feature in _FEATURE_CHECKS), "max_perpendicularity")
+                   *(f"{feature.name}_tolerance" for feature in _FEATURE_CHECKS), "countersink_gauge_tolerance",
+                   "max_perpendicularity")
 
 # The note of a hole tied to a spec hole (check's ``tied``) that lies beyond its match radius in a spec
 # no registration mapped: the scan is in another frame, so its position and tilt are not checked.
@@ -140,7 +151,7 @@ _UNCERTAINTY_PATHS = {
     "diameter": ("diameter",), "position": ("center_in_plane",), "tilt": ("normal_deg",),
     "countersink_diameter": ("countersink", "diameter"), "countersink_angle": ("countersink", "angle_deg"),
     "countersink_depth": ("countersink", "depth"), "bore_diameter": ("bore", "diameter"),
-    "perpendicularity": ("perpendicularity_deg",),
+    "perpendicularity": ("perpendicularity_deg",), "countersink_gauge": ("countersink", "diameter_at_depth"),
 }
 
 
@@ -188,6 +199,11 @@ class NominalHole:
         Their tolerance bands (degrees for the angle); each given exactly when its value is.
     max_perpendicularity : float or None
         Largest allowed angle between the hole's axis and its surface normal, degrees.
+    countersink_gauge_diameter : float or None
+        Nominal diameter of the countersink at the gauge depth (``--gauge-depth``), what a countersink
+        gauge reads; checked against ``countersink_gauge_band``.
+    countersink_gauge_band : Band or None
+        Its tolerance band; given exactly when ``countersink_gauge_diameter`` is.
     match_radius : float
         A measured hole farther than this from ``center`` is not matched to this nominal.
     center_covariance : (3, 3) tuple of tuples of float, optional
@@ -217,6 +233,8 @@ class NominalHole:
     bore_diameter: Optional[float] = None
     bore_diameter_band: Optional[Band] = None
     max_perpendicularity: Optional[float] = None
+    countersink_gauge_diameter: Optional[float] = None
+    countersink_gauge_band: Optional[Band] = None
     match_radius: float = math.inf
     center_covariance: Optional[tuple] = None
     normal_uncertainty_deg: Optional[float] = None
@@ -330,7 +348,8 @@ def nominal_spec(*, diameter=None, tolerance=None, center=None, position_toleran
                  max_tilt=None, countersink_diameter=None, countersink_diameter_tolerance=None,
                  countersink_angle=None, countersink_angle_tolerance=None, countersink_depth=None,
                  countersink_depth_tolerance=None, bore_diameter=None, bore_diameter_tolerance=None,
-                 max_perpendicularity=None, names=None) -> Spec:
+                 max_perpendicularity=None, names=None, countersink_gauge_diameter=None,
+                 countersink_gauge_tolerance=None) -> Spec:
     """A spec of one nominal hole from separate values (the command-line options).
 
     Parameters
@@ -359,6 +378,10 @@ bore_diameter_tolerance : float, str or Band, optional
         Largest angle between the hole's axis and its surface normal, degrees in [0, 90].
     names : dict, optional
         How messages call each parameter (the CLI passes its option names).
+    countersink_gauge_diameter : float, optional
+        Nominal countersink diameter at the gauge depth (> 0); needs ``countersink_gauge_tolerance``.
+    countersink_gauge_tolerance : float, str or Band, optional
+        Its tolerance, in the forms of :func:`parse_band`; needs ``countersink_gauge_diameter``.
 
     Returns
     -------
@@ -378,7 +401,9 @@ bore_diameter_tolerance : float, str or Band, optional
              "countersink_angle": countersink_angle, "countersink_angle_tolerance": countersink_angle_tolerance,
              "countersink_depth": countersink_depth, "countersink_depth_tolerance": countersink_depth_tolerance,
              "bore_diameter": bore_diameter, "bore_diameter_tolerance": bore_diameter_tolerance,
-             "max_perpendicularity": max_perpendicularity}
+             "max_perpendicularity": max_perpendicularity,
+             "countersink_gauge_diameter": countersink_gauge_diameter,
+             "countersink_gauge_tolerance": countersink_gauge_tolerance}
     entry = {key: value for key, value in entry.items() if value is not None}
     hole = _nominal_hole(entry, name=None, names=names, where="")
     if not any(key in entry for key in _TOLERANCE_KEYS):
@@ -537,7 +562,9 @@ def parse_spec(text, source="spec") -> Spec:
 
 def _nominal_hole(entry, name, names, where) -> NominalHole:
     partners = [("diameter", "tolerance"), ("tolerance", "diameter"),
-                ("position_tolerance", "center"), ("max_tilt", "normal")]
+                ("position_tolerance", "center"), ("max_tilt", "normal"),
+                ("countersink_gauge_diameter", "countersink_gauge_tolerance"),
+                ("countersink_gauge_tolerance", "countersink_gauge_diameter")]
     for feature in _FEATURE_CHECKS:
         partners += [(feature.name, f"{feature.name}_tolerance"), (f"{feature.name}_tolerance", feature.name)]
     for key, partner in partners:
@@ -593,7 +620,38 @@ def _nominal_hole(entry, name, names, where) -> NominalHole:
     if "max_perpendicularity" in entry:
         values["max_perpendicularity"] = number("max_perpendicularity", lambda v: 0 <= v <= 90,
                                                 "an angle in degrees from 0 to 90")
+    values.update(_gauge_values(entry, names, where, number))
     return NominalHole(name=name, **values)
+
+
+def _gauge_values(entry, names, where, number) -> dict:
+    """The countersink gauge's :class:`NominalHole` values of a spec entry (none when not given)."""
+    if "countersink_gauge_diameter" not in entry:
+        return {}
+    if isinstance(entry["countersink_gauge_diameter"], str):
+        raise SpecError(f"{where}{names['countersink_gauge_diameter']} must be a number > 0 (its tolerance goes in "
+                        f"{names['countersink_gauge_tolerance']}), got {entry['countersink_gauge_diameter']!r}")
+    diameter = number("countersink_gauge_diameter", lambda v: v > 0, "a number > 0")
+    tolerance = entry["countersink_gauge_tolerance"]
+    try:
+        band = tolerance if isinstance(tolerance, Band) else parse_band(tolerance)
+    except SpecError as error:
+        raise SpecError(f"{where}{names['countersink_gauge_tolerance']}: {error}") from None
+    return {"countersink_gauge_diameter": diameter, "countersink_gauge_band": band}
+
+
+def gauge_checked(spec) -> list:
+    """The holes of ``spec`` with a countersink gauge check (they need a gauge depth to be measured).
+
+    Parameters
+    ----------
+    spec : Spec
+
+    Returns
+    -------
+    list of NominalHole
+    """
+    return [hole for hole in spec.holes if hole.countersink_gauge_diameter is not None]
 
 
 def _float(text, given) -> float:
@@ -977,7 +1035,7 @@ def _verdict(hole, nominal, rule="simple", coverage_factor=DEFAULT_COVERAGE_FACT
     """The verdict fields of ``hole`` against ``nominal``; without ``in_frame`` (a tied hole of a scan
     in another frame than the nominal's) no position and no tilt."""
     out = {"diameter_deviation": None, "position_deviation": None, "tilt_deg": None,
-           **{f"{feature.name}_deviation": None for feature in _FEATURE_CHECKS},
+           **{f"{feature.name}_deviation": None for feature in _FEATURE_CHECKS}, "countersink_gauge_deviation": None,
            "in_tolerance": None, "failed_checks": None, "undecided_checks": None, "conformance": None}
     if nominal is None:
         return out
@@ -1021,6 +1079,12 @@ def _verdict(hole, nominal, rule="simple", coverage_factor=DEFAULT_COVERAGE_FACT
         out[f"{feature.name}_deviation"] = deviation
         band = getattr(nominal, f"{feature.name}_band")
         decide(feature.name, deviation, band.lower, band.upper, nominal_value)
+    if nominal.countersink_gauge_diameter is not None:
+        measured = (hole.get("countersink") or {}).get("diameter_at_depth")
+        deviation = None if measured is None else measured - nominal.countersink_gauge_diameter
+        out["countersink_gauge_deviation"] = deviation
+        band = nominal.countersink_gauge_band
+        decide("countersink_gauge", deviation, band.lower, band.upper, nominal.countersink_gauge_diameter)
     if nominal.max_perpendicularity is not None:
         decide("perpendicularity", hole.get("perpendicularity_deg"), None, nominal.max_perpendicularity,
                nominal.max_perpendicularity)

@@ -69,6 +69,24 @@ def test_the_countersink_circle_where_measured():
             assert circles[0].get_radius() == pytest.approx(hole.countersink.diameter / 2)
 
 
+def test_the_gauge_circle_and_reading_with_a_gauge_depth():
+    path = REPO_ROOT / "sample_clouds" / "panel.ply"
+    detection = detect_file(path, gauge_depth=0.5)
+    fig = plot.figure(detection, read_cloud(path).points)
+    gauged = [h for h in detection.holes if h.countersink is not None and h.countersink.diameter_at_depth]
+    assert gauged
+    for hole in gauged:
+        [ax] = [ax for ax in fig.axes if ax.get_gid() == f"hole {hole.index}"]
+        [circle] = [p for p in ax.patches if p.get_gid() == f"gauge {hole.index}"]
+        assert circle.get_radius() == pytest.approx(hole.countersink.diameter_at_depth / 2)
+        assert circle.get_linestyle() == "-."
+        [box] = [ax for ax in fig.axes if ax.get_gid() == f"text {hole.index}"]
+        assert f"gauge: dia {hole.countersink.diameter_at_depth:.4g}" in box.texts[0].get_text()
+    # without a gauge depth: no gauge circle
+    plain = plot.figure(detect_file(path), read_cloud(path).points)
+    assert not [p for ax in plain.axes for p in ax.patches if (p.get_gid() or "").startswith("gauge")]
+
+
 def test_max_panels_draws_the_first_holes():
     path = REPO_ROOT / "sample_clouds" / "panel.ply"
     detection = detect_file(path)

@@ -264,9 +264,10 @@ def test_check_keeps_the_record_and_adds_the_verdict_after_the_holes():
     assert list(out) == ["file", "points", "method", "holes", "verdict", "timing"]
     for key in record["holes"][0]:
         assert out["holes"][0][key] == record["holes"][0][key]
-    assert list(out["holes"][0])[-11:] == ["diameter_deviation", "position_deviation", "tilt_deg",
+    assert list(out["holes"][0])[-12:] == ["diameter_deviation", "position_deviation", "tilt_deg",
                                            "countersink_diameter_deviation", "countersink_angle_deviation",
-                                           "countersink_depth_deviation", "bore_diameter_deviation", "in_tolerance",
+                                           "countersink_depth_deviation", "bore_diameter_deviation",
+                                           "countersink_gauge_deviation", "in_tolerance",
                                            "failed_checks", "undecided_checks", "conformance"]
 
 
@@ -915,3 +916,70 @@ def test_guarded_notes_a_check_whose_u_exceeds_its_zone():
     assert check(record, simple)["holes"][0]["notes"] == []
     assert uncertainty_exceeds_zone({"lower": None, "upper": 0.1, "expanded_uncertainty": 0.11})
     assert not uncertainty_exceeds_zone({"lower": 0.0, "upper": 0.1, "expanded_uncertainty": None})
+
+
+# --- verdicts: the countersink gauge (issue 25, item 8) ------------------------------------------------
+
+
+def _gauged(at_depth, gauge_depth=0.5, u=0.001):
+    hole = _countersunk()
+    hole["countersink"] = dict(hole["countersink"], diameter_at_depth=at_depth, gauge_depth=gauge_depth)
+    hole["uncertainty"] = {"countersink": {"diameter_at_depth": u}}
+    return hole
+
+
+@pytest.mark.parametrize("at_depth, tolerance, expected", [
+    (5.81, 0.05, True), (5.85, 0.05, True),  # on the upper limit
+    (5.8501, 0.05, False), (5.7499, 0.05, False), (5.80, "+0.1/-0", True), (5.7999, "+0.1/-0", False),
+])
+def test_countersink_gauge_verdict(at_depth, tolerance, expected):
+    spec = nominal_spec(countersink_gauge_diameter=5.8, countersink_gauge_tolerance=tolerance)
+    hole = check(_record(_gauged(at_depth)), spec)["holes"][0]
+    assert hole["countersink_gauge_deviation"] == pytest.approx(at_depth - 5.8, abs=1e-12)
+    assert hole["in_tolerance"] is expected
+    assert hole["failed_checks"] == ([] if expected else ["countersink_gauge"])
+    entry = hole["conformance"]["countersink_gauge"]
+    assert entry["expanded_uncertainty"] == pytest.approx(0.002)  # k = 2 times u of diameter_at_depth
+    assert (entry["lower"], entry["upper"]) == (parse_band(tolerance).lower, parse_band(tolerance).upper)
+
+
+def test_countersink_gauge_guarded_straddling_is_undecided():
+    spec = replace(nominal_spec(countersink_gauge_diameter=5.8, countersink_gauge_tolerance=0.05),
+                   decision_rule="guarded")
+    hole = check(_record(_gauged(5.849, u=0.001)), spec)["holes"][0]
+    assert hole["undecided_checks"] == ["countersink_gauge"]
+    assert hole["conformance"]["countersink_gauge"]["reason"] == "straddles_upper"
+
+
+@pytest.mark.parametrize("hole", [_gauged(None), _through()], ids=["depth-outside-the-cone", "no-countersink"])
+def test_countersink_gauge_not_measured_fails(hole):
+    spec = nominal_spec(countersink_gauge_diameter=5.8, countersink_gauge_tolerance=0.05)
+    checked = check(_record(hole), spec)["holes"][0]
+    assert checked["failed_checks"] == ["countersink_gauge_not_measured"]
+    assert checked["countersink_gauge_deviation"] is None
+
+
+def test_countersink_gauge_in_a_spec_file_and_its_describe():
+    spec = parse_spec('[[hole]]\nname = "C1"\ncenter = [0, 0, 0]\ndiameter = 7.0\ntolerance = 0.05\n'
+                      'countersink_gauge_diameter = 5.8\ncountersink_gauge_tolerance = "+0.05/-0"\n')
+    [nominal] = spec.holes
+    assert (nominal.countersink_gauge_diameter, nominal.countersink_gauge_band) == (5.8, Band(0.0, 0.05))
+    hole = check(_record(_gauged(5.83)), spec)["holes"][0]
+    assert hole["name"] == "C1" and hole["conformance"]["countersink_gauge"]["decision"] == "pass"
+    described = describe(nominal_spec(countersink_gauge_diameter=5.8, countersink_gauge_tolerance=0.05))
+    assert described["nominal"]["countersink_gauge_band"] == {"lower": -0.05, "upper": 0.05}
+
+
+@pytest.mark.parametrize("text, message", [
+    ("countersink_gauge_diameter = 5.8\n", "countersink_gauge_diameter needs countersink_gauge_tolerance"),
+    ("countersink_gauge_tolerance = 0.05\n", "countersink_gauge_tolerance needs countersink_gauge_diameter"),
+    ("countersink_gauge_diameter = -1\ncountersink_gauge_tolerance = 0.05\n",
+     "countersink_gauge_diameter must be a number > 0"),
+    ('countersink_gauge_diameter = "5.8 +/- 0.05"\ncountersink_gauge_tolerance = 0.05\n',
+     "its tolerance goes in countersink_gauge_tolerance"),
+    ('countersink_gauge_diameter = 5.8\ncountersink_gauge_tolerance = "0.05/0.05"\n',
+     "countersink_gauge_tolerance: "),
+])
+def test_countersink_gauge_spec_errors(text, message):
+    with pytest.raises(SpecError, match=message.replace("+", "\\+")):
+        parse_spec('[[hole]]\nname = "C1"\ncenter = [0, 0, 0]\ndiameter = 7.0\ntolerance = 0.05\n' + text)

@@ -19,6 +19,7 @@ from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_BROKEN_PIPE, EXIT_FIL
 from holecli.cli.options import (Decimal, check_verbosity, decision_from_options, detection_option_decorators, detection_options,
                                  columns_option, fail_on_warning_option, input_format_option,
                                  inspection_from_options, nominal_from_options, read_spec,
+                                 require_gauge_depth,
                                  reading_option_decorators, refuse_same_files, registration_option_decorators,
                                  tolerance_option_decorators,
                                  unit_choice, verbosity_option_decorators, warned, with_decision)
@@ -168,7 +169,8 @@ def e57_units_overridden(files, units):
 @click.option("--jobs", "-j", type=click.IntRange(min=1), default=None, metavar="N",
               help="Worker processes [default: the number of cores].")
 @click.option("--resume", is_flag=True,
-              help="Keep the records already in --output, skip their files and append the others.")
+              help="Keep the records already in --output, skip their files and append the others; refused (exit 2, "
+                   "the file untouched) when the options differ from its first record's.")
 @click.option("--overwrite", is_flag=True,
               help="Replace an --output that is not empty (without it, or --resume, such a file is refused and "
                    "left as it is).")
@@ -227,6 +229,7 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
     # the tolerance options (--nominal-diameter, ..., --max-perpendicularity) by their parameter names
     nominal = nominal_from_options(spec_file, **nominal_options)
     decision = decision_from_options(decision_rule, coverage_factor, nominal is not None or spec_file is not None)
+    require_gauge_depth(nominal, gauge_depth)
     if fmt == "json":  # detect's word: a batch's records are JSON, one per line
         fmt = "jsonl"
     if resume and (output is None or output == "-"):
@@ -251,6 +254,7 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
         refuse_same_files([("--spec", spec_file), ("--registration", registration_file),
                            *(("PATH", path) for path in paths)], [("-o/--output", output)])
         spec = with_decision(read_spec(spec_file) if spec_file is not None else nominal, decision)
+        require_gauge_depth(spec, gauge_depth, spec_file)
         spec = inspection_from_options(spec, spec_file, registration_file, name_pairs)
         if plot_dir is not None:
             from holecli.cli.plot import require_matplotlib
@@ -297,10 +301,13 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
         try:
             if output is not None:
                 try:
-                    output_file = batching.BatchOutput(output, fmt, resume=resume, overwrite=overwrite)
+                    expected = _run_provenance(batching, method, view_dir, min_diameter, max_holes, full_only,
+                                               gauge_depth, input_format, scan_index, units_now, spec)
+                    output_file = batching.BatchOutput(output, fmt, resume=resume, overwrite=overwrite,
+                                                       expected=expected)
                 except (batching.ResumeError, batching.OutputBusyError) as error:
                     raise Failure(str(error), EXIT_INPUT) from None
-                except batching.OutputNotEmptyError as error:
+                except (batching.OutputNotEmptyError, batching.ResumeOptionsError) as error:
                     raise Failure(str(error), EXIT_USAGE) from None
                 except OSError as error:
                     action = "resume" if resume else "write output"
@@ -325,6 +332,20 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
 
     with StopRequests() as stop:
         sys.exit(run_guarded(body, stop))
+
+
+def _run_provenance(batching, method, view_dir, min_diameter, max_holes, full_only, gauge_depth, input_format,
+                    scan_index, units, spec):
+    """The provenance cells this run's records will carry (:func:`holecli.batch.provenance_cells`), for
+    ``--resume`` to compare with the output's first record: the options as given (lengths in the
+    output unit, as the records give them), the unit, the tolerances."""
+    from holecli.tolerance import describe
+
+    options = {"method": method, "view_dir": None if view_dir is None else list(view_dir),
+               "min_diameter": min_diameter, "max_holes": max_holes, "full_only": bool(full_only),
+               "gauge_depth": gauge_depth, "input_format": input_format, "scan": scan_index,
+               "tolerances": None if spec is None else describe(spec)}
+    return batching.provenance_cells({"units": units.output or units.file, "options": options})
 
 
 def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False, scan=None,

@@ -15,7 +15,8 @@ from holecli.cli.options import (INPUT_FORMATS, check_verbosity, columns_option,
                                  detection_option_decorators,
                                  detection_options, fail_on_warning_option, input_format_option, nominal_from_options,
                                  inspection_from_options, read_spec, reading_option_decorators,
-                                 refuse_same_files, registration_option_decorators, tolerance_option_decorators,
+                                 refuse_same_files, registration_option_decorators, require_gauge_depth,
+                                 tolerance_option_decorators,
                                  unit_choice,
                                  verbosity_option_decorators, warned, with_decision)
 from holecli.cli.options import check_fields, fields_option
@@ -247,6 +248,8 @@ def render_table(records, width=None):
             _print_narrow(console, record, title, caption, digits, k)
         else:
             _print_wide(console, record, title, caption, digits, k)
+        if any((hole.get("countersink") or {}).get("gauge_depth") is not None for hole in record["holes"]):
+            console.print(_gauge_table(record["holes"], digits))
         if "rejected" in record:
             console.print(_rejected_table(record["rejected"], digits, narrow))
     return buffer.getvalue()
@@ -433,12 +436,41 @@ def _codes_table(holes):
     for row in rows:
         table.add_row(*row)
     return table
+def _gauge_table(holes, length_digits=4):
+    """The table of the countersink gauge readings (``--gauge-depth``): per countersunk hole the gauge
+    depth, the countersink's diameter there, and with a gauge check its nominal, deviation, U and
+    decision."""
+    from rich.table import Table
+
+    def number(value, signed=False):
+        return "-" if value is None else (f"{value:+.{length_digits}f}" if signed else f"{value:.{length_digits}f}")
+
+    table = Table(title="countersink gauge (diameter at the gauge depth)")
+    for column in ("hole", "name", "gauge depth", "diameter there", "nominal", "deviation", "U", "decision"):
+        table.add_column(column, justify="left" if column in ("name", "decision") else "right")
+    for hole in holes:
+        countersink = hole.get("countersink") or {}
+        if hole.get("type") != "countersunk" and (hole.get("conformance") or {}).get("countersink_gauge") is None:
+            continue
+        entry = (hole.get("conformance") or {}).get("countersink_gauge")
+        measured = countersink.get("diameter_at_depth")
+        deviation = None if entry is None else entry["value"]
+        nominal = None if entry is None or deviation is None or measured is None else measured - deviation
+        table.add_row(str(hole["index"]), hole.get("name") or "-", number(countersink.get("gauge_depth")),
+                      number(measured), number(nominal), number(deviation, signed=True),
+                      "-" if entry is None or entry["expanded_uncertainty"] is None
+                      else f"{entry['expanded_uncertainty']:.2g}",
+                      "not checked" if entry is None else entry["decision"])
+    return table
+
+
 # The value a failed check is shown with in the table: the field of the checked hole (a deviation, or
 # the measured angle for tilt and perpendicularity).
 _FAILED_CHECK_VALUES = {
     "diameter": "diameter_deviation", "tilt": "tilt_deg", "perpendicularity": "perpendicularity_deg",
     "countersink_diameter": "countersink_diameter_deviation", "countersink_angle": "countersink_angle_deviation",
     "countersink_depth": "countersink_depth_deviation", "bore_diameter": "bore_diameter_deviation",
+    "countersink_gauge": "countersink_gauge_deviation",
 }
 
 
@@ -845,6 +877,7 @@ def detect(scan, input_format, columns, fmt, fields, output, plot_file, explain,
     # the tolerance options (--nominal-diameter, ..., --max-perpendicularity) by their parameter names
     nominal = nominal_from_options(spec_file, **nominal_options)
     decision = decision_from_options(decision_rule, coverage_factor, nominal is not None or spec_file is not None)
+    require_gauge_depth(nominal, gauge_depth)
 
     refused = []  # the checks that refused candidates, for "no hole found"
     far = []  # (distance, name) when no measured hole lies near any spec hole
@@ -861,6 +894,7 @@ def detect(scan, input_format, columns, fmt, fields, output, plot_file, explain,
         refuse_same_files([("SCAN", scan), ("--spec", spec_file), ("--registration", registration_file)],
                           [("-o/--output", output), ("--plot", plot_path)])
         spec = with_decision(read_spec(spec_file) if spec_file is not None else nominal, decision)
+        require_gauge_depth(spec, gauge_depth, spec_file)
         inspection = inspection_from_options(spec, spec_file, registration_file, name_pairs, [scan])
         if plot_file is not None:
             from holecli.cli.plot import measure_with_points, plot_destination, require_matplotlib

@@ -416,6 +416,8 @@ TOLERANCE_OPTION_NAMES = {
     "countersink_depth": "--countersink-depth", "countersink_depth_tolerance": "--countersink-depth-tolerance",
     "bore_diameter": "--bore-diameter", "bore_diameter_tolerance": "--bore-diameter-tolerance",
     "max_perpendicularity": "--max-perpendicularity",
+    "countersink_gauge_diameter": "--countersink-gauge-diameter",
+    "countersink_gauge_tolerance": "--countersink-gauge-tolerance",
 }
 
 # The keyword arguments of holecli.tolerance.nominal_spec by the names of the click parameters
@@ -485,6 +487,14 @@ def tolerance_option_decorators(function):
                               f"deviation +U/-L (e.g. {example})."),
         ]
     options += [
+        click.option("--countersink-gauge-diameter", type=Decimal(min=0, min_open=True, hint="a number; give its "
+                     "tolerance with --countersink-gauge-tolerance"), default=None, metavar="D",
+                     help="Nominal countersink gauge reading: the countersink's diameter at --gauge-depth below the "
+                          "surface (countersink.diameter_at_depth), checked with --countersink-gauge-tolerance; "
+                          "needs --gauge-depth."),
+        click.option("--countersink-gauge-tolerance", type=ToleranceBand(), default=None,
+                     help="Tolerance of --countersink-gauge-diameter, as --tolerance: T for +-T, or the upper/lower "
+                          "deviation +U/-L (e.g. +0.1/-0)."),
         click.option("--max-perpendicularity", type=Decimal(min=0, max=90), default=None, metavar="DEG",
                      help="Largest angle between the hole's axis (from its countersink cone, bore or floor) "
                           "and its surface normal, degrees."),
@@ -541,6 +551,40 @@ def with_decision(spec, decision):
     import dataclasses
 
     return None if spec is None else dataclasses.replace(spec, **decision)
+
+
+def require_gauge_depth(spec, gauge_depth, spec_file=None):
+    """Refuse a countersink gauge check without ``--gauge-depth``: its reading would never be measured.
+
+    Parameters
+    ----------
+    spec : holecli.tolerance.Spec or None
+    gauge_depth : float or None
+        ``--gauge-depth``.
+    spec_file : str or None
+        ``--spec``, for the message.
+
+    Raises
+    ------
+    click.UsageError
+        When the command line's nominal has ``countersink_gauge_diameter`` and no gauge depth is given.
+    holecli.cli.exits.Failure
+        Likewise for a hole of the spec file (exit 2; raised in the command's guarded body).
+    """
+    from holecli.tolerance import gauge_checked
+
+    holes = [] if spec is None or gauge_depth is not None else gauge_checked(spec)
+    if not holes:
+        return
+    if spec_file is None:
+        raise click.UsageError("--countersink-gauge-diameter needs --gauge-depth (the depth below the surface at "
+                               "which the gauge reads the countersink's diameter)")
+    from holecli.cli.exits import EXIT_USAGE, Failure
+
+    names = ", ".join(repr(hole.name) for hole in holes)
+    raise Failure(f"{spec_file}: hole {names} {'has' if len(holes) == 1 else 'have'} countersink_gauge_diameter: give "
+                  f"--gauge-depth (the depth below the surface at which the gauge reads the countersink's diameter)",
+                  EXIT_USAGE)
 
 
 def nominal_from_options(spec_file=None, **options):

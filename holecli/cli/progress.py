@@ -190,7 +190,9 @@ def batch_summary(tally, seconds, checked, earlier, output):
     str
         e.g. ``3 files: 3 measured, 0 failed; 5 holes found; tolerances not checked; 2 doubtful
         holes (points_inside 1, rim_gap 2); 1.2 s`` (that part only when a hole has a warning; notes
-        are not counted).
+        are not counted). With tolerances, parts and holes are counted apart: ``parts rejected: 1 of 3;
+        holes out of tolerance: 2, nominal holes missing: 0`` (a part, a file, is rejected when a hole
+        of it is out of tolerance or a nominal hole is missing).
     """
     def count(number, noun):
         return f"{number} {noun}{'' if number == 1 else 's'}"
@@ -200,9 +202,12 @@ def batch_summary(tally, seconds, checked, earlier, output):
     if tally.without_hole:
         text += f" ({count(tally.without_hole, 'file')} without a hole)"
     if checked:
-        undecided = f", {tally.undecided} undecided" if tally.undecided else ""
-        text += (f"; {tally.out_of_tolerance} out of tolerance{undecided}, "
-                 f"{count(tally.missing, 'nominal hole')} missing")
+        # parts (files) and holes are counted apart, each under its own label (issue 25, item 10)
+        undecided_parts = f", undecided: {tally.undecided_parts}" if tally.undecided_parts else ""
+        undecided = f", undecided: {tally.undecided}" if tally.undecided else ""
+        text += (f"; parts rejected: {tally.rejected_parts} of {tally.measured}{undecided_parts}; "
+                 f"holes out of tolerance: {tally.out_of_tolerance}{undecided}, nominal holes missing: "
+                 f"{tally.missing}")
     else:
         text += "; tolerances not checked"
     if tally.doubtful_holes:
@@ -225,7 +230,7 @@ class BatchDisplay:
     total : int
         The number of files this run measures (the bar's end).
     checked : bool
-        Whether tolerances are checked: the bar then also counts the holes out of tolerance.
+        Whether tolerances are checked: the bar then also counts the parts (files) rejected.
     quiet : bool
         ``--quiet``: no bar, and :meth:`message` says only what is marked as an error.
     """
@@ -272,7 +277,7 @@ class BatchDisplay:
             return
         status = f"{tally.holes} holes, {tally.failed} failed"
         if self._checked:
-            status += f", {tally.out_of_tolerance + tally.missing} out of tolerance"
+            status += f", parts rejected: {tally.rejected_parts}"
         status += f", {completed / seconds if seconds > 0 else 0.0:.1f} files/s"
         self._progress.update(self._task, completed=completed, status=status)
         self._progress.refresh()

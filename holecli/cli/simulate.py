@@ -8,7 +8,7 @@ import time
 
 import click
 
-from holecli.cli.exits import EXIT_INPUT, EXIT_OK, Failure, run_guarded
+from holecli.cli.exits import EXIT_INPUT, EXIT_OK, EXIT_USAGE, Failure, run_guarded
 from holecli.cli.options import Decimal, FloatTuple, check_verbosity, read_small_text, verbosity_option_decorators
 
 
@@ -119,6 +119,15 @@ from holecli.cli.options import Decimal, FloatTuple, check_verbosity, read_small
               help="--cell: number of reference holes (R1, R2, ...).")
 @click.option("--displace", "displace", multiple=True, metavar="NAME=DX,DY",
               help="--cell: drill reference hole NAME off its nominal centre by DX,DY (part frame, mm); repeatable.")
+@click.option("--lot", "lot_dir", type=click.Path(file_okay=False, path_type=str), default=None, metavar="DIR",
+              help="Write a lot of --parts simulated scans of the --panel (no OUTPUT) into DIR, which must not exist "
+                   "or be empty: part_001.ply, ... (each drilled with a cell's scatter and scanned with its own "
+                   "seed, with the profiler options), their truths and manifest.json; all or none is written.")
+@click.option("--parts", type=click.IntRange(1, 1000), default=None, metavar="N", help="--lot: number of parts.")
+@click.option("--defect", "defects", multiple=True, metavar="[PART/]HOLE=KIND[:SIZE]",
+              help="--lot: a defect of the panel's hole HOLE in part PART (from 1; without it, every part): "
+                   "diameter:SIZE (the edge's diameter off by SIZE mm, signed), position:SIZE (drilled SIZE mm off), "
+                   "countersink:SIZE (cut SIZE mm deeper, signed) or missing; repeatable.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Random seed.")
 @click.option("--truth", "truth_path", type=click.Path(dir_okay=False, path_type=str), default=None,
               help="Where to write the ground truth [default: OUTPUT with .truth.json].")
@@ -128,7 +137,7 @@ def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pat
              translation, noise_z, noise_normal, inside_points, countersink, countersink_angle, bore_depth, bottom_depth, outliers, ragged,
              nan_points, panel_file, mesh_file, cloud, faces, target, standoff, view, line, line_length, scan_length, parallel_rays,
              triangulation_deg, max_incidence_deg, range_noise, range_quantum, dropout, jitter, line_width, keep_nan, metres,
-             float64, cell_dir, cell_holes, displace, seed, truth_path, quiet, verbose):
+             float64, cell_dir, cell_holes, displace, lot_dir, parts, defects, seed, truth_path, quiet, verbose):
     """Write a synthetic scan to OUTPUT (.ply, .pcd, .csv, .txt or .xyz) and its ground truth.
 
     The defaults reproduce the paper's Table I scene: a 3 mm hole at (1, 1) on a 0.0908 mm grid
@@ -148,8 +157,15 @@ def simulate(ctx, output, diameter, center, holes, no_hole, spacing, extent, pat
       holecli simulate verts.ply --panel sample_clouds/panel.toml --cloud vertices
       holecli simulate table1.ply -q
       holecli simulate --cell cell --holes 4 --displace R2=0.2,0 --seed 1
+      holecli simulate --lot lot --parts 5 --panel sample_clouds/panel.toml --spacing 0.2 \\
+          --range-noise 0.002 --defect 2/C1=diameter:+0.1 --defect 4/L1=missing
     """
     check_verbosity(quiet, verbose)
+    if lot_dir is not None:
+        sys.exit(run_guarded(_simulate_lot, ctx, lot_dir, quiet, verbose))
+    lot_only = [name for name in _LOT_OPTIONS if _given(ctx, name)]
+    if lot_only:
+        raise click.UsageError(f"{', '.join(_option_name(name) for name in lot_only)} need --lot")
     if cell_dir is not None:
         sys.exit(run_guarded(_simulate_cell, ctx, cell_dir, quiet, verbose))
     cell_only = [name for name in _CELL_OPTIONS if _given(ctx, name)]
@@ -231,6 +247,105 @@ _CELL_ACCEPTS = _CELL_OPTIONS + ("cell_dir", "seed", "range_noise", "spacing", "
                                  "triangulation_deg", "float64", "quiet", "verbose")
 
 
+# The options of simulate that only --lot uses, and those --lot refuses.
+_LOT_OPTIONS = ("parts", "defects")
+_LOT_REFUSES = ("output", "mesh_file", "cell_dir", "truth_path", "cloud", "faces", *_CELL_OPTIONS, *_SYNTHETIC_OPTIONS)
+
+
+def _simulate_lot(ctx, directory, quiet=False, verbose=False):
+    """``holecli simulate --lot DIR``: N profiler scans of a panel, each part drilled with the cell's scatter
+    and its defects (:mod:`holecli.simulation.lot`), their truths and a manifest; all written into a
+    temporary folder beside DIR, then renamed to DIR (nothing of a failed run is left)."""
+    import json
+    import os
+    import shutil
+    import tempfile
+    from pathlib import Path
+
+    from holecli.errors import SpecError
+    from holecli.simulation.lot import DIAMETER_SIGMA, POSITION_SIGMA, lot_parts, parse_defect
+    from holecli.simulation.panel import build_panel, panel_truth, parse_panel_toml
+    from holecli.simulation.scan_part import scan_part
+
+    p = ctx.params
+    refused = [name for name in _LOT_REFUSES if _given(ctx, name) or (name == "output" and p["output"] is not None)]
+    if refused:
+        names = ", ".join("OUTPUT" if name == "output" else _option_name(name) for name in refused)
+        raise click.UsageError(f"--lot cannot be used with {names}")
+    if p["panel_file"] is None or p["parts"] is None:
+        raise click.UsageError("--lot needs --panel (the drawing) and --parts (how many)")
+    try:
+        defects = [parse_defect(text) for text in p["defects"]]
+    except ValueError as error:
+        raise click.BadParameter(str(error), param_hint="'--defect'") from None
+    target = Path(directory)
+    if target.exists() and (not target.is_dir() or any(target.iterdir())):
+        raise Failure(f"{directory}: exists and is not an empty folder: give a new or empty folder (a lot is "
+                      f"written whole or not at all)", EXIT_USAGE)
+    panel_file = p["panel_file"]
+    try:
+        panel = parse_panel_toml(read_small_text(panel_file, "a panel spec"))
+        drilled = lot_parts(panel, p["parts"], defects, p["seed"])
+    except (SpecError, ValueError) as error:
+        raise Failure(f"{panel_file}: {error}", EXIT_INPUT) from None
+    parent = target.resolve().parent
+    try:
+        staging = tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".partial", dir=parent)
+    except OSError as error:
+        raise Failure(f"{directory}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
+    started = time.perf_counter()
+    try:
+        manifest_parts = []
+        for spec, truth in drilled:
+            name = f"part_{truth['part']:03d}.ply"
+            try:
+                built = build_panel(spec)
+                features = panel_truth(built)["features"]
+                scanned = scan_part(built.vertices, built.triangles, features, _profiler_spec(p, built.vertices),
+                                    rng=truth["scan_seed"])
+            except (SpecError, ValueError) as error:
+                given = ", ".join(defect["defect"] for defect in truth["defects"]) or "no defect"
+                raise Failure(f"{panel_file}: part {truth['part']} ({given}): {error}", EXIT_INPUT) from None
+            scan_truth = dict(scanned.truth, part=truth["part"], seed=truth["scan_seed"], file=name,
+                              units="m" if p["metres"] else "mm")
+            _write_scan(os.path.join(staging, name), scanned.scan.points, scan_truth, None, p["float64"])
+            manifest_parts.append({"file": name, **truth})
+            if verbose:
+                given = ", ".join(defect["defect"] for defect in truth["defects"])
+                click.echo(f"holecli: {name}: {len(scanned.scan.points)} points, "
+                           + (f"defects {given}" if given else "no defect"), err=True)
+        manifest = {"panel": panel_file, "parts": p["parts"], "seed": p["seed"], "defects": list(p["defects"]),
+                    "scatter": {"position_sigma": POSITION_SIGMA, "diameter_sigma": DIAMETER_SIGMA},
+                    "units": "m" if p["metres"] else "mm",
+                    "defective": [part["file"] for part in manifest_parts if part["defective"]],
+                    "lot": manifest_parts}
+        from holecli.io.outfile import write_text
+
+        write_text(os.path.join(staging, "manifest.json"), json.dumps(manifest, indent=2) + "\n")
+        os.chmod(staging, 0o777 & ~_umask())
+        try:
+            os.rename(staging, target)  # onto a new or an empty folder: all at once
+        except OSError as error:
+            raise Failure(f"{directory}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    if not quiet:
+        defective = sum(part["defective"] for part in manifest_parts)
+        click.echo(f"wrote {p['parts']} scan{'' if p['parts'] == 1 else 's'} of {panel_file} ({defective} with "
+                   f"defects) and manifest.json to "
+                   f"{directory} in {time.perf_counter() - started:.1f} s", err=True)
+    return EXIT_OK
+
+
+def _umask():
+    import os
+
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def _given(ctx, name):
     from click.core import ParameterSource
 
@@ -239,7 +354,7 @@ def _given(ctx, name):
 
 def _option_name(name):
     names = {"holes": "--hole", "cell_holes": "--holes", "cell_dir": "--cell", "panel_file": "--panel",
-             "mesh_file": "--mesh", "truth_path": "--truth"}
+             "mesh_file": "--mesh", "truth_path": "--truth", "defects": "--defect", "lot_dir": "--lot"}
     return names.get(name, "--" + name.replace("_", "-"))
 
 

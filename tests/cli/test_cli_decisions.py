@@ -302,7 +302,8 @@ def test_batch_guarded_without_an_uncertainty_exits_8(run, scan, tmp_path):
     result = run("batch", scan, "--method", "paper", "--nominal-diameter", "2.5", "--tolerance", "0.1",
                  "--decision-rule", "guarded", "--format", "csv", "-o", output)
     assert result.exit_code == EXIT_UNDECIDED, result.stderr
-    assert "0 out of tolerance, 1 undecided, 0 nominal holes missing" in result.stderr
+    assert ("parts rejected: 0 of 1, undecided: 1; holes out of tolerance: 0, undecided: 1, nominal holes "
+            "missing: 0") in result.stderr
     # a resumed CSV counts the undecided hole as undecided, not as out of tolerance
     rows = [dict(zip(BATCH_CSV_COLUMNS, row)) for row in list(csv.reader(io.StringIO(output.read_text())))[1:]]
     summary = FileSummary.of_csv_rows(str(scan), rows)

@@ -1,0 +1,114 @@
+"""Regenerate the README's outputs that are made by running holecli, from this checkout's real CLI.
+
+    python scripts/regen_readme_outputs.py            # rewrite README.md's outputs and docs/plot_panel.png
+    python scripts/regen_readme_outputs.py --check    # exit 1 when README.md's printed outputs are stale
+
+What it regenerates:
+
+* the output of the broken-pipe example (README, "Broken pipes"): the ``sh`` block whose command pipes
+  ``holecli batch`` into ``head`` is run with bash from the repository's root, ``holecli`` being this
+  checkout's (``python -m holecli``), and the ``text`` block right after it is replaced by what it
+  printed: stdout's lines, holecli's stderr line before the last one (the exit code, printed after
+  the pipeline ends), the batch summary inside the error line shortened to ``(...)`` (it holds the
+  run's wall time);
+* ``docs/plot_panel.png``, the README's picture, with :data:`PLOT_COMMAND` (the command the README
+  gives under the picture); not compared by ``--check`` (a PNG differs with matplotlib's version).
+
+Run it after a change of the outputs (records, messages, the plot's look) and commit what it wrote.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import stat
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+README = ROOT / "README.md"
+
+# The README's picture and the command that draws it (the README shows the same command).
+PLOT_FILE = "docs/plot_panel.png"
+PLOT_COMMAND = ["plot", "sample_clouds/panel.ply", "-o", PLOT_FILE, "--units", "mm", "--dpi", "70", "--gauge-depth", "0.5"]
+
+# The sh block of the broken-pipe example and the text block after it.
+_BROKEN_PIPE = re.compile(r"(```sh\n(?P<command>holecli batch [^\n]*\| head[^\n]*)\n```\n\n```text\n)(?P<output>.*?)(```)",
+                          re.DOTALL)
+
+
+def _environment(shim_folder):
+    """The environment of a README command: ``holecli`` on PATH runs this checkout's CLI."""
+    shim = Path(shim_folder) / "holecli"
+    shim.write_text(f'#!/bin/sh\nPYTHONPATH="{ROOT}${{PYTHONPATH:+:$PYTHONPATH}}" exec "{sys.executable}" -m holecli "$@"\n')
+    shim.chmod(shim.stat().st_mode | stat.S_IXUSR | stat.S_IXGRP | stat.S_IXOTH)
+    return dict(os.environ, PATH=f"{shim_folder}{os.pathsep}{os.environ.get('PATH', '')}", COLUMNS="140")
+
+
+def broken_pipe_output(command):
+    """What the README's broken-pipe example prints, as the README shows it.
+
+    Parameters
+    ----------
+    command : str
+        The example's command line (bash).
+
+    Returns
+    -------
+    str
+        Its stdout's lines but the last, holecli's stderr (the batch summary shortened to ``(...)``),
+        then stdout's last line (the exit code), each ending in a newline.
+    """
+    with tempfile.TemporaryDirectory() as shims:
+        done = subprocess.run(["bash", "-c", command], cwd=ROOT, env=_environment(shims), capture_output=True,
+                              text=True, timeout=300)
+    out, err = done.stdout.splitlines(), done.stderr.splitlines()
+    if len(out) < 2 or len(err) != 1 or not err[0].startswith("Error: stdout: broken pipe"):
+        raise SystemExit(f"the broken-pipe example did not print what it should:\nstdout:\n{done.stdout}\nstderr:\n"
+                         f"{done.stderr}")
+    shortened = re.sub(r" \(\d+ files?: .*\)$", " (...)", err[0])
+    return "\n".join([*out[:-1], shortened, out[-1]]) + "\n"
+
+
+def regenerate_readme(text):
+    """``text`` (the README) with the broken-pipe example's output run anew."""
+    match = _BROKEN_PIPE.search(text)
+    if match is None:
+        raise SystemExit("README.md: the broken-pipe example (a sh block piping holecli batch into head, then a text "
+                         "block) was not found")
+    output = broken_pipe_output(match["command"])
+    return text[:match.start("output")] + output + text[match.end("output"):]
+
+
+def draw_plot():
+    """Draw :data:`PLOT_FILE` with :data:`PLOT_COMMAND`."""
+    with tempfile.TemporaryDirectory() as shims:
+        subprocess.run(["holecli", *PLOT_COMMAND, "-q"], cwd=ROOT, env=_environment(shims), check=True, timeout=300)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--check", action="store_true", help="only say whether README.md's outputs are stale (exit 1)")
+    args = parser.parse_args(argv)
+    text = README.read_text(encoding="utf-8")
+    if PLOT_FILE not in text or " ".join(PLOT_COMMAND[:2]) not in text:
+        raise SystemExit(f"README.md no longer shows {PLOT_FILE} or its command: update PLOT_COMMAND")
+    new = regenerate_readme(text)
+    if args.check:
+        if new != text:
+            print("README.md: the broken-pipe example's output is stale: run python scripts/regen_readme_outputs.py",
+                  file=sys.stderr)
+            return 1
+        return 0
+    if new != text:
+        README.write_text(new, encoding="utf-8")
+    draw_plot()
+    print(f"regenerated the broken-pipe example's output in README.md and {PLOT_FILE}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
