@@ -341,6 +341,7 @@ def _run_provenance(batching, method, view_dir, min_diameter, max_holes, full_on
     output unit, as the records give them), the unit, the tolerances."""
     from holecli.tolerance import describe
 
+    spec = getattr(spec, "spec", spec)  # with --registration/--name: the spec of the Inspection
     options = {"method": method, "view_dir": None if view_dir is None else list(view_dir),
                "min_diameter": min_diameter, "max_holes": max_holes, "full_only": bool(full_only),
                "gauge_depth": gauge_depth, "input_format": input_format, "scan": scan_index,

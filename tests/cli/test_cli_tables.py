@@ -14,7 +14,9 @@ from holecli.cli.detect import conformance_text
 SAMPLES = os.path.join(os.path.dirname(__file__), "..", "..", "sample_clouds")
 PANEL = os.path.join(SAMPLES, "panel.ply")
 TABLE1 = os.path.join(SAMPLES, "table1.ply")
-CHECKED = ["--spec", os.path.join(SAMPLES, "panel_tolerances.toml"), "--decision-rule", "guarded"]
+# a spec the sample panel fails (the sample spec before issue 25): failed and undecided checks to show
+FAILING = os.path.join(os.path.dirname(__file__), "..", "data", "panel_tolerances_failing.toml")
+CHECKED = ["--spec", FAILING, "--decision-rule", "guarded"]
 
 
 @pytest.fixture(scope="module")
