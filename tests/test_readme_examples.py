@@ -144,7 +144,8 @@ def parse_readme(text):
         blocks.append(block)
         index = end + 1
     for previous, block in zip(blocks, blocks[1:]):
-        between = lines[previous.line + previous.text.count("\n") + 1:block.line - 1]
+        closing_fence = previous.line + previous.text.count("\n") + 1   # its 0-based index
+        between = lines[closing_fence + 1:block.line - 1]
         if previous.lang in SHELL_LANGS and block.lang in OUTPUT_LANGS and not "".join(between).strip():
             previous.output = block.text + "\n"
     for block in blocks:
@@ -336,10 +337,17 @@ def test_a_wrong_exit_code_a_wrong_output_and_a_failed_setup_are_reported(tmp_pa
     assert "setup `false` exited 1" in run_block(failed_setup, tmp_path, env)[0][0]
 
 
+def test_a_text_block_right_under_a_shell_block_is_its_output():
+    text = "```sh\necho a\necho b\n```\n\n```text\na\nb\n```\n\nprose\n\n```sh\ntrue\n```\nprose\n```text\nx\n```\n"
+    blocks, problems = parse_readme(text)
+    assert not problems and [block.output for block in blocks] == ["a\nb\n", None, None, None]
+
+
 def test_markers_must_sit_above_a_block_name_a_known_directive_and_give_a_reason():
     text = ("# S\n\n<!-- example: not run -->\n```sh\ntrue\n```\n\n<!-- example: skip (x) -->\n```sh\ntrue\n```\n"
-            "<!-- example: not run (x) -->\n\n```sh\ntrue\n```\n\n```\nholecli detect x.ply\n```\n")
+            "<!-- example: not run (x) -->\n\n```sh\ntrue\n```\nprose\n```\nholecli detect x.ply\n```\n")
     blocks, problems = parse_readme(text)
+    assert [block.output for block in blocks] == [None] * 4
     assert len(blocks) == 4 and len(problems) == 4, problems
     assert "reason" in problems[1] and "unknown" in problems[2] and "not directly above" in problems[0]
     assert "tag it sh" in problems[3]
