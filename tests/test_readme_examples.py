@@ -38,9 +38,9 @@ directly above a block's opening fence (no blank line between), one directive ea
 - ``<!-- example: run -->``: a non-shell block that is run too (``python`` runs a ``python`` block,
   which must exit 0), for a block that a shell block continues.
 
-An untagged, ``text`` or ``console`` block that starts like a command (``holecli ...``, ``$ ...``) is
-an error: tag it ``sh`` (to be run) or ``text`` (a synopsis). So is a marker that is not directly above
-a block, or an unknown directive.
+An untagged or ``console`` block that starts like a command (``holecli ...``, ``$ ...``) and is not
+the output of the block above is an error: tag it ``sh`` (to be run) or ``text`` (a synopsis). So is
+a marker that is not directly above a block, an unknown directive, or ``run`` on a non-python block.
 """
 
 import dataclasses
@@ -153,6 +153,8 @@ def parse_readme(text):
             name = re.match(r"(not run|xfail|setup|continues|run)\b", marker)
             if name is None:
                 problems.append(f"README.md:{block.line}: unknown marker directive {marker!r}")
+            elif name.group(1) == "run" and block.lang != "python":
+                problems.append(f"README.md:{block.line}: 'run' is for python blocks (shell blocks run anyway)")
             elif name.group(1) in ("not run", "xfail") and not re.fullmatch(r"\w+( \w+)? \(.+\)", marker):
                 problems.append(f"README.md:{block.line}: {name.group(1)!r} needs its reason in parentheses")
         first = block.text.lstrip("\n").split("\n", 1)[0]
@@ -213,8 +215,7 @@ def split_commands(text):
 def example_environment():
     """os.environ with this checkout's holecli first: its Python's folder on PATH, the checkout on PYTHONPATH."""
     bin_dir = str(Path(sys.executable).parent)
-    return dict(os.environ, PATH=bin_dir + os.pathsep + os.environ.get("PATH", ""),
-                PYTHONPATH=str(REPO_ROOT), REPO=str(REPO_ROOT))
+    return dict(os.environ, PATH=bin_dir + os.pathsep + os.environ.get("PATH", ""), PYTHONPATH=str(REPO_ROOT))
 
 
 def prepare_folder(folder):
@@ -239,11 +240,11 @@ def run_block(block, folder, env):
     problems, printed = [], []
     setup = block.directive("setup")
     if setup:
-        code, out = _run(["bash", "-o", "pipefail", "-c", setup], folder, env)
+        code, out = _run(["bash", "-o", "pipefail", "-c", setup], folder, dict(env, REPO=str(REPO_ROOT)))
         if code != 0:
             return [f"setup `{setup}` exited {code}:\n{_tail(out)}"], ""
     if block.lang not in SHELL_LANGS:
-        code, out = _run([block.lang if block.lang != "python" else sys.executable, "-c", block.text], folder, env)
+        code, out = _run([sys.executable, "-c", block.text], folder, env)
         if code != 0:
             problems.append(f"the {block.lang} block exited {code}:\n{_tail(out)}")
         return problems, out
@@ -277,8 +278,8 @@ def _slug(text):
     return re.sub(r"[^A-Za-z0-9.=-]+", "-", text).strip("-")[:50]
 
 
-def _params():
-    for block in BLOCKS:
+def _params(blocks):
+    for block in blocks:
         if not block.runs:
             continue
         marks = [pytest.mark.xfail(strict=True, reason=block.directive("xfail"))] \
@@ -287,7 +288,7 @@ def _params():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("block", list(_params()))
+@pytest.mark.parametrize("block", list(_params(BLOCKS)))
 def test_readme_example_runs_as_printed(block, tmp_path):
     env = example_environment()
     prepare_folder(tmp_path)
@@ -351,3 +352,15 @@ def test_markers_must_sit_above_a_block_name_a_known_directive_and_give_a_reason
     assert len(blocks) == 4 and len(problems) == 4, problems
     assert "reason" in problems[1] and "unknown" in problems[2] and "not directly above" in problems[0]
     assert "tag it sh" in problems[3]
+
+
+def test_an_xfail_block_is_a_strict_xfail_and_a_not_run_block_is_not_a_test():
+    text = ("# S\n<!-- example: xfail (a bug) -->\n```sh\ntrue\n```\n<!-- example: not run (x) -->\n```sh\ntrue\n```\n"
+            "<!-- example: run -->\n```python\nprint(1)\n```\n<!-- example: continues -->\n```sh\ntrue\n```\n")
+    blocks, problems = parse_readme(text)
+    assert not problems
+    params = list(_params(blocks))
+    assert [param.values[0].line for param in params] == [3, 11, 15]
+    (mark,) = params[0].marks
+    assert mark.name == "xfail" and mark.kwargs == {"strict": True, "reason": "(a bug)"}
+    assert [link.line for link in chain_of(blocks[3], blocks)] == [11, 15]
