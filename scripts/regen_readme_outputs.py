@@ -33,7 +33,8 @@ README = ROOT / "README.md"
 
 # The README's picture and the command that draws it (the README shows the same command).
 PLOT_FILE = "docs/plot_panel.png"
-PLOT_COMMAND = ["plot", "sample_clouds/panel.ply", "-o", PLOT_FILE, "--units", "mm", "--dpi", "70", "--gauge-depth", "0.5"]
+PLOT_COMMAND = ["detect", "sample_clouds/panel.ply", "--spec", "sample_clouds/panel_tolerances.toml", "--units", "mm",
+                "--gauge-depth", "0.5", "--plot", PLOT_FILE, "-o", "/dev/null"]
 
 # The sh block of the broken-pipe example and the text block after it.
 _BROKEN_PIPE = re.compile(r"(```sh\n(?P<command>holecli batch [^\n]*\| head[^\n]*)\n```\n\n```text\n)(?P<output>.*?)(```)",
