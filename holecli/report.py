@@ -42,6 +42,9 @@ CSV_COLUMNS = (
     "u_countersink_diameter", "u_countersink_angle_deg", "u_countersink_depth", "u_countersink_diameter_at_depth",
     "u_counterbore_diameter", "u_counterbore_depth", "u_bore_diameter", "u_floor_depth", "u_axis_deg",
     "u_perpendicularity_deg", "uncertainty_estimator",
+) + (
+    # The countersink gauge check's deviation (issue 25), after the older columns too.
+    "countersink_gauge_deviation",
 )
 
 # The columns of the provenance that come from the record's options and scales.

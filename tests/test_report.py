@@ -23,7 +23,8 @@ DOCUMENTED_COLUMNS = (
     "height_noise,triangle_area_bound,candidates,undecided_checks,conformance,decision_rule,coverage_factor,notes,"
     "u_center_in_plane,u_center_along_normal,u_diameter,u_normal_deg,u_countersink_diameter,u_countersink_angle_deg,"
     "u_countersink_depth,u_countersink_diameter_at_depth,u_counterbore_diameter,u_counterbore_depth,u_bore_diameter,"
-    "u_floor_depth,u_axis_deg,u_perpendicularity_deg,uncertainty_estimator"
+    "u_floor_depth,u_axis_deg,u_perpendicularity_deg,uncertainty_estimator,"
+    "countersink_gauge_deviation"
 ).split(",")
 # The provenance columns (issue 13): the same in every row of a record.
 PROVENANCE = DOCUMENTED_COLUMNS.index("schema_version")

@@ -478,6 +478,11 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
                 if not quiet:  # the mistakes of units, said at once: every hole of the file is off by them
                     for line in unit_lines(record):
                         display.message(line, error=True)
+                if not quiet and not verbose:  # checks a guarded decision can never pass (-v says every note)
+                    from holecli.cli.detect import zone_note_lines
+
+                    for line in zone_note_lines(record):
+                        display.message(line, error=True)
                 if verbose:
                     display.message(verbose_text(record).rstrip("\n"))
     summary = batch_summary(tally, time.monotonic() - started, spec is not None, len(earlier), output)

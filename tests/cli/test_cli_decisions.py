@@ -384,3 +384,16 @@ def test_guarded_says_on_stderr_a_check_that_can_never_pass(run):
     assert "uncertainty_exceeds_tolerance" in [note["code"] for note in record["holes"][0]["notes"]]
     assert "uncertainty_exceeds_tolerance" not in run("detect", table1, *options).stderr
     assert run("detect", table1, *options, "--decision-rule", "guarded", "-q").stderr == ""
+
+
+def test_batch_says_on_stderr_a_check_that_can_never_pass(run):
+    import os
+
+    table1 = os.path.join(os.path.dirname(__file__), "..", "..", "sample_clouds", "table1.ply")
+    options = ["--nominal-diameter", "3", "--tolerance", "0.002"]  # zone 0.004, U(d) 0.0095
+    result = run("batch", table1, *options, "--decision-rule", "guarded")
+    line = next(line for line in result.stderr.splitlines() if "uncertainty_exceeds_tolerance" in line)
+    assert line.startswith("holecli: note: ") and "uncertainty_exceeds_tolerance: diameter: 2U = 0.019" in line
+    assert "uncertainty_exceeds_tolerance" not in run("batch", table1, *options).stderr
+    assert "uncertainty_exceeds_tolerance" not in run("batch", table1, *options, "--decision-rule", "guarded",
+                                                      "-q").stderr

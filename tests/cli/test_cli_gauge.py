@@ -92,3 +92,15 @@ def test_batch_checks_the_gauge_reading(run, tmp_path):
     assert result.exit_code == cli.EXIT_OUT_OF_TOLERANCE
     hole = _c1(json.loads(result.stdout))
     assert hole["failed_checks"] == ["countersink_gauge"]
+
+
+def test_the_csv_has_the_gauge_deviation(run, tmp_path):
+    import csv
+    import io
+
+    result = run("detect", PANEL, "--gauge-depth", GAUGE_DEPTH, "--spec", _spec(tmp_path, 5.75, "0.01"),
+                 "--format", "csv", "--fields", "hole,name,countersink_diameter_at_depth,countersink_gauge_deviation")
+    rows = {row["name"]: row for row in csv.DictReader(io.StringIO(result.stdout))}
+    deviation = float(rows["C1"]["countersink_gauge_deviation"])
+    assert deviation == pytest.approx(float(rows["C1"]["countersink_diameter_at_depth"]) - 5.75)
+    assert rows[""]["countersink_gauge_deviation"] == ""  # the holes the one-hole spec does not name
