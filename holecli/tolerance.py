@@ -775,7 +775,7 @@ def check(record, spec, tied=None) -> dict:
         in_frame = (tied is None or nominal is None or spec.registration is not None or nominal.center is None
                     or math.dist(hole["center"], nominal.center) <= nominal.match_radius)
         result.update(_verdict(hole, nominal, spec.decision_rule, spec.coverage_factor, in_frame))
-        mistake = _unit_mismatch_warning(hole, nominal)
+        mistake = _unit_mismatch_warning(hole, nominal, record.get("units"), declared)
         if mistake is not None:
             result["warnings"] = [*hole.get("warnings", ()), mistake]
         if not in_frame:
@@ -996,19 +996,28 @@ def _scaled_nominal(hole, factor) -> NominalHole:
     return replace(hole, **values)
 
 
-def _unit_mismatch_warning(hole, nominal):
+def _unit_mismatch_warning(hole, nominal, units=None, declared=None):
     """The ``unit_mismatch`` warning of a hole whose measured diameter is a unit's factor of its nominal
-    (:func:`holecli.units.unit_mistake`), or None."""
+    (:func:`holecli.units.unit_mistake`), or None. ``units``: the record's unit (the tolerances are
+    taken in it, unless the spec declared its own, ``declared``), which the advice then names."""
     if nominal is None or nominal.diameter is None:
         return None
     mistake = unit_mistake(hole.get("diameter"), nominal.diameter)
     if mistake is None:
         return None
     ratio, scan_unit, spec_unit = mistake
+    if units is None:
+        advice = (f"give --units {scan_unit} --output-units {spec_unit} (tolerances are in the output unit), or "
+                  f"units = \"{spec_unit}\" in the spec file with --units {scan_unit}")
+    elif declared is None:
+        advice = (f"the record is in {units} and the tolerances are taken in it: give them in {units}, or "
+                  f"--output-units {spec_unit} with --units {scan_unit} when the scan is in {scan_unit} "
+                  f"(or units = \"{spec_unit}\" in the spec file)")
+    else:
+        advice = f"the spec says {declared} and the record is in {units}: check --units"
     return {"code": UNIT_MISMATCH,
             "message": f"measured diameter {hole['diameter']:.4g} is {ratio} of the nominal {nominal.diameter:.4g}: "
-                       f"the scan may be in {scan_unit} and the tolerances in {spec_unit}; give --units "
-                       f"(and units in the spec file)"}
+                       f"the scan may be in {scan_unit} and the tolerances in {spec_unit}; {advice}"}
 
 
 def _match(holes, nominals) -> dict:

@@ -615,7 +615,7 @@ def scale_hint(factor, scan_unit, spec_unit):
 
 
 def unit_mismatch_hint(record):
-    """`` (2 holes with unit_mismatch: the scan and the tolerances may be in different units; give --units)``
+    """`` (2 holes with unit_mismatch: the scan and the tolerances may be in different units; see the warning)``
     for the out-of-tolerance line of a record whose holes have that warning; else empty."""
     from holecli.units import UNIT_MISMATCH
 
@@ -623,7 +623,7 @@ def unit_mismatch_hint(record):
     if not count:
         return ""
     return (f" ({count} hole{'' if count == 1 else 's'} with {UNIT_MISMATCH}: the scan and the tolerances may be "
-            f"in different units; give --units)")
+            f"in different units; see the warning)")
 
 
 def spec_units_line(record):

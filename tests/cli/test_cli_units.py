@@ -54,7 +54,14 @@ def test_a_metres_scan_against_a_3_mm_tolerance_names_the_unit_mistake(run, scan
     record = json.loads(result.stdout)
     assert [w["code"] for w in record["holes"][0]["warnings"]] == ["unit_mismatch"]
     validate_record(record)
-    # --units says it: no mistake, in tolerance
+    # the advice is the options that fix it: the tolerances are in the output unit, not the scan's
+    assert "give --units m --output-units mm" in result.stderr
+    # --units alone puts the tolerances in m too: the warning says so rather than "give --units" again
+    result = run("detect", scans["m"], "--units", "m", "--nominal-diameter", 3, "--tolerance", 0.02)
+    assert result.exit_code == EXIT_OUT_OF_TOLERANCE
+    assert "the record is in m and the tolerances are taken in it" in result.stderr
+    assert "--output-units mm with --units m" in result.stderr
+    # --units with --output-units says it: no mistake, in tolerance
     result = run("detect", scans["m"], "--units", "m", "--output-units", "mm", "--nominal-diameter", 3,
                  "--tolerance", 0.02)
     assert result.exit_code == EXIT_OK and "unit_mismatch" not in result.stderr
