@@ -107,7 +107,7 @@ def test_recovers_the_transform_and_writes_corrected_targets(reg, part, tmp_path
     assert result.exit_code == cli.EXIT_OK, result.stderr
     record = json.loads(result.stdout)
     assert record["schema"] == "holecli.register" and record["schema_version"] == 1
-    assert record["schema_minor_version"] == 1 and record["notes"] == []  # 1.1: notes (issue 24)
+    assert record["schema_minor_version"] == 2 and record["notes"] == []  # 1.1: notes (issue 24), 1.2: consistency
     transform = record["transform"]
     assert np.allclose(transform["translation"], TRUE_TRANSLATION, atol=3e-3)
     assert _rotation_error_deg(transform["matrix"]) < 0.005
