@@ -23,7 +23,9 @@ for every hole count with redundancy (two holes and more):
   uncertainty from the two centers' covariances along the line between them; spelled out in the
   message). Two holes: the pair is named (which of the two is off cannot be told). Three holes: when
   exactly one pair agrees (within ``factor`` standard uncertainties or ``floor``), the third hole is
-  named. Otherwise the pairs that disagree are named.
+  named; when only one pair disagrees, that pair (a move across the line of one agreeing pair changes
+  one distance only, and either of the two holes can have made it). Otherwise the pairs that
+  disagree are named.
 * **Widened uncertainty.** When inconsistent, the fit's covariance is multiplied by ``chi2 / dof``
   (the Birge ratio: the sigmas scaled so that the residuals are what they would be by chance), so
   that the transform's and the corrected targets' uncertainties grow with the discrepancy instead of
@@ -199,6 +201,8 @@ def check_consistency(fit, names, nominal_centers, nominal_normals, measured_cen
         verdict = f"{suspects[0]} is off ({'-'.join(agreeing_pair['holes'])} agree)"
     elif len(names) == 2:
         verdict = f"{names[0]} or {names[1]} is off (two holes cannot tell which)"
+    elif len(disagreeing) == 1:
+        verdict = f"{disagreeing[0]['holes'][0]} or {disagreeing[0]['holes'][1]} is off (only their distance disagrees)"
     else:
         verdict = "no single hole can be named"
     inflation = chi2 / dof
