@@ -56,3 +56,5 @@ def test_floor_above_the_discrepancy_lets_it_pass():
     measured = [detect(scan.points).holes[0] for scan in cell.scans]
     result = register(measured, cell.nominal, measured_names=["R1", "R2"], outlier_floor=0.5)
     assert result.consistency.consistent and result.warnings == ()
+    below = register(measured, cell.nominal, measured_names=["R1", "R2"], outlier_floor=0.1)
+    assert not below.consistency.consistent
