@@ -33,8 +33,9 @@ Steps
    fit's weighted chi-square against its degrees of freedom, for every hole count with redundancy
    (two holes and more; the leave-one-out check needs four). When the holes disagree with the spec
    beyond their own uncertainties (and by more than ``outlier_floor``), a warning names the hole
-   when it can be told (else the pair), and the fit's covariance is multiplied by ``chi2 / dof`` so
-   that the transform's and the targets' uncertainties cover the discrepancy.
+   when it can be told (else the pair), and the fit is repeated with a standard uncertainty added to
+   every hole's center (:func:`holecli.registration.consistency.widen`), so that the transform's
+   and the targets' uncertainties cover the discrepancy.
 6. Verdict (with ``max_residual``): ``fail`` when a hole used in the final fit has an in-plane
    residual or an along-normal residual (absolute) above ``max_residual``, when the holes are
    inconsistent (``"inconsistent_holes"`` in ``failed``), or when an outlier was
@@ -68,7 +69,7 @@ they are.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -178,7 +179,7 @@ class Registration:
         hole not used), ``no_uncertainty`` (the fit is unweighted).
     consistency : holecli.registration.consistency.ConsistencyCheck or None
         The test of the final fit's holes against their uncertainties (module step 5); when they are
-        inconsistent, ``fit``'s covariance is already widened by its ``inflation``.
+        inconsistent, ``fit`` is already the widened refit (its ``added_sigma``).
     """
 
     transform: RigidTransform
@@ -555,14 +556,19 @@ def register(measured_holes, nominal_spec_holes, measured_names=None, max_residu
     used = np.array([name not in outliers for name in names])
     used_sigmas = None if sigmas is None else {key: value[used] for key, value in sigmas.items()}
     fit = fit_rigid(nom_c[used], nom_n[used], mea_c[used], mea_n[used], **(used_sigmas or {}))
-    # step 5: the final fit's holes against their own uncertainties; widened when they disagree
+    _check_not_turned_over([name for name, keep in zip(names, used) if keep], nom_n[used],
+                           measured_normals[m_idx][used], fit.transform)
+    # step 5: the final fit's holes against their own uncertainties; widened when they disagree (after the
+    # turned-over check: the widened refit weighs the normals less and could hide a reversed pose)
     consistency = check_consistency(fit, [name for name, keep in zip(names, used) if keep], nom_c[used], nom_n[used],
                                     mea_c[used], mea_n[used], sigmas=used_sigmas, factor=outlier_factor,
                                     floor=outlier_floor)
-    fit = widen(fit, consistency.inflation)
+    if not consistency.consistent:
+        fit, added = widen(fit_rigid, nom_c[used], nom_n[used], mea_c[used], mea_n[used], used_sigmas)
+        consistency = replace(consistency, added_sigma=added,
+                              reason=f"{consistency.reason}; uncertainties widened: {added:.3g} added to every "
+                                     "hole's center sigma, the fit repeated")
     transform = fit.transform
-    _check_not_turned_over([name for name, keep in zip(names, used) if keep], nom_n[used],
-                           measured_normals[m_idx][used], transform)
 
     # every matched hole's, the outliers' too (where the other holes place them)
     residuals = hole_residuals(transform, nom_c, nom_n, mea_c, mea_n)

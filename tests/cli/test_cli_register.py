@@ -359,10 +359,10 @@ def test_two_holes_one_moved_warn_widen_and_exit_8(reg, part, tmp_path):
     assert [w["code"] for w in record["warnings"]] == ["inconsistent_holes"]
     assert "holecli: warning: register: inconsistent_holes:" in result.stderr and "A1-A3" in result.stderr
     consistency = record["consistency"]
-    assert not consistency["consistent"] and consistency["inflation"] > 100
+    assert not consistency["consistent"] and consistency["added_sigma"] > 0.02
     pair = consistency["pairs"][0]
     assert pair["holes"] == ["A1", "A3"] and abs(abs(pair["difference"]) - 0.2) < 0.05
-    # widened: the translation's u grows by sqrt(inflation), enough to reach the 0.1 mm shift
+    # widened: an added sigma of the discrepancy's size on every hole
     for widened, tight in zip(record["uncertainty"]["translation"], clean_record["uncertainty"]["translation"]):
         assert widened > 10 * tight
     rows = list(csv.DictReader(corrected.open()))

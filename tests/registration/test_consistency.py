@@ -34,7 +34,7 @@ def test_two_holes_one_moved_along_their_line_is_inconsistent_and_widened():
     assert not result.consistency.consistent and result.doubtful
     assert [code for code, _ in result.warnings] == ["inconsistent_holes"]
     assert "R1 or R2 is off" in result.warnings[0][1]
-    assert result.consistency.inflation > 100
+    assert result.consistency.added_sigma > 0.02
     widened = np.sqrt(np.diag(result.fit.covariance))
     tight = np.sqrt(np.diag(clean.fit.covariance))
     assert np.all(widened[3:] > 10 * tight[3:])
