@@ -386,3 +386,11 @@ def test_three_holes_one_moved_names_it(reg, part):
     assert "A1 or A3 is off (only their distance disagrees)" in json.loads(across.stdout)["warnings"][0]["message"]
     clean = reg(*_paths(part, "A1", "A2", "A3"), "--spec", part / "part.toml")
     assert clean.exit_code == cli.EXIT_OK and json.loads(clean.stdout)["warnings"] == []
+
+
+def test_an_outlier_without_max_residual_exits_8(reg, part):
+    # four holes: A3 is named and left out; the transform is sound, but the part's reference hole is not
+    result = reg(*_paths(part, "A1", "A2", "A3_moved", "A4"), "--name", "A3_moved.ply=A3", "--spec", part / "part.toml")
+    assert result.exit_code == cli.EXIT_UNDECIDED, result.stderr
+    record = json.loads(result.stdout)
+    assert record["outliers"] == ["A3"] and record["consistency"]["consistent"]
