@@ -58,3 +58,13 @@ def test_floor_above_the_discrepancy_lets_it_pass():
     assert result.consistency.consistent and result.warnings == ()
     below = register(measured, cell.nominal, measured_names=["R1", "R2"], outlier_floor=0.1)
     assert not below.consistency.consistent
+
+
+def test_four_holes_two_moved_the_rest_after_the_outlier_is_still_tested():
+    # leave-one-out names one moved hole; the three left still hold the other, which the test of the
+    # final fit finds (it was a tight u with exit 0 after the outlier was left out)
+    result = _register_cell(1, 4, {"R1": (0.2, 0.0), "R2": (0.0, 0.2)})
+    assert result.outliers == ("R2",)
+    assert [code for code, _ in result.warnings] == ["outlier", "inconsistent_holes"]
+    assert result.consistency.suspects == ("R1",)
+    assert result.consistency.added_sigma > 0.02
