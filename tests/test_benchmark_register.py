@@ -36,3 +36,12 @@ def test_the_moved_hole_of_a_cell_is_named_as_the_outlier(bench):
     _check(row, bench.TARGETS)
     assert row["holes"] >= 4 and len(row["moved"]) == 1
     assert row["outliers"] == row["moved"]
+
+
+def test_pass_3_flags_a_moved_hole_from_three_holes_and_not_a_clean_cell(bench):
+    cells = bench.measure_consistency(0)
+    assert len(cells) == len(bench.COUNTS) * (1 + len(bench.MOVES))
+    assert all("error" not in cell for cell in cells)
+    assert not any(cell["flagged"] for cell in cells if cell["move"] == 0.0)
+    assert all(cell["flagged"] for cell in cells if cell["move"] >= 0.1 and cell["holes"] >= 3)
+    assert all(cell["named"] for cell in cells if cell["move"] and cell["holes"] >= 4)

@@ -17,8 +17,8 @@ import sys
 
 import click
 
-from holecli.cli.exits import (EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_USAGE, Failure,
-                               run_guarded)
+from holecli.cli.exits import (EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_UNDECIDED, EXIT_USAGE,
+                               Failure, run_guarded)
 from holecli.cli.options import Decimal, columns_option, detection_option_decorators, detection_options
 
 REGISTER_EXIT_CODES_HELP = (
@@ -31,8 +31,11 @@ REGISTER_EXIT_CODES_HELP = (
     "     holes cannot be registered (too few to match, none matched, a fit that turns the part over:\n"
     "     normals_reversed), or an output cannot be written (then neither output is written)\n"
     "  4  a SCAN has no hole (nothing is written)\n"
-    "  5  --max-residual: the verdict is fail (a used hole's residual exceeds it, or an outlier was\n"
-    "     named); the output is still written\n"
+    "  5  --max-residual: the verdict is fail (a used hole's residual exceeds it, an outlier was\n"
+    "     named, or the holes are inconsistent); the output is still written\n"
+    "  8  doubtful: a reference hole disagrees with the others or with the spec beyond the\n"
+    "     uncertainties (warning outlier or inconsistent_holes, any count from 2 holes); the output\n"
+    "     is still written, with widened uncertainties (5 takes precedence)\n"
     "  130  interrupted (Ctrl-C or SIGTERM)\n"
     "  141  broken pipe: the reader of the output (| head -1) stopped reading before its end"
 )
@@ -41,8 +44,9 @@ SCHEMA = "holecli.register"
 # The record's MAJOR version stays the integer ``schema_version`` it always was (a reader comparing it
 # with 1 keeps working); ``schema_minor_version`` counts the keys added since (absent: 0). 1.1 (issue
 # 24): ``notes``, the facts that make nothing doubtful (unmatched_hole, no_uncertainty), out of warnings.
+# 1.2 (issue 25): ``consistency``, the test of the holes against their uncertainties (inconsistent_holes).
 SCHEMA_VERSION = 1
-SCHEMA_MINOR_VERSION = 1
+SCHEMA_MINOR_VERSION = 2
 
 CSV_HOLE_COLUMNS = ("name", "scan", "scan_hole", "used", "outlier", "measured_x", "measured_y", "measured_z",
                     "nominal_x", "nominal_y", "nominal_z", "residual_in_plane", "residual_along_normal",
@@ -280,9 +284,11 @@ def targets_in_units(targets, units):
                    "or when an outlier is named.")
 @click.option("--outlier-factor", type=Decimal(min=0, min_open=True), default=5.0, show_default=True,
               help="A hole is an outlier when the other holes place it more than this many standard "
-                   "uncertainties from where it was measured (leave-one-out, 4 or more holes).")
+                   "uncertainties from where it was measured (leave-one-out, 4 or more holes); the holes are "
+                   "inconsistent when the fit's chi-square is as unlikely as this many (2 or more holes).")
 @click.option("--outlier-floor", type=Decimal(min=0), default=0.0, show_default=True,
-              help="... and more than this far (file units).")
+              help="... and more than this far (file units); also the largest center discrepancy below which "
+                   "holes are never inconsistent.")
 @click.option("--format", "fmt", type=click.Choice(["json", "csv", "table"]), default="json", show_default=True,
               help="Output format: JSON, CSV (one row per hole, the transform in columns) or a table for people.")
 @click.option("--output", "-o", type=click.Path(dir_okay=False, allow_dash=True, path_type=str), default=None,
@@ -303,7 +309,9 @@ def register(scans, columns, spec_file, name_pairs, targets_file, targets_output
     several). Its holes are matched with the spec's holes by name (a scan named after a hole, A1.ply
     for hole A1, or --name SCAN=HOLE), else by their mutual distances (3 or more holes). The fit is a
     weighted least squares on centers and normals; a hole that the others place far from where it was
-    measured is named as an outlier and left out. With two holes the normals fix the rotation about
+    measured is named as an outlier and left out (4 or more holes), and holes that disagree with the
+    spec beyond their uncertainties (any count from 2: the distance between two holes, their normals,
+    the fit's residuals) give the warning inconsistent_holes, widened uncertainties and exit 8. With two holes the normals fix the rotation about
     the line through them; with one hole the rotation about its normal stays free (said in
     "free_dofs").
 
@@ -423,4 +431,6 @@ def register(scans, columns, spec_file, name_pairs, targets_file, targets_output
             click.echo(f"holecli: registration fails --max-residual {record['max_residual']:g}: "
                        + "; ".join(record["failed"]), err=True)
         sys.exit(EXIT_OUT_OF_TOLERANCE)
+    if record["outliers"] or not (record["consistency"] or {"consistent": True})["consistent"]:
+        sys.exit(EXIT_UNDECIDED)  # doubtful: a reference hole disagrees (outlier, inconsistent_holes)
     sys.exit(EXIT_OK)

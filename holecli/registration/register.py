@@ -29,8 +29,16 @@ Steps
 4. Outlier check. :func:`holecli.registration.find_outliers` (leave-one-out, four or more holes). A
    hole it names is *left out* of the final fit, which is repeated without it; its residual is then
    where the other holes place it. It is reported, never silently dropped.
-5. Verdict (with ``max_residual``): ``fail`` when a hole used in the final fit has an in-plane
-   residual or an along-normal residual (absolute) above ``max_residual``, or when an outlier was
+5. Consistency (check ``inconsistent_holes``, :mod:`holecli.registration.consistency`): the final
+   fit's weighted chi-square against its degrees of freedom, for every hole count with redundancy
+   (two holes and more; the leave-one-out check needs four). When the holes disagree with the spec
+   beyond their own uncertainties (and by more than ``outlier_floor``), a warning names the hole
+   when it can be told (else the pair), and the fit is repeated with a standard uncertainty added to
+   every hole's center (:func:`holecli.registration.consistency.widen`), so that the transform's
+   and the targets' uncertainties cover the discrepancy.
+6. Verdict (with ``max_residual``): ``fail`` when a hole used in the final fit has an in-plane
+   residual or an along-normal residual (absolute) above ``max_residual``, when the holes are
+   inconsistent (``"inconsistent_holes"`` in ``failed``), or when an outlier was
    named (a misplaced reference hole is a finding, even though the frame was fitted without it);
    ``pass`` otherwise. Without ``max_residual`` the verdict is None.
 
@@ -61,10 +69,11 @@ they are.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from holecli.registration.consistency import check_consistency, widen
 from holecli.registration.matching import OutlierCheck, find_outliers, match_holes
 from holecli.registration.rigid import COLLINEAR_TOLERANCE, fit_rigid, hole_residuals, kabsch_points
 from holecli.registration.transform import RegistrationError, RigidTransform
@@ -164,10 +173,13 @@ class Registration:
         Why the verdict failed: ``"<hole>: in_plane 0.012 > 0.01"``, ``"<hole>: outlier"``.
     warnings : tuple of (str, str)
         ``(code, message)`` of what makes the registration doubtful: ``outlier``, ``ambiguous_match``,
-        ``free_dofs``.
+        ``free_dofs``, ``inconsistent_holes``.
     notes : tuple of (str, str)
         ``(code, message)`` of facts that make nothing given doubtful: ``unmatched_hole`` (a measured
         hole not used), ``no_uncertainty`` (the fit is unweighted).
+    consistency : holecli.registration.consistency.ConsistencyCheck or None
+        The test of the final fit's holes against their uncertainties (module step 5); when they are
+        inconsistent, ``fit`` is already the widened refit (its ``added_sigma``).
     """
 
     transform: RigidTransform
@@ -185,6 +197,13 @@ class Registration:
     failed: tuple
     warnings: tuple
     notes: tuple = ()
+    consistency: object = None
+
+    @property
+    def doubtful(self):
+        """bool: a reference hole disagrees with the others or with the spec (an outlier named, or
+        ``inconsistent_holes``): ``holecli register`` exits 8 (5 with a failed verdict)."""
+        return bool(self.outliers) or (self.consistency is not None and not self.consistency.consistent)
 
     @property
     def free_dofs(self):
@@ -228,7 +247,8 @@ class Registration:
             ``uncertainty`` (:meth:`uncertainty`), ``free_dofs``, ``rms``, ``dof``, ``match``
             (``method``, ``ambiguous``, ``unmatched_measured``, ``unmatched_nominal``), ``holes`` (one
             dict per :class:`RegisteredHole`), ``outliers``, ``outlier_check`` (``checked``,
-            ``reason``), ``max_residual``, ``verdict``, ``failed``, ``warnings``, ``notes``.
+            ``reason``), ``consistency`` (:meth:`ConsistencyCheck.to_dict`, or None), ``max_residual``,
+            ``verdict``, ``failed``, ``warnings``, ``notes``.
         """
         transform = self.transform.to_dict()
         transform["roll_pitch_yaw_convention"] = (
@@ -261,6 +281,7 @@ class Registration:
             "holes": holes,
             "outliers": list(self.outliers),
             "outlier_check": {"checked": self.outlier_check.checked, "reason": self.outlier_check.reason},
+            "consistency": None if self.consistency is None else self.consistency.to_dict(),
             "max_residual": self.max_residual,
             "verdict": self.verdict,
             "failed": list(self.failed),
@@ -535,9 +556,19 @@ def register(measured_holes, nominal_spec_holes, measured_names=None, max_residu
     used = np.array([name not in outliers for name in names])
     used_sigmas = None if sigmas is None else {key: value[used] for key, value in sigmas.items()}
     fit = fit_rigid(nom_c[used], nom_n[used], mea_c[used], mea_n[used], **(used_sigmas or {}))
-    transform = fit.transform
     _check_not_turned_over([name for name, keep in zip(names, used) if keep], nom_n[used],
-                           measured_normals[m_idx][used], transform)
+                           measured_normals[m_idx][used], fit.transform)
+    # step 5: the final fit's holes against their own uncertainties; widened when they disagree (after the
+    # turned-over check: the widened refit weighs the normals less and could hide a reversed pose)
+    consistency = check_consistency(fit, [name for name, keep in zip(names, used) if keep], nom_c[used], nom_n[used],
+                                    mea_c[used], mea_n[used], sigmas=used_sigmas, factor=outlier_factor,
+                                    floor=outlier_floor)
+    if not consistency.consistent:
+        fit, added = widen(fit_rigid, nom_c[used], nom_n[used], mea_c[used], mea_n[used], used_sigmas)
+        consistency = replace(consistency, added_sigma=added,
+                              reason=f"{consistency.reason}; uncertainties widened: {added:.3g} added to every "
+                                     "hole's center sigma, the fit repeated")
+    transform = fit.transform
 
     # every matched hole's, the outliers' too (where the other holes place them)
     residuals = hole_residuals(transform, nom_c, nom_n, mea_c, mea_n)
@@ -560,12 +591,16 @@ def register(measured_holes, nominal_spec_holes, measured_names=None, max_residu
                 failed.append(f"{hole.name}: in_plane {hole.in_plane:.6g} > {max_residual:g}")
             if abs(hole.along_normal) > max_residual:
                 failed.append(f"{hole.name}: along_normal {hole.along_normal:+.6g} exceeds {max_residual:g}")
+        if not consistency.consistent:
+            failed.append("inconsistent_holes")
         verdict = "fail" if failed else "pass"
 
     # warnings: the transform may be wrong; notes: facts that make nothing given doubtful
     warnings, notes = [], []
     if outliers:
         warnings.append(("outlier", check.reason))
+    if not consistency.consistent:
+        warnings.append(("inconsistent_holes", consistency.reason))
     if ambiguous:
         warnings.append(("ambiguous_match", "other pairings of the holes fit as well (a symmetric layout): "
                                             "name the scans after their holes to be sure"))
@@ -583,4 +618,4 @@ def register(measured_holes, nominal_spec_holes, measured_names=None, max_residu
         transform=transform, fit=fit, holes=holes, match_method=method, ambiguous=bool(ambiguous),
         unmatched_measured=unmatched_measured, unmatched_nominal=unmatched_nominal, outlier_check=check,
         outliers=outliers, sigmas=sigmas is not None, max_residual=max_residual, verdict=verdict,
-        failed=tuple(failed), warnings=tuple(warnings), notes=tuple(notes))
+        failed=tuple(failed), warnings=tuple(warnings), notes=tuple(notes), consistency=consistency)

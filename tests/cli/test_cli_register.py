@@ -75,6 +75,7 @@ def part(tmp_path_factory):
     for name in LAYOUT:
         save_points(folder / f"{name}.ply", _scan(name))
     save_points(folder / "A3_moved.ply", _scan("A3", offset=(0.2, 0.0)))
+    save_points(folder / "A3_diagonal.ply", _scan("A3", offset=(0.1, 0.1)))
     plain = synth.SceneSpec(holes=(), extent=(-3.5, 3.5, -3.5, 3.5), spacing=0.09)
     save_points(folder / "flat.ply", synth.make_scan(plain, 0).points)
     (folder / "part.toml").write_text(_spec_text(LAYOUT))
@@ -107,7 +108,7 @@ def test_recovers_the_transform_and_writes_corrected_targets(reg, part, tmp_path
     assert result.exit_code == cli.EXIT_OK, result.stderr
     record = json.loads(result.stdout)
     assert record["schema"] == "holecli.register" and record["schema_version"] == 1
-    assert record["schema_minor_version"] == 1 and record["notes"] == []  # 1.1: notes (issue 24)
+    assert record["schema_minor_version"] == 2 and record["notes"] == []  # 1.1: notes (issue 24), 1.2: consistency
     transform = record["transform"]
     assert np.allclose(transform["translation"], TRUE_TRANSLATION, atol=3e-3)
     assert _rotation_error_deg(transform["matrix"]) < 0.005
@@ -359,3 +360,54 @@ def test_verbose_says_each_scan_the_match_and_the_residuals(reg, run, part):
     assert "match by names" in before.stderr
     both = reg(*_paths(part, "A1", "A2"), "--spec", part / "part.toml", "-q", "-v")
     assert both.exit_code == cli.EXIT_USAGE and "--quiet and --verbose cannot be combined" in both.stderr
+
+
+def test_two_holes_one_moved_warn_widen_and_exit_8(reg, part, tmp_path):
+    # issue 25: R2 drilled 0.2 mm off, two holes: exit 0, no warning, targets 0.17 mm off with u 0.4 um
+    clean = reg(*_paths(part, "A1", "A3"), "--spec", part / "part.toml")
+    assert clean.exit_code == cli.EXIT_OK, clean.stderr
+    clean_record = json.loads(clean.stdout)
+    assert clean_record["consistency"]["checked"] and clean_record["consistency"]["consistent"]
+    corrected = tmp_path / "corrected.csv"
+    result = reg(*_paths(part, "A1", "A3_moved"), "--name", "A3_moved.ply=A3", "--spec", part / "part.toml",
+                 "--targets", part / "targets.csv", "--targets-output", corrected)
+    assert result.exit_code == cli.EXIT_UNDECIDED, result.stderr
+    record = json.loads(result.stdout)
+    assert [w["code"] for w in record["warnings"]] == ["inconsistent_holes"]
+    assert "holecli: warning: register: inconsistent_holes:" in result.stderr and "A1-A3" in result.stderr
+    consistency = record["consistency"]
+    assert not consistency["consistent"] and consistency["added_sigma"] > 0.02
+    pair = consistency["pairs"][0]
+    assert pair["holes"] == ["A1", "A3"] and abs(abs(pair["difference"]) - 0.2) < 0.05
+    # widened: an added sigma of the discrepancy's size on every hole
+    for widened, tight in zip(record["uncertainty"]["translation"], clean_record["uncertainty"]["translation"]):
+        assert widened > 10 * tight
+    rows = list(csv.DictReader(corrected.open()))
+    assert all(float(row["u_x"]) > 0.01 for row in rows)
+    with_verdict = reg(*_paths(part, "A1", "A3_moved"), "--name", "A3_moved.ply=A3", "--spec", part / "part.toml",
+                       "--max-residual", 0.5)
+    assert with_verdict.exit_code == cli.EXIT_OUT_OF_TOLERANCE  # 5 takes precedence over 8
+    assert "inconsistent_holes" in json.loads(with_verdict.stdout)["failed"]
+
+
+def test_three_holes_one_moved_names_it(reg, part):
+    # A3 moved 0.14 mm diagonally changes A1-A3 and A2-A3: A1-A2 agree, A3 is named
+    result = reg(*_paths(part, "A1", "A2", "A3_diagonal"), "--name", "A3_diagonal.ply=A3", "--spec", part / "part.toml")
+    assert result.exit_code == cli.EXIT_UNDECIDED, result.stderr
+    record = json.loads(result.stdout)
+    assert record["consistency"]["suspects"] == ["A3"]
+    assert "A3 is off (A1-A2 agree)" in record["warnings"][0]["message"]
+    # A3 moved along x (parallel to A1-A2) changes A1-A3 only: A1 moved along y would do the same
+    across = reg(*_paths(part, "A1", "A2", "A3_moved"), "--name", "A3_moved.ply=A3", "--spec", part / "part.toml")
+    assert across.exit_code == cli.EXIT_UNDECIDED, across.stderr
+    assert "A1 or A3 is off (only their distance disagrees)" in json.loads(across.stdout)["warnings"][0]["message"]
+    clean = reg(*_paths(part, "A1", "A2", "A3"), "--spec", part / "part.toml")
+    assert clean.exit_code == cli.EXIT_OK and json.loads(clean.stdout)["warnings"] == []
+
+
+def test_an_outlier_without_max_residual_exits_8(reg, part):
+    # four holes: A3 is named and left out; the transform is sound, but the part's reference hole is not
+    result = reg(*_paths(part, "A1", "A2", "A3_moved", "A4"), "--name", "A3_moved.ply=A3", "--spec", part / "part.toml")
+    assert result.exit_code == cli.EXIT_UNDECIDED, result.stderr
+    record = json.loads(result.stdout)
+    assert record["outliers"] == ["A3"] and record["consistency"]["consistent"]
