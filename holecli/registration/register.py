@@ -609,6 +609,14 @@ def register(measured_holes, nominal_spec_holes, measured_names=None, max_residu
     if unmatched_measured:
         notes.append(("unmatched_hole", f"{len(unmatched_measured)} measured hole(s) match no spec hole "
                                         f"(measured indices {list(unmatched_measured)}): not used"))
+    if int(used.sum()) == 2 and not fit.free_dofs:
+        # consistency.py's module docstring: a move of one of two holes across the line through them is a
+        # rotation of the pair about the normal, which the fit absorbs whole
+        first, second = (name for name, keep in zip(names, used) if keep)
+        warnings.append(("unchecked_direction", f"with two holes, {first} or {second} drilled off across the line "
+                                                f"through them cannot be told from a rotation of the part about "
+                                                f"its normal: nothing checks that direction (register with three "
+                                                f"or more holes to check every direction)"))
     if fit.free_dofs:
         warnings.append(("free_dofs", f"{len(names) - len(outliers)} hole(s) leave free: {', '.join(fit.free_dofs)}"))
     if sigmas is None:

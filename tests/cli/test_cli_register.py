@@ -373,7 +373,7 @@ def test_two_holes_one_moved_warn_widen_and_exit_8(reg, part, tmp_path):
                  "--targets", part / "targets.csv", "--targets-output", corrected)
     assert result.exit_code == cli.EXIT_UNDECIDED, result.stderr
     record = json.loads(result.stdout)
-    assert [w["code"] for w in record["warnings"]] == ["inconsistent_holes"]
+    assert [w["code"] for w in record["warnings"]] == ["inconsistent_holes", "unchecked_direction"]
     assert "holecli: warning: register: inconsistent_holes:" in result.stderr and "A1-A3" in result.stderr
     consistency = record["consistency"]
     assert not consistency["consistent"] and consistency["added_sigma"] > 0.02
@@ -411,3 +411,15 @@ def test_an_outlier_without_max_residual_exits_8(reg, part):
     assert result.exit_code == cli.EXIT_UNDECIDED, result.stderr
     record = json.loads(result.stdout)
     assert record["outliers"] == ["A3"] and record["consistency"]["consistent"]
+
+
+def test_two_holes_say_the_direction_nothing_checks(reg, part):
+    # whatever the layout, two holes cannot see a hole moved across their line (a rotation about the
+    # normal absorbs it): the registration says so instead of a silent exit 0 with a tight u
+    two = reg(*_paths(part, "A1", "A3"), "--spec", part / "part.toml")
+    record = json.loads(two.stdout)
+    assert two.exit_code == cli.EXIT_OK, two.stderr
+    assert [w["code"] for w in record["warnings"]] == ["unchecked_direction"]
+    assert "holecli: warning: register: unchecked_direction: with two holes, A1 or A3" in two.stderr
+    three = reg(*_paths(part, "A1", "A2", "A3"), "--spec", part / "part.toml")
+    assert "unchecked_direction" not in three.stderr
