@@ -90,8 +90,9 @@ def global_verbosity(context, quiet, verbose):
     click.UsageError
         When both are given.
     """
-    if quiet and verbose:
-        raise click.UsageError("--quiet and --verbose cannot be combined")
+    from holecli.cli.options import check_verbosity
+
+    check_verbosity(quiet, verbose)
     chosen = {name: True for name, value in (("quiet", quiet), ("verbose", verbose)) if value}
     if not chosen:
         return
