@@ -16,7 +16,8 @@ the edge (issue 25): the countersink's diameter, included angle and depth, and t
 For each source and value: the number of holes, the coverage of value +- 2u, the median |error| / u
 (0.67 when u is the error's standard deviation) and the median u. The truth of a faceted countersink
 is the panel's nominal circle through the polygon's vertices (simulator) or the mesh truth's
-``edge_diameter`` (file suites).
+``edge_diameter`` (file suites: the least-squares circle of the faceted edge), and ``csk_diam_vertices``
+the circle through the vertices (a CAD model's nominal).
 
 Run:  python benchmarks/countersink_uncertainty.py [--sources lot0,scan0,scan_noisy,cad64,cad1024,validation]
                                                    [--seeds 20] [--cad DIR64,DIR1024] [--json OUT]
@@ -46,7 +47,7 @@ VALIDATION = ROOT.parent.parent / "shared" / "validation" / "realistic"
 if not VALIDATION.exists():
     VALIDATION = Path("/work/shared/validation/realistic")
 K = 2.0
-VALUES = ("csk_diameter", "csk_angle", "csk_depth", "cbore_depth")
+VALUES = ("csk_diameter", "csk_diam_vertices", "csk_angle", "csk_depth", "cbore_depth")
 
 
 def _nearest(holes, center, scale=1.0):
@@ -67,6 +68,9 @@ def _rows_of(hole, truth, scale=1.0):
         for name, value, true, unc, s in pairs:
             if value is not None and true is not None and unc is not None:
                 rows[name] = ((value - true * s) / s, unc / s)
+        vertices = truth.get("edge_diameter_vertices")
+        if cs.diameter is not None and vertices is not None and uc.diameter is not None:
+            rows["csk_diam_vertices"] = ((cs.diameter - vertices * scale) / scale, uc.diameter / scale)
     if hole.counterbore is not None and u is not None and u.counterbore is not None:
         true = truth.get("counterbore_depth")
         if hole.counterbore.depth is not None and true is not None and u.counterbore.depth is not None:
@@ -134,12 +138,14 @@ def scan_rows(seed, noisy):
                  **_rows_of(hole, truth))]
 
 
-def file_rows(folder, view_dir):
+def file_rows(folder, view_dir, only=""):
     """Rows of every countersink in a folder with cases.json and NAME.truth.json (validation format)."""
     folder = Path(folder)
     cases = json.loads((folder / "cases.json").read_text())["cases"]
     out = []
     for case in cases:
+        if only not in case["scan"]:
+            continue
         truth = json.loads((folder / case["truth"]).read_text())
         wanted = [t for t in truth["holes"] if t.get("status", "full") == "full"
                   and t.get("countersink_angle_deg") is not None]
@@ -180,6 +186,7 @@ def main(argv=None):
     parser.add_argument("--seeds", type=int, default=20, help="lots (4 parts each) / scenes per simulated source")
     parser.add_argument("--first-seed", type=int, default=100)
     parser.add_argument("--cad", default="", help="DIR64,DIR1024: folders made by scripts/make_cad_suite.py")
+    parser.add_argument("--cad-only", default="_s0", help="measure the CAD clouds whose name contains this")
     parser.add_argument("--json", default=None, help="write every row to this file")
     options = parser.parse_args(argv)
     cad = dict(zip(("cad64", "cad1024"), options.cad.split(","))) if options.cad else {}
@@ -194,7 +201,7 @@ def main(argv=None):
             if source not in cad:
                 print(f"{source}: skipped (no --cad folder)")
                 continue
-            rows = file_rows(cad[source], view_dir=True)
+            rows = file_rows(cad[source], view_dir=True, only=options.cad_only)
         elif source == "validation":
             rows = file_rows(VALIDATION, view_dir=False)
         else:

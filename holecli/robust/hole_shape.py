@@ -45,7 +45,7 @@ import numpy as np
 
 from holecli.geometry.kernels import largest_angular_gap, robust_sigma
 from holecli.geometry.revolution import fit_cone, fit_cylinder, frame_about
-from holecli.robust.uncertainty import with_model_error
+from holecli.robust.uncertainty import model_error_rms, with_model_error
 from holecli.results import (Bore, BoreUncertainty, Counterbore, CounterboreUncertainty, Countersink,
                              CountersinkUncertainty, HoleNote, HoleWarning)
 from holecli.settings import DEFAULT_SETTINGS
@@ -287,6 +287,12 @@ def _uncertainty(countersink, cone, counterbore, bore, cylinder, c, n, axis, bor
     (:func:`_inner_edge_gap`: the innermost point lies on average that far outside the edge, with a
     spread as large).
 
+    The countersink's diameters also carry the model error's mean offset, which the fit takes into
+    its radius and so the residuals cannot show: a surface departing from the cone by rms ``m`` (see
+    :func:`holecli.robust.uncertainty.model_error_rms`) may lie on average that far off the cone a
+    drawing means (a tessellated cone's facets lie 2.2 ``m`` inside the circle through its vertices,
+    the CAD model's nominal), a radius's ``m / cos(half angle)``, added in quadrature.
+
     A floor's depth gets its points' rms (the scatter of the floor, an upper bound of its plane's
     height uncertainty); the counterbore's diameter is its edge's, given by the hole's own
     uncertainty (None here)."""
@@ -302,6 +308,7 @@ def _uncertainty(countersink, cone, counterbore, bore, cylinder, c, n, axis, bor
 
         top = _surface_crossing(cone.point, cone.axis, c, n)
         u_top = u_radius_at(top)
+        offset = model_error_rms(cone.rms, noise) / float(np.cos(cone.half_angle))
         u_depth = None
         if countersink.depth is not None:
             cylinder_cov = (None if cylinder is None else
@@ -312,9 +319,9 @@ def _uncertainty(countersink, cone, counterbore, bore, cylinder, c, n, axis, bor
                        + countersink.depth * secant2 / tangent * math.sqrt(max(float(cov[5, 5]), 0.0)))
         at_depth = None
         if countersink.diameter_at_depth is not None and countersink.gauge_depth is not None:
-            at_depth = 2.0 * u_radius_at(top - countersink.gauge_depth)
+            at_depth = 2.0 * math.hypot(u_radius_at(top - countersink.gauge_depth), offset)
         out["countersink"] = CountersinkUncertainty(
-            diameter=None if countersink.diameter is None else 2.0 * u_top,
+            diameter=None if countersink.diameter is None else 2.0 * math.hypot(u_top, offset),
             angle_deg=None if countersink.angle_deg is None else math.degrees(2.0 * math.sqrt(max(float(cov[5, 5]), 0.0))),
             depth=u_depth, diameter_at_depth=at_depth)
         axis_covariance = cov[2:4, 2:4]

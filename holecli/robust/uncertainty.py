@@ -155,8 +155,28 @@ def with_model_error(covariance, rms, noise, points):
     """
     if covariance is None or not rms or rms <= 0.0:
         return covariance
-    excess = max(0.0, 1.0 - (NOISE_ON_SLOPES * max(float(noise), 0.0) / float(rms)) ** 2)
+    excess = (model_error_rms(rms, noise) / float(rms)) ** 2
     return np.asarray(covariance) * (1.0 + (max(int(points), 1) - 1) * excess)
+
+
+def model_error_rms(rms, noise) -> float:
+    """The part ``m = sqrt(max(0, rms^2 - (c noise)^2))`` of a fit's residual rms that the surface's
+    noise does not explain (``c`` = :data:`NOISE_ON_SLOPES`; see :func:`with_model_error`).
+
+    Parameters
+    ----------
+    rms : float
+        The fit's residual rms.
+    noise : float
+        Standard deviation of the surface's points along its normal.
+
+    Returns
+    -------
+    float
+    """
+    if not rms or rms <= 0.0:
+        return 0.0
+    return math.sqrt(max(0.0, float(rms) ** 2 - (NOISE_ON_SLOPES * max(float(noise), 0.0)) ** 2))
 
 
 def small_sample_factor(degrees_of_freedom) -> float:
