@@ -2,7 +2,7 @@
 
 benchmarks/uncertainty.py covers a hole's center and edge diameter; this one covers the values below
 the edge (issue 25): the countersink's diameter, included angle and depth, and the counterbore's depth
-(its diameter is the edge's), on sources with known truth:
+(its diameter is the edge's) and the bore's diameter where the lots show one, on sources with known truth:
 
 * ``lot0``: lots of ``sample_clouds/panel.toml`` made by ``holecli simulate --lot`` (the laser
   profiler ray-casting a panel whose circles have the default 0.1 um chord error), no range noise;
@@ -47,7 +47,7 @@ VALIDATION = ROOT.parent.parent / "shared" / "validation" / "realistic"
 if not VALIDATION.exists():
     VALIDATION = Path("/work/shared/validation/realistic")
 K = 2.0
-VALUES = ("csk_diameter", "csk_diam_vertices", "csk_angle", "csk_depth", "cbore_depth")
+VALUES = ("csk_diameter", "csk_diam_vertices", "csk_angle", "csk_depth", "cbore_depth", "bore_diameter")
 
 
 def _nearest(holes, center, scale=1.0):
@@ -75,6 +75,10 @@ def _rows_of(hole, truth, scale=1.0):
         true = truth.get("counterbore_depth")
         if hole.counterbore.depth is not None and true is not None and u.counterbore.depth is not None:
             rows["cbore_depth"] = ((hole.counterbore.depth - true * scale) / scale, u.counterbore.depth / scale)
+    if hole.bore is not None and hole.bore.diameter is not None and u is not None and u.bore is not None:
+        true = truth.get("bore_diameter")
+        if true is not None and u.bore.diameter is not None:
+            rows["bore_diameter"] = ((hole.bore.diameter - true * scale) / scale, u.bore.diameter / scale)
     return rows
 
 
@@ -90,7 +94,7 @@ def lot_rows(seed, noise=0.0):
             truth = json.loads(truth_file.read_text())
             holes = detect_file(str(truth_file).replace(".truth.json", ".ply")).holes
             for t in truth["holes"]:
-                if t.get("kind") not in ("countersunk", "counterbored") or not t.get("inside_scan"):
+                if t.get("kind") not in ("countersunk", "counterbored", "through", "blind") or not t.get("inside_scan"):
                     continue
                 hole = _nearest(holes, t["center"])
                 if hole is None or np.linalg.norm(np.subtract(hole.center, t["center"])) > 0.25 * t["diameter"]:
