@@ -162,8 +162,8 @@ def file_rows(folder, view_dir, only=""):
             print(f"  {case['scan']}: {error}", file=sys.stderr)
             continue
         for t in wanted:
-            hole = _nearest(holes, np.multiply(t["center"], 1.0), scale)
-            if hole is None or np.linalg.norm(np.subtract(hole.center, t["center"])) / scale > 0.25 * t["edge_diameter"] / scale:
+            hole = _nearest(holes, t["center"], scale)
+            if hole is None or np.linalg.norm(np.subtract(hole.center, t["center"])) > 0.25 * t["edge_diameter"]:
                 continue
             t = dict(t, countersink_diameter=t["edge_diameter"])
             out.append(dict(scan=case["scan"], **_rows_of(hole, t, scale)))

@@ -263,8 +263,8 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
     else:
         perpendicularity = _angle_deg(axis, n)
         axis = tuple(float(v) for v in axis)
-    inner_gap = (_inner_edge_gap(cone, pts[cone_mask]) if countersink is not None and countersink.depth_from == "cone_inner_edge"
-                 else 0.0)
+    from_inner_edge = countersink is not None and countersink.depth_from == "cone_inner_edge"
+    inner_gap = _inner_edge_gap(cone, pts[cone_mask]) if from_inner_edge else 0.0
     uncertainty = _uncertainty(countersink, cone, counterbore, bore, cylinder if bore.diameter is not None else None,
                                c, n, axis, bore_axis, floor_rms if floor is not None else None,
                                noise=floor_noise, inner_gap=inner_gap)
