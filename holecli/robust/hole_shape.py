@@ -45,6 +45,7 @@ import numpy as np
 
 from holecli.geometry.kernels import largest_angular_gap, robust_sigma
 from holecli.geometry.revolution import fit_cone, fit_cylinder, frame_about
+from holecli.robust.uncertainty import model_error_rms, with_model_error
 from holecli.results import (Bore, BoreUncertainty, Counterbore, CounterboreUncertainty, Countersink,
                              CountersinkUncertainty, HoleNote, HoleWarning)
 from holecli.settings import DEFAULT_SETTINGS
@@ -262,18 +263,35 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
     else:
         perpendicularity = _angle_deg(axis, n)
         axis = tuple(float(v) for v in axis)
+    from_inner_edge = countersink is not None and countersink.depth_from == "cone_inner_edge"
+    inner_gap = _inner_edge_gap(cone, pts[cone_mask]) if from_inner_edge else 0.0
     uncertainty = _uncertainty(countersink, cone, counterbore, bore, cylinder if bore.diameter is not None else None,
-                               c, n, axis, bore_axis, floor_rms if floor is not None else None)
+                               c, n, axis, bore_axis, floor_rms if floor is not None else None,
+                               noise=floor_noise, inner_gap=inner_gap)
     return HoleShape(type=kind, countersink=countersink, counterbore=counterbore, bore=bore, axis=axis,
                      perpendicularity_deg=perpendicularity,
                      warnings=tuple(w for w in warnings if isinstance(w, HoleWarning)), uncertainty=uncertainty,
                      notes=tuple(w for w in warnings if isinstance(w, HoleNote)))
 
 
-def _uncertainty(countersink, cone, counterbore, bore, cylinder, c, n, axis, bore_axis, floor_rms):
+def _uncertainty(countersink, cone, counterbore, bore, cylinder, c, n, axis, bore_axis, floor_rms, noise=0.0,
+                 inner_gap=0.0):
     """Standard uncertainties of the values below the edge, from the least-squares covariances of the
     cone and cylinder fits (:func:`holecli.geometry.revolution.fit_cone`), propagated to first order:
     ``{"countersink", "counterbore", "bore", "axis_deg"}`` (dataclasses of holecli.results or None).
+
+    Each covariance is widened for the residuals the surface's ``noise`` does not explain
+    (:func:`holecli.robust.uncertainty.with_model_error`: a faceted or finely sampled noise-free cone's
+    departure from the model does not average down with the number of points). A depth down to the
+    cone points' inner edge (no bore seen) also carries that edge's sampling gap ``inner_gap``
+    (:func:`_inner_edge_gap`: the innermost point lies on average that far outside the edge, with a
+    spread as large).
+
+    The countersink's diameters also carry the model error's mean offset, which the fit takes into
+    its radius and so the residuals cannot show: a surface departing from the cone by rms ``m`` (see
+    :func:`holecli.robust.uncertainty.model_error_rms`) may lie on average that far off the cone a
+    drawing means (a tessellated cone's facets lie 2.2 ``m`` inside the circle through its vertices,
+    the CAD model's nominal), a radius's ``m / cos(half angle)``, added in quadrature.
 
     A floor's depth gets its points' rms (the scatter of the floor, an upper bound of its plane's
     height uncertainty); the counterbore's diameter is its edge's, given by the hole's own
@@ -281,7 +299,7 @@ def _uncertainty(countersink, cone, counterbore, bore, cylinder, c, n, axis, bor
     out = {"countersink": None, "counterbore": None, "bore": None, "axis_deg": None}
     axis_covariance = None
     if cone is not None and cone.covariance is not None and countersink is not None:
-        cov = cone.covariance
+        cov = with_model_error(cone.covariance, cone.rms, noise, np.count_nonzero(cone.kept))
         tangent, secant2 = float(np.tan(cone.half_angle)), 1.0 / float(np.cos(cone.half_angle)) ** 2
 
         def u_radius_at(axial):
@@ -290,25 +308,30 @@ def _uncertainty(countersink, cone, counterbore, bore, cylinder, c, n, axis, bor
 
         top = _surface_crossing(cone.point, cone.axis, c, n)
         u_top = u_radius_at(top)
+        offset = model_error_rms(cone.rms, noise) / float(np.cos(cone.half_angle))
         u_depth = None
         if countersink.depth is not None:
-            lower_u = 0.0 if cylinder is None or cylinder.covariance is None else math.sqrt(max(float(cylinder.covariance[4, 4]), 0.0))
+            cylinder_cov = (None if cylinder is None else
+                            with_model_error(cylinder.covariance, cylinder.rms, noise, np.count_nonzero(cylinder.kept)))
+            lower_u = (float(inner_gap) if cylinder_cov is None
+                       else math.sqrt(max(float(cylinder_cov[4, 4]), 0.0)))
             u_depth = (math.hypot(u_top, lower_u) / tangent
                        + countersink.depth * secant2 / tangent * math.sqrt(max(float(cov[5, 5]), 0.0)))
         at_depth = None
         if countersink.diameter_at_depth is not None and countersink.gauge_depth is not None:
-            at_depth = 2.0 * u_radius_at(top - countersink.gauge_depth)
+            at_depth = 2.0 * math.hypot(u_radius_at(top - countersink.gauge_depth), offset)
         out["countersink"] = CountersinkUncertainty(
-            diameter=None if countersink.diameter is None else 2.0 * u_top,
+            diameter=None if countersink.diameter is None else 2.0 * math.hypot(u_top, offset),
             angle_deg=None if countersink.angle_deg is None else math.degrees(2.0 * math.sqrt(max(float(cov[5, 5]), 0.0))),
             depth=u_depth, diameter_at_depth=at_depth)
         axis_covariance = cov[2:4, 2:4]
     if bore is not None and (bore.diameter is not None or bore.floor_depth is not None):
         u_bore = None
         if bore.diameter is not None and cylinder is not None and cylinder.covariance is not None:
-            u_bore = 2.0 * math.sqrt(max(float(cylinder.covariance[4, 4]), 0.0))
+            cylinder_cov = with_model_error(cylinder.covariance, cylinder.rms, noise, np.count_nonzero(cylinder.kept))
+            u_bore = 2.0 * math.sqrt(max(float(cylinder_cov[4, 4]), 0.0))
             if axis_covariance is None and bore_axis is not None:
-                axis_covariance = cylinder.covariance[2:4, 2:4]
+                axis_covariance = cylinder_cov[2:4, 2:4]
         out["bore"] = BoreUncertainty(diameter=u_bore,
                                       floor_depth=None if bore.floor_depth is None else bore.floor_rms)
     if counterbore is not None:
@@ -372,6 +395,15 @@ def _rms_limit(noise, radius, settings):
     at least shape_max_rms_radii of the radius (for noise-free scans, whose facets and round-off
     remain)."""
     return max(settings.shape_max_rms_sigmas * noise, settings.shape_max_rms_radii * radius)
+
+
+def _inner_edge_gap(cone, pts):
+    """The gap expected between the cone's inner edge and the innermost of ``pts`` (see
+    :func:`_inner_edge_radius`)."""
+    radius, _ = _about(pts, cone.point, cone.axis)
+    inner, outer = float(np.min(radius)), float(np.max(radius))
+    density = len(pts) / max(np.pi * (outer ** 2 - inner ** 2), 1e-300)
+    return 1.0 / max(density * 2.0 * np.pi * inner, 1e-300)
 
 
 def _inner_edge_radius(cone, pts):

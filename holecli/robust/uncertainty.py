@@ -106,6 +106,79 @@ def resolution_uncertainty(resolution) -> float:
     return max(float(resolution), 0.0) / math.sqrt(12.0)
 
 
+#: How many times the surface's noise (along its normal) a fit's residual rms on a sloped face (a
+#: countersink's cone, a bore's wall) may be and still be noise: see :func:`with_model_error`.
+NOISE_ON_SLOPES = 2.0
+
+
+def with_model_error(covariance, rms, noise, points):
+    """A least-squares covariance widened for the part of the residuals that is not the data's noise.
+
+    :func:`holecli.geometry.revolution.fit_cone` (and ``fit_cylinder``) give ``s^2 (J^T J)^-1``, ``s``
+    the fit's residual rms: right when the residuals are independent noise, which averages down as
+    ``1 / sqrt(n)``. On a noise-free or very low-noise cloud (a CAD export, a render, a simulated scan)
+    the residuals are the surface's departure from the model instead: a tessellated cone's facets (up
+    to a sagitta inside the circle through its vertices, 2/3 of it on average), a sampling grid beating
+    with them, round-off. That error is one systematic shape shared by all the points, so it does not
+    average down with their number, and ``s^2 (J^T J)^-1`` made the countersink's u hundreds of times
+    smaller than its error (issue 25).
+
+    The residual variance is split into noise and the excess ``m^2 = max(0, rms^2 - (c noise)^2)``,
+    taken as model error, ``noise`` being the surface's own (measured on the flat surface around the
+    hole, independent of the fit) and ``c`` = :data:`NOISE_ON_SLOPES` = 2: a scanner's range noise
+    lies along its view, so the flat surface sees it times the cosine of the view's tilt and a cone's
+    face up to all of it; c = 2 = 1 / cos(60 deg) lets views up to 60 deg off the normal leave their
+    noise as noise, while the noise-free clouds this is for leave rms tens to thousands of times
+    their surface's noise. The noise keeps its ``(J^T J)^-1`` share; the model error gets that of one
+    independent sample, ``n m^2 (J^T J)^-1``: a systematic departure of rms ``m`` moves each parameter
+    by as much as one point of that error would on its own (the radius by about ``m``, the angle by
+    about ``m`` over the spread of the points along the cone). So::
+
+        covariance * (1 + (n - 1) m^2 / rms^2)
+
+    With noisy data the rms is at most ``c noise`` and the covariance is unchanged.
+
+    Parameters
+    ----------
+    covariance : (k, k) ndarray or None
+        The fit's least-squares covariance.
+    rms : float
+        The fit's residual rms over its kept points.
+    noise : float
+        Standard deviation of the surface's points (>= 0), along its normal.
+    points : int
+        The number of points the fit kept.
+
+    Returns
+    -------
+    (k, k) ndarray or None
+    """
+    if covariance is None or not rms or rms <= 0.0:
+        return covariance
+    excess = (model_error_rms(rms, noise) / float(rms)) ** 2
+    return np.asarray(covariance) * (1.0 + (max(int(points), 1) - 1) * excess)
+
+
+def model_error_rms(rms, noise) -> float:
+    """The part ``m = sqrt(max(0, rms^2 - (c noise)^2))`` of a fit's residual rms that the surface's
+    noise does not explain (``c`` = :data:`NOISE_ON_SLOPES`; see :func:`with_model_error`).
+
+    Parameters
+    ----------
+    rms : float
+        The fit's residual rms.
+    noise : float
+        Standard deviation of the surface's points along its normal.
+
+    Returns
+    -------
+    float
+    """
+    if not rms or rms <= 0.0:
+        return 0.0
+    return math.sqrt(max(0.0, float(rms) ** 2 - (NOISE_ON_SLOPES * max(float(noise), 0.0)) ** 2))
+
+
 def small_sample_factor(degrees_of_freedom) -> float:
     """Student's t over the normal quantile at 97.5 % for ``degrees_of_freedom`` (1 beyond 10... 30).
 
