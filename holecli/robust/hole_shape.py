@@ -86,6 +86,9 @@ class HoleShape:
     warnings: tuple  # of HoleWarning (WARNING_CODES)
     uncertainty: Optional[dict] = None  # countersink, counterbore, bore, axis_deg (see _uncertainty)
     notes: tuple = ()  # of HoleNote (NOTE_CODES): why a value is None
+    # The bore diameter's standard uncertainty from its cylinder fit's noise alone (None without a bore
+    # diameter): uncertainty["bore"] adds the model error, which the edge shares (see method.py's use)
+    bore_noise_u: Optional[float] = None
 
 
 def _from_local_surface(d, height, rho, n, R, noise, spacing, settings):
@@ -268,10 +271,13 @@ def measure_hole_shape(points, center, normal, edge_radius, *, noise, spacing, c
     uncertainty = _uncertainty(countersink, cone, counterbore, bore, cylinder if bore.diameter is not None else None,
                                c, n, axis, bore_axis, floor_rms if floor is not None else None,
                                noise=floor_noise, inner_gap=inner_gap)
+    bore_noise_u = None
+    if bore.diameter is not None and cylinder is not None and cylinder.covariance is not None:
+        bore_noise_u = 2.0 * math.sqrt(max(float(cylinder.covariance[4, 4]), 0.0))
     return HoleShape(type=kind, countersink=countersink, counterbore=counterbore, bore=bore, axis=axis,
                      perpendicularity_deg=perpendicularity,
                      warnings=tuple(w for w in warnings if isinstance(w, HoleWarning)), uncertainty=uncertainty,
-                     notes=tuple(w for w in warnings if isinstance(w, HoleNote)))
+                     notes=tuple(w for w in warnings if isinstance(w, HoleNote)), bore_noise_u=bore_noise_u)
 
 
 def _uncertainty(countersink, cone, counterbore, bore, cylinder, c, n, axis, bore_axis, floor_rms, noise=0.0,

@@ -1254,9 +1254,11 @@ def _with_shape(scene, hole, measured, gauge_depth, settings):
     doubts = doubt_warnings(_doubts(scene, hole, measured), settings)
     if shape.type == "through" and shape.bore is not None and shape.bore.diameter is not None \
             and hole.uncertainty is not None and shape.uncertainty is not None:
-        bore_u = dict(shape.uncertainty)["bore"]
+        # the bore's u from its fit's noise alone: the model error that widens the reported one (a
+        # faceted bore's departure from a cylinder) is the same polygon at the edge and on the wall, so
+        # it does not part them; only the two fits' own errors do
         mismatch = edge_bore_warning(hole.diameter, hole.uncertainty.diameter, shape.bore.diameter,
-                                     0.0 if bore_u is None or bore_u.diameter is None else bore_u.diameter, settings)
+                                     shape.bore_noise_u or 0.0, settings)
         doubts = doubts + ((mismatch,) if mismatch is not None else ())
     return Hole(**{**hole.__dict__, "type": shape.type, "countersink": shape.countersink,
                    "counterbore": shape.counterbore, "bore": shape.bore, "axis": shape.axis,
