@@ -68,6 +68,8 @@ def test_a_signal_at_any_moment_of_batch_is_130_without_traceback(holecli_proces
     output = tmp_path / "out.jsonl"
     interrupted = 0
     for delay in DELAYS_S:
+        # each run from an empty output: batch refuses to add to an earlier run's records unasked
+        output.unlink(missing_ok=True)
         process = holecli_process("batch", table1_files[".ply"], table1_files[".csv"], "-o", output, "--jobs", "1",
                                   start=True)
         wait_for_handlers(process)
