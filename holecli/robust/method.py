@@ -33,7 +33,6 @@ from holecli.results import Hole, Plane, Rejection, Scales, Uncertainty
 from holecli.robust.bias import RimScales, sampling_errors
 from holecli.robust.boundary import hole_rim, near_box_edge
 from holecli.robust.candidates import distance_to_outside, find_voids, occupancy_grid, scanned_hull
-from holecli.robust.countersink import MIN_SLOPE as MIN_CONE_SLOPE
 from holecli.robust.countersink import Cone, fit_cone_edge, points_on_hinge
 from holecli.robust.doubts import Doubts, doubt_warnings, edge_bore_warning
 from holecli.robust.edge import fit_edge
@@ -413,7 +412,7 @@ def _cone_in_the_plane(scene, center, cone, settings):
         start = result.x
     cx, cy, edge, slope = result.x
     shift = float(np.hypot(cx - center[0], cy - center[1]))
-    if not result.success or shift > width or abs(edge - cone.radius) > width or not MIN_CONE_SLOPE <= slope:
+    if not result.success or shift > width or abs(edge - cone.radius) > width or not settings.cone_min_slope <= slope:
         return center, cone.radius, None
     covariance = _least_squares_covariance(result, scale)  # None: singular (no covariance, not a crash)
     return np.array([cx, cy]), float(edge), None if covariance is None else covariance[:3, :3]

@@ -40,3 +40,24 @@ def test_countersink_centers_on_tilted_scans():
     # from the rim, these were off by 1 to 15 um
     assert sum(error > 5e-3 for error in errors) <= 1, errors
     assert np.median(errors) < 2e-3, errors
+
+
+def test_a_callers_cone_min_slope_reaches_the_free_center_cone_fit():
+    """Issue 26's defect: the free-center cone fit judged its slope by the import-time default
+    (countersink.MIN_SLOPE, 0.2), not by the caller's ``cone_min_slope``. A shallow 160 degree
+    countersink (slope 0.18) accepted with ``cone_min_slope=0.1`` then lost its cone center and kept
+    the rim's, 1.5-3 um off on these scans instead of under 1 um."""
+    from holecli.settings import RobustSettings
+    from holecli.simulation.synth import HoleSpec, SceneSpec, make_scan
+
+    settings = RobustSettings(cone_min_slope=0.1)
+    errors = []
+    for seed in range(4):
+        scene = SceneSpec(holes=(HoleSpec(center=(0.0, 0.0), diameter=3.0, countersink_diameter=5.0,
+                                          countersink_angle_deg=160.0, bore_depth=1.0),),
+                          extent=(-5.0, 5.0, -5.0, 5.0), spacing=0.05, noise_normal=0.002)
+        scan = make_scan(scene, rng=seed)
+        (hole,) = detect(scan.points, settings=settings).holes
+        assert hole.type == "countersunk"
+        errors.append(float(np.linalg.norm(np.subtract(hole.center, scan.truth["holes"][0]["center"]))))
+    assert max(errors) < 1e-3, errors
