@@ -35,9 +35,10 @@ def record_schema(kind=None) -> dict:
 
     Examples
     --------
+    >>> from holecli.results import SCHEMA_VERSION
     >>> from holecli.schema import record_schema
-    >>> record_schema()["$defs"]["detect_record"]["properties"]["schema_version"]["const"]
-    '2.2'
+    >>> record_schema()["$defs"]["detect_record"]["properties"]["schema_version"]["const"] == SCHEMA_VERSION
+    True
     """
     schema = json.loads(resources.files(__name__).joinpath(SCHEMA_FILE).read_text(encoding="utf-8"))
     if kind is None:
