@@ -84,11 +84,6 @@ CORRECTION_SHARE = {"empty_circle": 1.0 / math.sqrt(3.0)}
 # of the empty circle's center uncertainty (random sampling is the one it is used on).
 EMPTY_CIRCLE_CENTER = 0.5
 
-# Student's t at 97.5 % over the normal's 1.96, for a spread estimated from k - 1 degrees of
-# freedom: widens a few-sample spread so that +-2u keeps a 95 % coverage (index: degrees of freedom).
-_T_975 = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262,
-          10: 2.228}
-
 
 def resolution_uncertainty(resolution) -> float:
     """The standard uncertainty of a length known to the data's resolution: ``resolution / sqrt(12)``
@@ -180,7 +175,7 @@ def model_error_rms(rms, noise) -> float:
 
 
 def small_sample_factor(degrees_of_freedom) -> float:
-    """Student's t over the normal quantile at 97.5 % for ``degrees_of_freedom`` (1 beyond 10... 30).
+    """Student's t over the normal quantile at 97.5 % for ``degrees_of_freedom``.
 
     Parameters
     ----------
@@ -189,15 +184,15 @@ def small_sample_factor(degrees_of_freedom) -> float:
     Returns
     -------
     float
-        ``t_0.975(dof) / 1.96``; 1 from 30 degrees of freedom, interpolated in ``1/dof`` beyond 10.
+        ``t_0.975(dof) / z_0.975`` (``scipy.special.stdtrit`` and ``ndtri``): 1.62 at 3 degrees of
+        freedom, 1.04 at 30, toward 1.
     """
+    from scipy.special import ndtri, stdtrit
+
     dof = int(degrees_of_freedom)
     if dof < 1:
         raise ValueError(f"degrees_of_freedom must be >= 1, got {degrees_of_freedom}")
-    if dof in _T_975:
-        return _T_975[dof] / 1.96
-    # t_0.975 ~ 1.96 + 2.4 / dof beyond 10 degrees of freedom (2.086 at 20, 2.042 at 30)
-    return (1.96 + 2.4 / dof) / 1.96
+    return float(stdtrit(dof, 0.975) / ndtri(0.975))
 
 
 def circle_fit_covariance(rim_xy, center, radius):

@@ -17,10 +17,10 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 def test_small_sample_factor_is_students_t_over_the_normal_quantile():
-    assert small_sample_factor(3) == pytest.approx(3.182 / 1.96)
-    assert small_sample_factor(7) == pytest.approx(2.365 / 1.96)
-    assert small_sample_factor(30) == pytest.approx(2.04 / 1.96, abs=0.01)
-    assert small_sample_factor(1000) == pytest.approx(1.0, abs=0.002)
+    # t_0.975 as printed in the tables (NIST/SEMATECH e-Handbook 1.3.6.7.2), over z_0.975 = 1.960
+    for dof, t in ((1, 12.706), (3, 3.182), (7, 2.365), (10, 2.228), (20, 2.086), (30, 2.042), (100, 1.984)):
+        assert small_sample_factor(dof) == pytest.approx(t / 1.960, abs=0.0006), dof
+    assert small_sample_factor(10 ** 6) == pytest.approx(1.0, abs=1e-5)
     with pytest.raises(ValueError):
         small_sample_factor(0)
 
