@@ -83,6 +83,7 @@ from typing import Optional
 from holecli.errors import SpecError
 from holecli.io.decimal_text import parse_decimal
 from holecli.units import UNIT_MISMATCH, declared_units, label_record, scale_factor, unit_factors, unit_mistake
+from holecli.vocabulary import DECISION_RULES
 
 __all__ = ["DECISION_RULES", "DEFAULT_COVERAGE_FACTOR", "Band", "NominalHole", "Spec", "check", "describe",
            "load_toml", "nominal_spec", "parse_band", "parse_spec", "spec_in_units", "spec_number", "unit_scale_match"]
@@ -143,7 +144,6 @@ NOT_IN_SPEC_FRAME = "not_in_spec_frame"
 
 # The decision rules of ISO 14253-1 that check() applies, and the default coverage factor (k = 2: about
 # 95 % coverage for a normal distribution, the usual choice of a calibration certificate).
-DECISION_RULES = ("simple", "guarded")
 DEFAULT_COVERAGE_FACTOR = 2.0
 
 # Where each check's standard uncertainty is in a hole's ``uncertainty`` (its value, or null).

@@ -26,6 +26,9 @@ import click
 
 from holecli.cli.exits import EXIT_INPUT, EXIT_USAGE, Failure
 from holecli.errors import SpecError
+# The formats of --input-format and the values of --decision-rule (standard library only: building
+# the options imports neither the readers nor numpy).
+from holecli.vocabulary import DECISION_RULES, INPUT_FORMATS
 
 
 class FloatTuple(click.ParamType):
@@ -94,9 +97,6 @@ class ToleranceBand(click.ParamType):
             self.fail(str(error), param, ctx)
 
 
-# The formats of --input-format: holecli.io.INPUT_FORMATS, spelled out here so that building the
-# options does not import the readers (numpy); a test keeps the two equal.
-INPUT_FORMATS = ("ply", "pcd", "csv", "txt", "xyz", "e57", "las", "laz")
 
 
 def input_format_option(help_text):
@@ -436,11 +436,6 @@ _FEATURE_OPTIONS = (
     ("--bore-diameter", "D", "Nominal diameter of the bore below the edge (its fitted cylinder), checked "
                              "with --bore-diameter-tolerance.", "+0.036/-0"),
 )
-
-
-# The values of --decision-rule (holecli.tolerance.DECISION_RULES, spelled out here so that building
-# the options does not import it; a test keeps the two equal).
-DECISION_RULES = ("simple", "guarded")
 
 
 def tolerance_option_decorators(function):

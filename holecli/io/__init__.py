@@ -76,15 +76,14 @@ from holecli.io.outfile import write_bytes
 from holecli.io.pcd import encode_pcd, read_pcd
 from holecli.io.ply import encode_ply, read_ply
 from holecli.io.text import TableColumns, encode_table, parse_columns, read_table_columns
+from holecli.vocabulary import INPUT_EXTENSIONS, INPUT_FORMATS
 
 __all__ = ["INPUT_FORMATS", "MAX_STREAM_BYTES", "STDIN_NAME", "SUPPORTED_EXTENSIONS", "WRITE_EXTENSIONS", "Cloud",
            "TableColumns", "load_points", "parse_columns", "read_cloud", "read_stream", "save_points"]
 
-# What read_cloud reads, and what save_points writes.
-SUPPORTED_EXTENSIONS = (".ply", ".pcd", ".csv", ".txt", ".xyz", ".e57", ".las", ".laz")
+# What read_cloud reads (and by name, ``input_format``), and what save_points writes.
+SUPPORTED_EXTENSIONS = INPUT_EXTENSIONS
 WRITE_EXTENSIONS = (".ply", ".pcd", ".csv", ".txt", ".xyz")
-# The formats by name (``input_format``, ``--input-format``): the extensions without their dot.
-INPUT_FORMATS = tuple(extension[1:] for extension in SUPPORTED_EXTENSIONS)
 # What messages and records call standard input.
 STDIN_NAME = "<stdin>"
 # The most :func:`read_stream` reads: a stream has no size to check beforehand and may never end

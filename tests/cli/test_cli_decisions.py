@@ -92,12 +92,6 @@ def test_the_readme_documents_exit_8_and_the_decision_rules(repo_root):
     assert "### Decision rules" in text and "| `--coverage-factor K` |" in text
 
 
-def test_the_cli_decision_rules_are_the_cores():
-    from holecli.cli.options import DECISION_RULES
-
-    assert DECISION_RULES == tolerance.DECISION_RULES
-
-
 def test_simple_is_the_default_and_reports_u(run, scan, measured):
     result, record = _detect(run, scan, "--nominal-diameter", measured, "--tolerance", "+0.1/-0")
     assert result.exit_code == cli.EXIT_OK, result.stderr

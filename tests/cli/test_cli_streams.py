@@ -67,10 +67,6 @@ def quick_folder(tmp_path_factory):
     return folder
 
 
-def test_input_formats_of_the_options_are_the_readers():
-    assert cli_options.INPUT_FORMATS == INPUT_FORMATS
-
-
 # --- holecli detect - ----------------------------------------------------------------------------
 
 

@@ -1,0 +1,18 @@
+"""The words a record, the command line and the readers share, defined once.
+
+Only the standard library is imported here: the command line builds its options (click choices,
+help texts) from these without importing numpy or the readers, and the core checks its arguments
+against the very same tuples, so no copy has to be kept equal by a test.
+"""
+
+from __future__ import annotations
+
+__all__ = ["DECISION_RULES", "INPUT_EXTENSIONS", "INPUT_FORMATS"]
+
+# What holecli.io.read_cloud reads, by extension.
+INPUT_EXTENSIONS = (".ply", ".pcd", ".csv", ".txt", ".xyz", ".e57", ".las", ".laz")
+# The formats by name (``input_format``, ``--input-format``): the extensions without their dot.
+INPUT_FORMATS = tuple(extension[1:] for extension in INPUT_EXTENSIONS)
+# How a tolerance check is decided (ISO 14253-1): by the value alone, or by the value +- its
+# expanded uncertainty (holecli.tolerance, ``--decision-rule``).
+DECISION_RULES = ("simple", "guarded")
