@@ -71,13 +71,13 @@ class Inspection:
         if self.registration is None:
             return self.spec
         from holecli.registration.apply import map_spec
-        from holecli.units import UNITS
+        from holecli.units import UNITS, scale_factor
 
         registration = self.registration
         provenance = dict(self.provenance or {})
         if registration.units is not None and units in UNITS:
             if registration.units != units:
-                registration = registration.scaled(UNITS[registration.units] / UNITS[units])
+                registration = registration.scaled(scale_factor(registration.units, units))
             provenance["units"] = registration.units
         else:
             provenance["units"] = None  # not said: taken as the record's
