@@ -1,10 +1,13 @@
-"""The README's shell examples run as printed.
+"""The README's and the docs' shell examples run as printed.
 
-Every fenced block of README.md tagged ``sh``, ``bash`` or ``shell`` is run, in order, each in a fresh
+Every fenced block tagged ``sh``, ``bash`` or ``shell`` of README.md and of every page of the docs site
+(``docs/**/*.md``, :data:`DOCUMENTS`) is run, in order, each in a fresh
 temporary folder holding copies of the repository's ``sample_clouds/``, ``docs/`` and ``scripts/`` (so
-that the README's relative paths work and nothing is ever written into the repository), with the
+that the examples' relative paths work and nothing is ever written into the repository), with the
 repository's ``holecli`` first on ``PATH`` (the folder of the Python running the tests) and this
-checkout on ``PYTHONPATH``. The test is parametrized per block, its id the block's line and section.
+checkout on ``PYTHONPATH``. The test is parametrized per block, its id the document, the block's line
+and section. The grammar is the same in every document; a block continues only a block of its own
+document.
 
 The grammar of a block
 ----------------------
@@ -23,11 +26,12 @@ The grammar of a block
 
 Markers
 -------
-HTML comments, not shown on the rendered page but visible in the README's source, on the lines
+HTML comments, not shown on the rendered page but visible in the Markdown source, on the lines
 directly above a block's opening fence (no blank line between), one directive each:
 
 - ``<!-- example: not run (REASON) -->``: the block is not run (it installs packages, needs the network
-  or a machine's folders, runs for minutes). REASON is required; at most ``MAX_NOT_RUN`` blocks.
+  or a machine's folders, runs for minutes). REASON is required; at most ``MAX_NOT_RUN`` blocks in
+  all the documents together.
 - ``<!-- example: xfail (REASON) -->``: the block is run and must fail (a strict xfail): a known bug of
   holecli, named in REASON. It fails the test once the bug is fixed, so that the marker goes.
 - ``<!-- example: setup: COMMANDS -->``: bash commands run in the block's folder first, which must exit
@@ -56,12 +60,14 @@ import pytest
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 README = REPO_ROOT / "README.md"
+# Every document whose examples are run: the README, then the docs site's pages.
+DOCUMENTS = [README, *sorted((REPO_ROOT / "docs").rglob("*.md"))]
 
 SHELL_LANGS = {"sh", "bash", "shell"}
 OUTPUT_LANGS = {"", "text"}
-# The repository's folders a README example may name by a relative path; copied into each block's folder.
+# The repository's folders an example may name by a relative path; copied into each block's folder.
 COPIED_FOLDERS = ("sample_clouds", "docs", "scripts")
-# Blocks that may be marked "not run": few, each with its reason in the README.
+# Blocks that may be marked "not run", in all the documents together: few, each with its reason.
 MAX_NOT_RUN = 10
 COMMAND_TIMEOUT_S = 600
 
@@ -73,7 +79,7 @@ LOOKS_LIKE_A_COMMAND = re.compile(r"^(\$ |holecli )")
 
 @dataclasses.dataclass
 class Block:
-    """A fenced block of the README, with its markers and the output block printed under it."""
+    """A fenced block of a document, with its markers and the output block printed under it."""
 
     line: int                     # 1-based line of the opening fence
     lang: str
@@ -81,6 +87,7 @@ class Block:
     heading: str
     markers: list
     output: str | None = None     # the text of the block under it that shows what it prints
+    document: str = "README.md"   # the file it is in, relative to the repository's root
 
     def directive(self, name):
         """The argument of the marker ``name`` (``""`` when it has none), or None without that marker."""
@@ -107,8 +114,15 @@ class Command:
         return codes.pop() if codes else 0
 
 
-def parse_readme(text):
+def parse_readme(text, document="README.md"):
     """The fenced blocks of a Markdown text, in order, and the problems of their markers.
+
+    Parameters
+    ----------
+    text : str
+        The Markdown.
+    document : str
+        Its file's path relative to the repository's root, for the blocks and the messages.
 
     Returns
     -------
@@ -129,7 +143,7 @@ def parse_readme(text):
             while following < len(lines) and MARKER.match(lines[following]):
                 following += 1
             if following >= len(lines) or not FENCE.match(lines[following]):
-                problems.append(f"README.md:{index + 1}: a marker not directly above a block: {line}")
+                problems.append(f"{document}:{index + 1}: a marker not directly above a block: {line}")
         if not fence:
             index += 1
             continue
@@ -140,7 +154,8 @@ def parse_readme(text):
         while above >= 0 and MARKER.match(lines[above]):
             markers.insert(0, MARKER.match(lines[above]).group(1))
             above -= 1
-        block = Block(index + 1, fence.group(2), "\n".join(lines[index + 1:end]), heading, markers)
+        block = Block(index + 1, fence.group(2), "\n".join(lines[index + 1:end]), heading, markers,
+                      document=document)
         blocks.append(block)
         index = end + 1
     for previous, block in zip(blocks, blocks[1:]):
@@ -152,14 +167,14 @@ def parse_readme(text):
         for marker in block.markers:
             name = re.match(r"(not run|xfail|setup|continues|run)\b", marker)
             if name is None:
-                problems.append(f"README.md:{block.line}: unknown marker directive {marker!r}")
+                problems.append(f"{document}:{block.line}: unknown marker directive {marker!r}")
             elif name.group(1) == "run" and block.lang != "python":
-                problems.append(f"README.md:{block.line}: 'run' is for python blocks (shell blocks run anyway)")
+                problems.append(f"{document}:{block.line}: 'run' is for python blocks (shell blocks run anyway)")
             elif name.group(1) in ("not run", "xfail") and not re.fullmatch(r"\w+( \w+)? \(.+\)", marker):
-                problems.append(f"README.md:{block.line}: {name.group(1)!r} needs its reason in parentheses")
+                problems.append(f"{document}:{block.line}: {name.group(1)!r} needs its reason in parentheses")
         first = block.text.lstrip("\n").split("\n", 1)[0]
         if block.lang in ("", "console") and LOOKS_LIKE_A_COMMAND.match(first) and block.output is None:
-            problems.append(f"README.md:{block.line}: a block that starts like a command is tagged "
+            problems.append(f"{document}:{block.line}: a block that starts like a command is tagged "
                             f"{block.lang or 'nothing'}: tag it sh (run) or text (a synopsis)")
     return blocks, problems
 
@@ -219,7 +234,7 @@ def example_environment():
 
 
 def prepare_folder(folder):
-    """Copies of the repository's folders the README names by relative paths."""
+    """Copies of the repository's folders the examples name by relative paths."""
     for name in COPIED_FOLDERS:
         shutil.copytree(REPO_ROOT / name, folder / name)
 
@@ -252,26 +267,37 @@ def run_block(block, folder, env):
         code, out = _run(["bash", "-o", "pipefail", "-c", command.source], folder, env)
         printed.append(out)
         if code != command.expected_exit:
-            problems.append(f"`{command.source}` exited {code}, the README says {command.expected_exit}:\n"
+            problems.append(f"`{command.source}` exited {code}, {block.document} says {command.expected_exit}:\n"
                             f"{_tail(out)}")
     printed = "".join(printed)
     if block.output is not None and not doctest.OutputChecker().check_output(block.output, printed,
                                                                                doctest.ELLIPSIS):
-        problems.append(f"the block printed\n{printed}\nwhere the README shows\n{block.output}")
+        problems.append(f"the block printed\n{printed}\nwhere {block.document} shows\n{block.output}")
     return problems, printed
 
 
 def chain_of(block, blocks):
-    """The blocks to run, in order, for block: those it continues (recursively), then itself."""
+    """The blocks to run, in order, for block: those it continues (recursively, in its document), then itself."""
     chain = [block]
     while chain[0].directive("continues") is not None:
-        before = [other for other in blocks if other.line < chain[0].line and other.runs]
-        assert before, f"README.md:{chain[0].line}: continues no block"
+        before = [other for other in blocks if other.document == chain[0].document and other.line < chain[0].line
+                  and other.runs]
+        assert before, f"{chain[0].document}:{chain[0].line}: continues no block"
         chain.insert(0, before[-1])
     return chain
 
 
-BLOCKS, PROBLEMS = parse_readme(README.read_text(encoding="utf-8"))
+def parse_documents(paths):
+    """The blocks and the problems of every document in ``paths``, in order."""
+    blocks, problems = [], []
+    for path in paths:
+        found, wrong = parse_readme(path.read_text(encoding="utf-8"), path.relative_to(REPO_ROOT).as_posix())
+        blocks += found
+        problems += wrong
+    return blocks, problems
+
+
+BLOCKS, PROBLEMS = parse_documents(DOCUMENTS)
 
 
 def _slug(text):
@@ -284,7 +310,8 @@ def _params(blocks):
             continue
         marks = [pytest.mark.xfail(strict=True, reason=block.directive("xfail"))] \
             if block.directive("xfail") is not None else []
-        yield pytest.param(block, id=f"L{block.line}-{_slug(block.heading)}", marks=marks)
+        document = "" if block.document == "README.md" else _slug(block.document.removeprefix("docs/")[:-3]) + "-"
+        yield pytest.param(block, id=f"{document}L{block.line}-{_slug(block.heading)}", marks=marks)
 
 
 @pytest.mark.slow
@@ -295,7 +322,7 @@ def test_readme_example_runs_as_printed(block, tmp_path):
     problems = []
     for link in chain_of(block, BLOCKS):
         found, _ = run_block(link, tmp_path, env)
-        problems += [f"README.md:{link.line} ({link.heading}): {problem}" for problem in found]
+        problems += [f"{link.document}:{link.line} ({link.heading}): {problem}" for problem in found]
     assert not problems, "\n\n".join(problems)
 
 
@@ -305,9 +332,15 @@ def test_every_shell_block_is_run_or_marked_not_run_with_a_reason():
     not_run = [block for block in shell if block.directive("not run") is not None]
     run = [block for block in shell if block.runs]
     assert len(run) + len(not_run) == len(shell) and len(run) >= 15, (len(run), len(not_run), len(shell))
-    assert len(not_run) <= MAX_NOT_RUN, [f"README.md:{block.line}" for block in not_run]
+    assert len(not_run) <= MAX_NOT_RUN, [f"{block.document}:{block.line}" for block in not_run]
     for block in not_run:
         assert block.directive("not run").startswith("(") and len(block.directive("not run")) > 5, block.line
+
+
+def test_the_docs_pages_examples_are_run_too():
+    documents = {block.document for block in BLOCKS if block.runs}
+    assert "README.md" in documents and {"docs/guide/detect.md", "docs/guide/batch.md"} <= documents, documents
+    assert all(path.suffix == ".md" for path in DOCUMENTS[1:]) and len(DOCUMENTS) > 20, DOCUMENTS
 
 
 # The grammar itself, on made-up blocks (these fail if the runner stops checking what it claims to).
@@ -329,7 +362,7 @@ def test_a_wrong_exit_code_a_wrong_output_and_a_failed_setup_are_reported(tmp_pa
     env = example_environment()
     wrong_code = Block(1, "sh", "exit 3   # exit 4\ntrue", "t", [])
     problems, _ = run_block(wrong_code, tmp_path, env)
-    assert len(problems) == 1 and "exited 3, the README says 4" in problems[0]
+    assert len(problems) == 1 and "exited 3, README.md says 4" in problems[0]
     wrong_output = Block(1, "sh", "echo one; echo two >&2", "t", [], output="one\nthree\n")
     assert run_block(wrong_output, tmp_path, env)[0]
     right_output = Block(1, "sh", "echo one; echo two >&2", "t", [], output="one\nt...\n")
@@ -364,3 +397,10 @@ def test_an_xfail_block_is_a_strict_xfail_and_a_not_run_block_is_not_a_test():
     (mark,) = params[0].marks
     assert mark.name == "xfail" and mark.kwargs == {"strict": True, "reason": "(a bug)"}
     assert [link.line for link in chain_of(blocks[3], blocks)] == [11, 15]
+
+
+def test_a_block_continues_only_a_block_of_its_own_document():
+    first, _ = parse_readme("```sh\ntrue\n```\n", "docs/a.md")
+    second, _ = parse_readme("<!-- example: continues (x) -->\n```sh\ntrue\n```\n", "docs/b.md")
+    with pytest.raises(AssertionError, match="docs/b.md:2: continues no block"):
+        chain_of(second[0], first + second)
