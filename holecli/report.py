@@ -6,7 +6,7 @@ import csv
 import io
 import json
 
-# Columns of the CSV output, in order; the README documents each. The tolerance columns are empty
+# Columns of the CSV output, in order; docs/reference/output.md documents each. The tolerance columns are empty
 # unless tolerance options or a spec file were given.
 CSV_COLUMNS = (
     "file", "hole", "center_x", "center_y", "center_z", "diameter", "normal_x", "normal_y", "normal_z",

@@ -47,7 +47,7 @@ class Plane:
 
 @dataclass(frozen=True)
 class Countersink:
-    """The countersink cone of a countersunk hole (file units; see the README's ``countersink``).
+    """The countersink cone of a countersunk hole (file units; see ``countersink`` in docs/reference/output.md).
 
     Attributes
     ----------
@@ -157,7 +157,7 @@ class BoreUncertainty:
 class Uncertainty:
     """Standard uncertainties (coverage factor 1) of a hole's values, file units (degrees for angles).
 
-    How each is computed is in :mod:`holecli.robust.uncertainty` and the README ("Uncertainty"); the
+    How each is computed is in :mod:`holecli.robust.uncertainty` and docs/method/uncertainty.md; the
     interval ``value +- 2u`` holds the true value in about 95 % of cases (validated by
     ``benchmarks/uncertainty.py``).
 
@@ -171,7 +171,7 @@ class Uncertainty:
     normal_deg : float
         Of the normal's direction, degrees.
     estimator : str
-        What measured the edge: ``rim_fit``, ``lattice``, ``empty_circle`` or ``cone`` (README).
+        What measured the edge: ``rim_fit``, ``lattice``, ``empty_circle`` or ``cone`` (docs/method/uncertainty.md).
     countersink, counterbore, bore : or None
         Of the values below the edge, when the hole has them.
     axis_deg, perpendicularity_deg : float or None
@@ -193,7 +193,7 @@ class Uncertainty:
 @dataclass(frozen=True)
 class HoleWarning:
     """Something that makes a hole's result doubtful (a value given may be wrong): a short stable
-    ``code`` and a sentence (``message``) with the numbers (the codes are listed in the README)."""
+    ``code`` and a sentence (``message``) with the numbers (the codes are listed in docs/reference/warnings.md)."""
 
     code: str
     message: str
@@ -203,7 +203,7 @@ class HoleWarning:
 class HoleNote:
     """Why a value of a hole is null, or a fact that makes no value given doubtful (a scan straight
     down a bore sees no bore wall): a short stable ``code`` and a sentence (``message``) with the
-    numbers, as :class:`HoleWarning` (the codes are listed in the README)."""
+    numbers, as :class:`HoleWarning` (the codes are listed in docs/reference/warnings.md)."""
 
     code: str
     message: str
@@ -216,7 +216,7 @@ class Hole:
     Attributes
     ----------
     index : int
-        Position of the hole in the result, from 0; holes are ordered by their center (see the README).
+        Position of the hole in the result, from 0; holes are ordered by their center (see docs/reference/output.md).
     center : (3,) tuple of float
         Center of the rim circle in 3D, on the surface, in file units.
     diameter : float
@@ -321,7 +321,7 @@ class Rejection:
     check : str
         The check that refused it: ``no_rim``, ``too_few_rim_points``, ``no_circle_fit``,
         ``below_min_diameter``, ``material_inside``, ``not_round``, ``partial_rim_arc``, ``boss``,
-        ``duplicate``, ``partial_left_out`` or ``beyond_max_holes`` (see the README).
+        ``duplicate``, ``partial_left_out`` or ``beyond_max_holes`` (see docs/guide/detect.md, --explain).
     reason : str
         That check in a sentence.
     center : (3,) tuple of float
@@ -360,7 +360,7 @@ class Rejection:
 
 # The version of the record's layout (``schema_version``): MAJOR.MINOR. MINOR grows when a key is
 # added (a reader may ignore keys it does not know); MAJOR when a key is removed, renamed or moved or
-# its type or meaning changes. The README documents the rule; holecli/schema/record.schema.json
+# its type or meaning changes. docs/reference/output.md documents the rule; holecli/schema/record.schema.json
 # describes this version. 2.2 (issue 24): holes[].notes, the reasons a value is null, out of warnings.
 # 2.3 (issue 25): input_columns, the columns of a text table read as x, y, z, and options.columns.
 SCHEMA_VERSION = "2.3"
@@ -541,7 +541,7 @@ class Detection:
         return self.timing.elapsed_ms
 
     def to_dict(self, explain=False) -> dict:
-        """The JSON record of the command line (see the README for the contract).
+        """The JSON record of the command line (see docs/reference/output.md for the contract).
 
         Parameters
         ----------

@@ -39,16 +39,16 @@ def _commands(group, path=()):
             yield from _commands(group.get_command(context, name), (*path, name))
 
 
-def _help_text(command, path):
-    """``holecli PATH --help`` as click prints it, at :data:`HELP_WIDTH` columns."""
-    import click
+def help_text(path):
+    """What ``holecli PATH... --help`` prints, at :data:`HELP_WIDTH` columns (the command itself is run)."""
+    from click.testing import CliRunner
 
-    parent = None
-    for depth in range(len(path) + 1):
-        parent = click.Context(command if depth == len(path) else click.Group(),
-                               info_name="holecli" if depth == 0 else path[depth - 1], parent=parent,
-                               terminal_width=HELP_WIDTH, max_content_width=HELP_WIDTH)
-    return command.get_help(parent).rstrip() + "\n"
+    from holecli.cli import main
+
+    result = CliRunner().invoke(main, [*path, "--help"], prog_name="holecli", terminal_width=HELP_WIDTH)
+    if result.exit_code != 0:
+        raise RuntimeError(f"holecli {' '.join(path)} --help exited {result.exit_code}: {result.output}")
+    return result.stdout
 
 
 def cli_reference():
@@ -56,9 +56,9 @@ def cli_reference():
     from holecli.cli import main
 
     sections = []
-    for path, command in _commands(main):
+    for path, _ in _commands(main):
         title = " ".join(("holecli", *path))
-        sections.append(f"## `{title}`\n\n```text\n{_help_text(command, path)}```\n")
+        sections.append(f"## `{title}`\n\n```text\n{help_text(path).rstrip()}\n```\n")
     return "\n".join(sections)
 
 

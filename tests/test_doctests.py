@@ -26,14 +26,13 @@ def test_docstring_examples_run_as_printed(name, repo_root, monkeypatch):
     assert results.failed == 0, f"{results.failed} of {results.attempted} examples of {name} failed (see above)"
 
 
-def test_readme_detect_file_example_prints_what_the_readme_says(repo_root, monkeypatch, capsys):
-    # The Python API section's first example, and the output printed under it.
-    text = (repo_root / "README.md").read_text(encoding="utf-8")
-    section = text[text.index("## Python API"):]
+def test_the_docs_detect_file_example_prints_what_the_docs_say(repo_root, monkeypatch, capsys):
+    # The Python API page's first example, and the output printed under it.
+    section = (repo_root / "docs" / "guide" / "python.md").read_text(encoding="utf-8")
     match = re.search(r"```python\n(.*?)```\n\nprints\n\n```\n(.*?)```\n", section, re.DOTALL)
     assert match is not None and "detect_file(" in match.group(1)
     monkeypatch.chdir(repo_root)
-    exec(compile(match.group(1), "README.md", "exec"), {})
+    exec(compile(match.group(1), "docs/guide/python.md", "exec"), {})
     assert capsys.readouterr().out == match.group(2)
 
 

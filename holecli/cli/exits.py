@@ -4,7 +4,7 @@ Every command runs its body in :func:`run_guarded`: an expected failure becomes 
 ``Error: <message>`` on stderr and its exit code, Ctrl-C and SIGTERM the exit with 130 (after the body
 cleaned up), a reader of stdout that stopped reading (``| head -1``) the exit with 141
 (:func:`broken_pipe`). The codes are documented here, in every ``--help`` (:data:`EXIT_CODES_HELP`,
-:data:`BATCH_EXIT_CODES_HELP`) and in the README.
+:data:`BATCH_EXIT_CODES_HELP`) and in the docs (``docs/reference/exit-codes.md``).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import sys
 
 import click
 
-# Exit codes: documented here, in every --help and in the README.
+# Exit codes: documented here, in every --help and in docs/reference/exit-codes.md.
 EXIT_OK = 0
 EXIT_INTERNAL = 1
 EXIT_USAGE = 2  # click's own

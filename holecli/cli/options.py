@@ -218,7 +218,7 @@ def detection_option_decorators(function):
                           "projecting orthogonally (e.g. 0,0,1)."),
         click.option("--min-diameter", type=Decimal(min=0), default=None,
                      help="Smallest hole diameter reported, file units (or --output-units) [default: 6 gap "
-                          "scales of the sampling, see README]."),
+                          "scales of the sampling, see docs/guide/detect.md]."),
         click.option("--max-holes", type=click.IntRange(min=1), default=None,
                      help="Report at most N holes (the largest)."),
         click.option("--full-only", is_flag=True, help="Leave out holes cut by the border of the scan."),
@@ -315,7 +315,7 @@ def verbosity_option_decorators(function):
 
 class WarningCodes(click.ParamType):
     """``--fail-on-warning``'s value: ``any`` (every warning), or comma-separated warning codes
-    (README's warnings table), ``doubts`` standing for every warning code (:mod:`holecli.robust.doubts`'s
+    (docs/reference/warnings.md), ``doubts`` standing for every warning code (:mod:`holecli.robust.doubts`'s
     and :data:`holecli.robust.hole_shape.WARNING_CODES`: since schema 2.2 every warning is a doubt).
 
     A note code (:data:`holecli.robust.hole_shape.NOTE_CODES`: why a value is null) is refused: notes
@@ -368,7 +368,7 @@ def fail_on_warning_option(function):
         help="Exit with 7 when a hole has one of these warnings (a result that may be wrong): comma-separated "
              "codes (e.g. rim_gap,points_inside), or any (every warning; doubts is the same); the output is "
              "still written. Notes (bore_not_seen, axis_not_measured, ...: why a value is null) never fail a run "
-             "and are refused here. Codes: README, Output, warnings table.")(function)
+             "and are refused here. Codes: docs/reference/warnings.md.")(function)
 
 
 def warned(codes, selected):
@@ -494,8 +494,9 @@ def tolerance_option_decorators(function):
                      help="Largest angle between the hole's axis (from its countersink cone, bore or floor) "
                           "and its surface normal, degrees."),
         click.option("--spec", "spec_file", type=click.Path(path_type=str), default=None, metavar="FILE",
-                     help="TOML file of the part's nominal holes ([[hole]] tables, see README; units = \"in\" "
-                          "at its top converts its lengths into the scan's unit); not with the options above."),
+                     help="TOML file of the part's nominal holes ([[hole]] tables, see docs/guide/tolerances.md; "
+                          "units = \"in\" at its top converts its lengths into the scan's unit); not with the options "
+                          "above."),
         click.option("--decision-rule", type=click.Choice(DECISION_RULES), default=None,
                      help="How a check is decided (ISO 14253-1): simple, by the measured value alone "
                           "[default]; guarded, pass only when the value +- its expanded uncertainty U is "
@@ -971,7 +972,7 @@ def fields_option(batch=False):
     return click.option(
         "--fields", "fields", type=CsvFields(batch), default=None,
         help="With --format csv: write only these columns, in this order (comma-separated names of the CSV's "
-             "header, e.g. file,hole,diameter,u_diameter,in_tolerance; README, Output, CSV lists them).")
+             "header, e.g. file,hole,diameter,u_diameter,in_tolerance; docs/reference/output.md lists them).")
 
 
 def check_fields(fields, fmt):

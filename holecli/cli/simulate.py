@@ -60,8 +60,8 @@ from holecli.cli.options import Decimal, FloatTuple, check_verbosity, read_small
 @click.option("--nan-points", type=click.IntRange(min=0), default=0, show_default=True,
               help="NaN rows to append, as a profiler writes for missed points.")
 @click.option("--panel", "panel_file", type=click.Path(dir_okay=False, path_type=str), default=None, metavar="SPEC",
-              help="Scan a panel built from the TOML spec SPEC (sheets with holes, see README; lengths in mm, "
-                   "or the units = \"in\"|\"m\" at its top) with the laser profiler.")
+              help="Scan a panel built from the TOML spec SPEC (sheets with holes, see docs/guide/simulate.md; "
+                   "lengths in mm, or the units = \"in\"|\"m\" at its top) with the laser profiler.")
 @click.option("--mesh", "mesh_file", type=click.Path(dir_okay=False, path_type=str), default=None, metavar="PART",
               help="Scan the triangle mesh PART (.stl, .ply, .obj, .off) with the laser profiler.")
 @click.option("--cloud", type=click.Choice(["profiler", "vertices", "surface", "lattice"]), default="profiler",

@@ -1,5 +1,5 @@
 """``detect`` and ``batch`` with ``--registration`` (register's result maps the spec into the scans' frame)
-and ``--name`` (a scan tied to a spec hole), on the README's drilling cell (issue 25, item 7)."""
+and ``--name`` (a scan tied to a spec hole), on the docs' drilling cell (docs/guide/register.md) (issue 25, item 7)."""
 
 import json
 import shutil

@@ -172,4 +172,5 @@ def test_batch_csv_resume_reads_the_warnings_column(run, samples, tmp_path):
 def test_exit_code_7_is_documented(repo_root):
     assert "  7  --fail-on-warning" in EXIT_CODES_HELP
     assert "  7    --fail-on-warning" in BATCH_EXIT_CODES_HELP
-    assert "| 7 | `--fail-on-warning`" in (repo_root / "README.md").read_text(encoding="utf-8")
+    exit_codes = (repo_root / "docs" / "reference" / "exit-codes.md").read_text(encoding="utf-8")
+    assert "| 7 | `--fail-on-warning`" in exit_codes

@@ -96,11 +96,11 @@ def test_describe_cloud_is_pure_over_the_cloud():
     assert info["units"]["declared"] == "m" and info["units"]["declared_by"] == "format" and info["format"] == "e57"
 
 
-def test_the_readme_info_example_prints_what_the_readme_shows(run, repo_root, monkeypatch):
+def test_the_docs_info_example_prints_what_the_docs_show(run, repo_root, monkeypatch):
     import re
 
-    readme = (repo_root / "README.md").read_text(encoding="utf-8")
-    match = re.search(r"```sh\nholecli info (\S+) --format table\n```\n\n```text\n(.*?)```", readme, re.DOTALL)
-    assert match, "the README's holecli info example is gone"
+    page = (repo_root / "docs" / "guide" / "info.md").read_text(encoding="utf-8")
+    match = re.search(r"```sh\nholecli info (\S+) --format table\n```\n\n```text\n(.*?)```", page, re.DOTALL)
+    assert match, "the docs' holecli info example (docs/guide/info.md) is gone"
     monkeypatch.chdir(repo_root)
     assert run("info", match.group(1), "--format", "table").stdout == match.group(2)

@@ -210,8 +210,9 @@ def test_click_completion_source_and_completions(monkeypatch):
 
 @pytest.mark.skipif(shutil.which("bash") is None, reason="needs bash")
 def test_bash_completion_of_the_installed_program_works(tmp_path, repo_root):
-    # The README's line, run by bash against a `holecli` program of this checkout (what the console
-    # script of an install is: a script named holecli that calls holecli.__main__.main).
+    # The docs' line (docs/guide/info.md, Shell completion), run by bash against a `holecli` program of
+    # this checkout (what the console script of an install is: a script named holecli that calls
+    # holecli.__main__.main).
     program = tmp_path / "holecli"
     program.write_text(f"#!{sys.executable}\nimport sys\nfrom holecli.__main__ import main\nsys.exit(main())\n")
     program.chmod(0o755)

@@ -1,18 +1,22 @@
-"""Regenerate the README's outputs that are made by running holecli, from this checkout's real CLI.
+"""Regenerate the docs' outputs that are made by running holecli, from this checkout's real CLI.
 
-    python scripts/regen_readme_outputs.py            # rewrite README.md's outputs and docs/plot_panel.png
-    python scripts/regen_readme_outputs.py --check    # exit 1 when README.md's printed outputs are stale
+    python scripts/regen_docs_outputs.py            # rewrite the docs' printed outputs and docs/plot_panel.png
+    python scripts/regen_docs_outputs.py --check    # exit 1 when the docs' printed outputs are stale
 
 What it regenerates:
 
-* the output of the broken-pipe example (README, "Broken pipes"): the ``sh`` block whose command pipes
+* the output of the broken-pipe example (:data:`BROKEN_PIPE_PAGE`, "Broken pipes"): the ``sh`` block whose command pipes
   ``holecli batch`` into ``head`` is run with bash from the repository's root, ``holecli`` being this
   checkout's (``python -m holecli``), and the ``text`` block right after it is replaced by what it
   printed: stdout's lines, holecli's stderr line before the last one (the exit code, printed after
   the pipeline ends), the batch summary inside the error line shortened to ``(...)`` (it holds the
   run's wall time);
-* ``docs/plot_panel.png``, the README's picture, with :data:`PLOT_COMMAND` (the command the README
-  gives under the picture); not compared by ``--check`` (a PNG differs with matplotlib's version).
+* ``docs/plot_panel.png``, the picture of :data:`PLOT_PAGE`, with :data:`PLOT_COMMAND` (the command the
+  page gives under the picture); not compared by ``--check`` (a PNG differs with matplotlib's version).
+
+The other printed outputs of the README and the docs are checked, not rewritten, by
+``tests/test_readme_examples.py``; the generated reference pages (every ``--help``, the record's
+fields) are made at each build by ``scripts/docs_reference.py``.
 
 Run it after a change of the outputs (records, messages, the plot's look) and commit what it wrote.
 """
@@ -29,9 +33,11 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-README = ROOT / "README.md"
+# The page that holds the broken-pipe example, and the page that shows the picture.
+BROKEN_PIPE_PAGE = ROOT / "docs" / "reference" / "exit-codes.md"
+PLOT_PAGE = ROOT / "docs" / "guide" / "plot.md"
 
-# The README's picture and the command that draws it (the README shows the same command).
+# The plot page's picture and the command that draws it (the page shows the same command).
 PLOT_FILE = "docs/plot_panel.png"
 PLOT_COMMAND = ["detect", "sample_clouds/panel.ply", "--spec", "sample_clouds/panel_tolerances.toml", "--units", "mm",
                 "--gauge-depth", "0.5", "--plot", PLOT_FILE, "-o", "/dev/null"]
@@ -42,7 +48,7 @@ _BROKEN_PIPE = re.compile(r"(```sh\n(?P<command>holecli batch [^\n]*\| head[^\n]
 
 
 def _environment(shim_folder):
-    """The environment of a README command: ``holecli`` on PATH runs this checkout's CLI."""
+    """The environment of a docs command: ``holecli`` on PATH runs this checkout's CLI."""
     shim = Path(shim_folder) / "holecli"
     shim.write_text(f'#!/bin/sh\nPYTHONPATH="{ROOT}${{PYTHONPATH:+:$PYTHONPATH}}" exec "{sys.executable}" -m holecli "$@"\n')
     shim.chmod(shim.stat().st_mode | stat.S_IXUSR | stat.S_IXGRP | stat.S_IXOTH)
@@ -50,7 +56,7 @@ def _environment(shim_folder):
 
 
 def broken_pipe_output(command):
-    """What the README's broken-pipe example prints, as the README shows it.
+    """What the docs' broken-pipe example prints, as the page shows it.
 
     Parameters
     ----------
@@ -74,11 +80,11 @@ def broken_pipe_output(command):
     return "\n".join([*out[:-1], shortened, out[-1]]) + "\n"
 
 
-def regenerate_readme(text):
-    """``text`` (the README) with the broken-pipe example's output run anew."""
+def regenerate_page(text):
+    """``text`` (:data:`BROKEN_PIPE_PAGE`'s) with the broken-pipe example's output run anew."""
     match = _BROKEN_PIPE.search(text)
     if match is None:
-        raise SystemExit("README.md: the broken-pipe example (a sh block piping holecli batch into head, then a text "
+        raise SystemExit(f"{BROKEN_PIPE_PAGE.relative_to(ROOT)}: the broken-pipe example (a sh block piping holecli batch into head, then a text "
                          "block) was not found")
     output = broken_pipe_output(match["command"])
     return text[:match.start("output")] + output + text[match.end("output"):]
@@ -92,22 +98,25 @@ def draw_plot():
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--check", action="store_true", help="only say whether README.md's outputs are stale (exit 1)")
+    parser.add_argument("--check", action="store_true", help="only say whether the docs' outputs are stale (exit 1)")
     args = parser.parse_args(argv)
-    text = README.read_text(encoding="utf-8")
-    if PLOT_FILE not in text or " ".join(PLOT_COMMAND[:2]) not in text:
-        raise SystemExit(f"README.md no longer shows {PLOT_FILE} or its command: update PLOT_COMMAND")
-    new = regenerate_readme(text)
+    plot_page = PLOT_PAGE.read_text(encoding="utf-8")
+    picture = PLOT_FILE.removeprefix("docs/")
+    if picture not in plot_page or " ".join(PLOT_COMMAND[:2]) not in plot_page:
+        raise SystemExit(f"{PLOT_PAGE.relative_to(ROOT)} no longer shows {picture} or its command: update PLOT_COMMAND")
+    page = BROKEN_PIPE_PAGE.read_text(encoding="utf-8")
+    new = regenerate_page(page)
+    name = BROKEN_PIPE_PAGE.relative_to(ROOT)
     if args.check:
-        if new != text:
-            print("README.md: the broken-pipe example's output is stale: run python scripts/regen_readme_outputs.py",
+        if new != page:
+            print(f"{name}: the broken-pipe example's output is stale: run python scripts/regen_docs_outputs.py",
                   file=sys.stderr)
             return 1
         return 0
-    if new != text:
-        README.write_text(new, encoding="utf-8")
+    if new != page:
+        BROKEN_PIPE_PAGE.write_text(new, encoding="utf-8")
     draw_plot()
-    print(f"regenerated the broken-pipe example's output in README.md and {PLOT_FILE}", file=sys.stderr)
+    print(f"regenerated the broken-pipe example's output in {name} and {PLOT_FILE}", file=sys.stderr)
     return 0
 
 
