@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Set up holecli in ./.venv on a fresh Debian machine: the system libraries it needs (libusb-1.0 for
 # open3d; the venv module where Debian ships it apart), a Python that open3d has a wheel for, a virtual
-# environment, and the project with its test extra and the extras of the optional formats (e57, las)
-# and of the pictures (plot, matplotlib), so that their readers and holecli plot are tested.
+# environment, and the project with its test extra, the extras of the optional formats (e57, las), of
+# the pictures (plot, matplotlib) and of the documentation site (docs, MkDocs and its Material theme),
+# so that their readers, holecli plot and the docs' build are tested.
 # Safe to run again: it only does what is missing.
 #
 # The Python: $PYTHON if set, else python3 when open3d has a wheel for it (open3d 0.20: CPython 3.10 to
@@ -98,7 +99,7 @@ fi
 installed() {  # run from / so that the current folder is not what finds holecli
     (cd / && "$root/.venv/bin/python" - "$root" <<'EOF' >/dev/null 2>&1
 import os, sys
-import open3d, pytest, jsonschema, pye57, laspy, lazrs, matplotlib  # noqa: F401
+import open3d, pytest, jsonschema, pye57, laspy, lazrs, matplotlib, mkdocs, material  # noqa: F401
 import holecli
 root = os.path.realpath(sys.argv[1])
 sys.exit(os.path.realpath(holecli.__file__) != os.path.join(root, "holecli", "__init__.py")
@@ -115,5 +116,5 @@ if [ ! -x .venv/bin/holecli ] || ! installed; then
         say "replacing open3d with open3d-cpu in .venv"
         pip_quiet .venv/bin/python -m pip uninstall --quiet --yes open3d
     fi
-    pip_quiet .venv/bin/python -m pip install --quiet -e '.[test,e57,las,plot]' --config-settings editable_mode=compat
+    pip_quiet .venv/bin/python -m pip install --quiet -e '.[test,e57,las,plot,docs]' --config-settings editable_mode=compat
 fi

@@ -1,8 +1,10 @@
 """The installed package: what `import holecli` finds, and what a wheel built from the checkout holds."""
 
 import os
+import re
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import holecli
@@ -47,3 +49,14 @@ def test_the_package_s_data_files_are_declared():
             and path.name != "py.typed"]
     assert data == ["holecli/schema/record.schema.json"]
     assert '"holecli.schema" = ["*.json"]' in (PACKAGE.parent / "pyproject.toml").read_text()
+
+
+def test_setup_installs_and_checks_every_extra():
+    # scripts/setup.sh makes the development environment: every optional-dependency group of
+    # pyproject.toml is installed (so that the readers, holecli plot and the docs' build are tested),
+    # and its check that the environment is complete imports the docs' packages (mkdocs, material).
+    extras = set(tomllib.loads((PACKAGE.parent / "pyproject.toml").read_text())["project"]["optional-dependencies"])
+    setup = (PACKAGE.parent / "scripts" / "setup.sh").read_text()
+    installed = re.search(r"pip install --quiet -e '\.\[([\w,]+)\]'", setup)
+    assert installed and set(installed.group(1).split(",")) == extras == {"test", "e57", "las", "plot", "docs"}
+    assert re.search(r"^import .*\bmkdocs, material\b", setup, re.MULTILINE)
