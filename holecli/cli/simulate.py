@@ -1,5 +1,10 @@
 """``holecli simulate``: write a synthetic scan (the paper's scene, or a laser profiler's scan of a
-panel or a mesh) and its ground truth."""
+panel or a mesh) and its ground truth, a registration cell, or a lot of parts.
+
+One subcommand per kind (``simulate scene|panel|cell|lot``), each with only its own options; today's
+spellings (``simulate FILE ...``, ``simulate FILE --panel SPEC ...``, ``simulate --cell DIR ...``,
+``simulate --lot DIR ...``) go, unchanged, to the one command they always went to, whose checks of
+which options go together remain as they were."""
 
 from __future__ import annotations
 
@@ -179,7 +184,10 @@ _OPTIONS = {
 def _option(name, **changes):
     """The click option ``name`` of :data:`_OPTIONS`, its settings (a help text, a default) changed by ``changes``."""
     declarations, settings = _OPTIONS[name]
-    return click.option(*declarations, **{**settings, **changes})
+    settings = {**settings, **changes}
+    if settings.get("required"):  # no default at all, else click takes the default None for a value
+        settings.pop("default", None)
+    return click.option(*declarations, **settings)
 
 
 def _options(*options):
@@ -214,6 +222,13 @@ _PART_HELP = dict(
                        "[default: none, the part's frame]."),
     translation=dict(help="Translation after the rotation, e.g. into a robot base frame 1200,-300,800 "
                           "[default: none]."),
+)
+
+
+# Help texts of the synthetic scene (simulate scene), where no part competes.
+_SCENE_HELP = dict(
+    rotation=dict(help="Rotation in degrees about x, then y, then z (world axes) [default: 32,0,20]."),
+    translation=dict(help="Translation after the rotation [default: 3,4,5]."),
 )
 
 
@@ -287,7 +302,7 @@ def _simulate_any(ctx, output, quiet, verbose, **_):
 
 @click.command("scene", epilog=_SCENE_EPILOG)
 @click.argument("output", type=click.Path(dir_okay=False, path_type=str))
-@_options(*_SCENE_NAMES, "seed", "truth_path")
+@_options(*[_option(name, **_SCENE_HELP.get(name, {})) for name in _SCENE_NAMES], "seed", "truth_path")
 @verbosity_option_decorators
 @click.pass_context
 def scene(ctx, output, quiet, verbose, **_):
@@ -379,7 +394,8 @@ def cell(ctx, cell_dir, quiet, verbose, **_):
                                   "diameter:SIZE (the edge's diameter off by SIZE mm, signed), position:SIZE "
                                   "(drilled SIZE mm off), countersink:SIZE (cut SIZE mm deeper, signed) or missing; "
                                   "repeatable."),
-          "seed", *_part_options("spacing", "line_pitch", "rotation", "translation", *_SENSOR_NAMES))
+          "seed", _option("spacing", help="Profiler: point pitch along the laser line."),
+          *_part_options("line_pitch", "rotation", "translation", *_SENSOR_NAMES))
 @verbosity_option_decorators
 @click.pass_context
 def lot(ctx, lot_dir, quiet, verbose, **_):
