@@ -300,7 +300,8 @@ def _simulate_any(ctx, output, quiet, verbose, **_):
 # --- the subcommands -----------------------------------------------------------------------------------
 
 
-@click.command("scene", epilog=_SCENE_EPILOG)
+@click.command("scene", epilog=_SCENE_EPILOG,
+               short_help="The paper's synthetic scan of a surface with holes (was: simulate FILE).")
 @click.argument("output", type=click.Path(dir_okay=False, path_type=str))
 @_options(*[_option(name, **_SCENE_HELP.get(name, {})) for name in _SCENE_NAMES], "seed", "truth_path")
 @verbosity_option_decorators
@@ -325,7 +326,8 @@ def scene(ctx, output, quiet, verbose, **_):
     sys.exit(run_guarded(_simulate_scene, ctx, output, quiet, verbose))
 
 
-@click.command("panel", epilog="\b\nExit codes: 0 written, 2 usage error, 3 the part, the scan or the output is "
+@click.command("panel", short_help="A laser profiler's scan of a --panel spec or a --mesh (was: simulate FILE --panel).",
+               epilog="\b\nExit codes: 0 written, 2 usage error, 3 the part, the scan or the output is "
                                "invalid.")
 @click.argument("output", type=click.Path(dir_okay=False, path_type=str))
 @_options(*_part_options("panel_file", "mesh_file", "cloud", "faces", "spacing", "line_pitch", "rotation",
@@ -357,7 +359,8 @@ def panel(ctx, output, quiet, verbose, **_):
                          quiet, verbose))
 
 
-@click.command("cell", epilog="\b\nExit codes: 0 written, 2 usage error, 3 the cell or the output is invalid.")
+@click.command("cell", short_help="A registration scene: reference-hole scans, part.toml, targets (was: --cell DIR).",
+               epilog="\b\nExit codes: 0 written, 2 usage error, 3 the cell or the output is invalid.")
 @click.argument("cell_dir", metavar="DIR", type=click.Path(file_okay=False, path_type=str))
 @_options(_option("cell_holes", help="Number of reference holes (R1, R2, ...)."),
           _option("displace", help="Drill reference hole NAME off its nominal centre by DX,DY (part frame, mm); "
@@ -384,7 +387,8 @@ def cell(ctx, cell_dir, quiet, verbose, **_):
     sys.exit(run_guarded(_simulate_cell, ctx, cell_dir, quiet, verbose))
 
 
-@click.command("lot", epilog="\b\nExit codes: 0 written, 2 usage error (also: DIR is not a new or empty folder), "
+@click.command("lot", short_help="N scans of a --panel with chosen defects and a manifest (was: --lot DIR).",
+               epilog="\b\nExit codes: 0 written, 2 usage error (also: DIR is not a new or empty folder), "
                              "3 the panel, a part or the output is invalid.")
 @click.argument("lot_dir", metavar="DIR", type=click.Path(file_okay=False, path_type=str))
 @_options(_option("panel_file", required=True, help="The panel's TOML spec SPEC (the drawing every part is made "
@@ -419,10 +423,18 @@ class _SimulateGroup(click.Group):
     """The subcommands, and today's spellings (``simulate FILE ...``, ``simulate --cell DIR ...``): arguments
     that do not start with a subcommand's name go to :func:`_simulate_any`, as before the subcommands."""
 
+    def list_commands(self, ctx):
+        return list(self.commands)  # scene, panel, cell, lot: from the simplest scan to a lot of parts
+
     def make_context(self, info_name, args, parent=None, **extra):
         if _old_spelling(args, self.commands):
             return _simulate_any.make_context(info_name, args, parent=parent, **extra)
         return super().make_context(info_name, args, parent=parent, **extra)
+
+    def invoke(self, ctx):
+        if ctx.command is not self:  # simulate invoked on its own (simulate.main([...])) with an old spelling
+            return ctx.command.invoke(ctx)
+        return super().invoke(ctx)
 
 
 # Options of the group itself: the leading ones an old spelling may start with, too.

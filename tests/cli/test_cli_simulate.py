@@ -116,3 +116,13 @@ def test_verbose_reaches_the_subcommand(run, tmp_path):
     result = run("simulate", "-v", "scene", tmp_path / "x.ply")
     assert result.exit_code == cli.EXIT_OK
     assert "holecli: scene: pattern grid" in result.stderr
+
+
+@pytest.mark.parametrize("spelling", [[], ["scene"]])
+def test_simulate_invoked_on_its_own_takes_both_spellings(tmp_path, spelling):
+    from click.testing import CliRunner
+
+    out = tmp_path / "x.ply"
+    result = CliRunner().invoke(simulate, [*spelling, str(out), "-q"])
+    assert result.exit_code == cli.EXIT_OK, result.output
+    assert out.exists() and out.with_suffix(".truth.json").exists()
