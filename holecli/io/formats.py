@@ -1,7 +1,8 @@
 """The point-cloud formats holecli reads and writes: one table, from which everything else is derived.
 
-:data:`FORMATS` names each format, its extensions, the functions that read and write it, what
-messages call it and the optional extra it needs. The extension lists (:data:`INPUT_EXTENSIONS`,
+:data:`FORMATS` names each format, its extensions (messages call a format by its extension:
+``unsupported extension '.obj' (expected .ply, ...)``, ``reading .e57 needs the optional extra``), the
+functions that read and write it and the optional extra it needs. The extension lists (:data:`INPUT_EXTENSIONS`,
 :data:`WRITE_EXTENSIONS`), the names ``input_format`` and ``--input-format`` take
 (:data:`INPUT_FORMATS`) and the "expected ..." of the messages about an unsupported extension are
 derived from it, so a new format is one more row here (and its reader).
@@ -31,8 +32,6 @@ class Format:
         Its name, as ``input_format`` and ``--input-format`` take it (``"ply"``).
     extensions : tuple of str
         The file extensions, lower case with their dot, that select it (``(".ply",)``).
-    label : str
-        What messages and the docs call it (``"PLY"``).
     read : str
         The function that reads a file of it, as ``"module:function"``; it is called
         ``function(path, scan, columns)`` and returns ``(rows, flagged, units, columns)`` (see
@@ -52,7 +51,6 @@ class Format:
 
     name: str
     extensions: tuple
-    label: str
     read: str
     write: Optional[str] = None
     extra: Optional[str] = None
@@ -64,14 +62,14 @@ _READERS = "holecli.io.readers"
 
 # The formats, in the order the messages and choices list them.
 FORMATS = (
-    Format("ply", (".ply",), "PLY", f"{_READERS}:read_ply", write=f"{_READERS}:encode_ply"),
-    Format("pcd", (".pcd",), "PCD", f"{_READERS}:read_pcd", write=f"{_READERS}:encode_pcd"),
-    Format("csv", (".csv",), "CSV", f"{_READERS}:read_table", write=f"{_READERS}:encode_table", table=True),
-    Format("txt", (".txt",), "TXT", f"{_READERS}:read_table", write=f"{_READERS}:encode_table", table=True),
-    Format("xyz", (".xyz",), "XYZ", f"{_READERS}:read_table", write=f"{_READERS}:encode_table", table=True),
-    Format("e57", (".e57",), "E57", f"{_READERS}:read_e57", extra="e57", scans=True),
-    Format("las", (".las",), "LAS", f"{_READERS}:read_las", extra="las"),
-    Format("laz", (".laz",), "LAZ", f"{_READERS}:read_las", extra="las"),
+    Format("ply", (".ply",), f"{_READERS}:read_ply", write=f"{_READERS}:encode_ply"),
+    Format("pcd", (".pcd",), f"{_READERS}:read_pcd", write=f"{_READERS}:encode_pcd"),
+    Format("csv", (".csv",), f"{_READERS}:read_table", write=f"{_READERS}:encode_table", table=True),
+    Format("txt", (".txt",), f"{_READERS}:read_table", write=f"{_READERS}:encode_table", table=True),
+    Format("xyz", (".xyz",), f"{_READERS}:read_table", write=f"{_READERS}:encode_table", table=True),
+    Format("e57", (".e57",), f"{_READERS}:read_e57", extra="e57", scans=True),
+    Format("las", (".las",), f"{_READERS}:read_las", extra="las"),
+    Format("laz", (".laz",), f"{_READERS}:read_las", extra="las"),
 )
 
 _BY_EXTENSION = {extension: fmt for fmt in FORMATS for extension in fmt.extensions}

@@ -59,3 +59,10 @@ def test_the_table_and_the_package_face_import_no_numpy(repo_root):
     code = "import sys, holecli.io, holecli.io.formats, holecli.vocabulary; print('numpy' in sys.modules)"
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=repo_root, timeout=60)
     assert result.stdout.strip() == "False", result.stderr
+
+
+@pytest.mark.parametrize("extension, extra", [(".e57", "e57"), (".las", "las"), (".laz", "las")])
+def test_the_missing_extra_message_names_the_table_s_extra(extension, extra):
+    from holecli.io._common import _need_extra
+
+    assert str(_need_extra(extension)) == f"reading {extension} needs the optional extra: pip install 'holecli[{extra}]'"
