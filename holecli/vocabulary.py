@@ -7,12 +7,13 @@ against the very same tuples, so no copy has to be kept equal by a test.
 
 from __future__ import annotations
 
+from holecli.io.formats import INPUT_EXTENSIONS, INPUT_FORMATS
+
 __all__ = ["DECISION_RULES", "INPUT_EXTENSIONS", "INPUT_FORMATS"]
 
-# What holecli.io.read_cloud reads, by extension.
-INPUT_EXTENSIONS = (".ply", ".pcd", ".csv", ".txt", ".xyz", ".e57", ".las", ".laz")
-# The formats by name (``input_format``, ``--input-format``): the extensions without their dot.
-INPUT_FORMATS = tuple(extension[1:] for extension in INPUT_EXTENSIONS)
+# INPUT_EXTENSIONS (what holecli.io.read_cloud reads, by extension) and INPUT_FORMATS (the formats by
+# name: ``input_format``, ``--input-format``) are derived from the table of formats,
+# holecli.io.formats.FORMATS, which imports only the standard library too.
 # How a tolerance check is decided (ISO 14253-1): by the value alone, or by the value +- its
 # expanded uncertainty (holecli.tolerance, ``--decision-rule``).
 DECISION_RULES = ("simple", "guarded")

@@ -21,6 +21,8 @@ from typing import Optional
 
 import numpy as np
 
+from holecli.io.formats import format_of
+
 # A PLY or PCD header is a few hundred bytes; one that has not ended after this many is not a header
 # (a binary file that happens to start with "ply", say), and searching on would read the whole file.
 _MAX_HEADER_BYTES = 1 << 20
@@ -231,19 +233,18 @@ def _ascii_value(token: bytes, number: int, what: str) -> float:
         ) from None
 
 
-def _need_extra(extension: str, extra: str) -> _BadFile:
+def _need_extra(extension: str) -> _BadFile:
     """The error for a format whose optional extra is not installed (``pip install 'holecli[e57]'``).
 
     Parameters
     ----------
     extension : str
-        The file's extension, lowercase with its dot (``".e57"``).
-    extra : str
-        The extra that brings the reader's library (``"e57"``, ``"las"``).
+        The file's extension, lowercase with its dot (``".e57"``); its extra is the one the table of
+        formats gives (:attr:`holecli.io.formats.Format.extra`: ``"e57"``, ``"las"``).
 
     Returns
     -------
     _BadFile
         To raise: ``reading .e57 needs the optional extra: pip install 'holecli[e57]'``.
     """
-    return _BadFile(f"reading {extension} needs the optional extra: pip install 'holecli[{extra}]'")
+    return _BadFile(f"reading {extension} needs the optional extra: pip install 'holecli[{format_of(extension).extra}]'")

@@ -127,7 +127,7 @@ def read_e57(name: str, data_head: bytes, scan=None):
         import pye57
         from pye57 import libe57
     except ImportError:
-        raise _need_extra(".e57", "e57") from None
+        raise _need_extra(".e57") from None
     count, chosen = _check_structure(name, scan)
     try:
         with pye57.E57(name) as e57:

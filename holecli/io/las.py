@@ -141,7 +141,7 @@ def read_las(name: str, data_head: bytes) -> np.ndarray:
     try:
         import laspy
     except ImportError:
-        raise _need_extra(extension, "las") from None
+        raise _need_extra(extension) from None
     with _quiet(), open(name, "rb") as stream:
         layout = _read_layout(stream, os.fstat(stream.fileno()).st_size)
         _check_scales(layout)
@@ -149,7 +149,7 @@ def read_las(name: str, data_head: bytes) -> np.ndarray:
         if layout.compressed:
             backends = laspy.LazBackend.detect_available()
             if not backends:
-                raise _need_extra(extension, "las")
+                raise _need_extra(extension)
             # lazrs's parallel decompressor allocates a buffer of a chunk's points first: one flipped byte of the
             # chunk size asked for 64 GB and aborted the process. The sequential one decompresses point by point.
             backend = laspy.LazBackend.Lazrs if laspy.LazBackend.Lazrs in backends else backends[0]

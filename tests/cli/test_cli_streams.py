@@ -119,7 +119,7 @@ def test_detect_stdin_refuses_damaged_data_like_a_file(scan_files, damage):
 
 
 def test_detect_stdin_beyond_the_bound_is_refused(scan_files, monkeypatch):
-    monkeypatch.setattr("holecli.io.MAX_STREAM_BYTES", 1000)
+    monkeypatch.setattr("holecli.io.stream.MAX_STREAM_BYTES", 1000)
     result = _invoke("detect", "-", "--input-format", "ply", stdin=scan_files["ply"].read_bytes())
     assert result.exit_code == cli.EXIT_INPUT
     assert result.stderr == f"Error: {STDIN_NAME}: more than 1000 bytes: too large to read from a stream " \
@@ -455,7 +455,7 @@ def test_read_stream_removes_the_copies_that_killed_processes_left(tmp_path, mon
 def test_read_stream_without_proc_names_its_copy_by_pid_and_removes_it(tmp_path, monkeypatch):
     import io
 
-    import holecli.io as holecli_io
+    import holecli.io.stream as holecli_io
 
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     monkeypatch.setattr(holecli_io, "_FD_FOLDER", str(tmp_path / "no-proc-{pid}"))

@@ -7,7 +7,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-MODULES = ["holecli.io", "holecli.io.ply", "holecli.io.pcd", "holecli.io.text", "holecli.io._common", "holecli.io.info"]
+MODULES = ["holecli.io", "holecli.io.formats", "holecli.io.cloud", "holecli.io.stream", "holecli.io.write",
+           "holecli.io.ply", "holecli.io.pcd", "holecli.io.text", "holecli.io._common", "holecli.io.info"]
 
 
 @pytest.mark.parametrize("name", MODULES)

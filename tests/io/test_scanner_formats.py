@@ -123,7 +123,7 @@ def test_e57_invalid_points_and_nans_are_dropped_and_counted(tmp_path):
 
 def test_all_points_invalid_is_refused():
     # (pye57 cannot write a scan without a valid point: its bounds would be empty)
-    from holecli.io import _finite_cloud
+    from holecli.io.cloud import _finite_cloud
 
     with pytest.raises(LoadError, match=r"^void\.e57: no valid points \(all 20 points are flagged invalid"):
         _finite_cloud(np.empty((0, 3)), "void.e57", flagged=20)
