@@ -14,10 +14,6 @@ from holecli.errors import PointsError
 from holecli.geometry.kernels import circles_through
 from holecli.settings import DEFAULT_SETTINGS
 
-# A radial residual above this many robust standard deviations marks a rim point as an outlier: the
-# robust method's value (RobustSettings.clip_sigmas), so that a default fit is the production fit.
-CLIP_SIGMAS = DEFAULT_SETTINGS.clip_sigmas
-
 
 @dataclass(frozen=True, eq=False)
 class CircleFit:
@@ -258,7 +254,7 @@ def _least_quantile_circle(xy, hypotheses=200, quantile=75):
     return center, radius
 
 
-def fit_circle_robust(xy, *, clip=CLIP_SIGMAS, floor=0.0, max_rounds=10, start=None):
+def fit_circle_robust(xy, *, clip=None, floor=0.0, max_rounds=10, start=None, settings=DEFAULT_SETTINGS.rim):
     """Geometric circle fit with iterative sigma clipping of radial outliers.
 
     Each round fits the kept points geometrically, estimates the residual scale robustly
@@ -269,9 +265,9 @@ def fit_circle_robust(xy, *, clip=CLIP_SIGMAS, floor=0.0, max_rounds=10, start=N
     ----------
     xy : (n, 2) float
         At least three points, not collinear.
-    clip : float
-        Clipping threshold in robust standard deviations (default ``CLIP_SIGMAS``, the robust
-        method's ``RobustSettings.clip_sigmas``).
+    clip : float, optional
+        Clipping threshold in robust standard deviations (default ``settings.clip_sigmas``, so that a
+        default fit is the production fit).
     floor : float
         Smallest residual scale, in the units of ``xy`` (keeps noise-free data from clipping
         round-off).
@@ -281,6 +277,8 @@ def fit_circle_robust(xy, *, clip=CLIP_SIGMAS, floor=0.0, max_rounds=10, start=N
         Initial center and radius; by default the algebraic fit of all points, or a
         least-quantile-of-squares circle through three of them when it halves the 75th percentile of
         the absolute residuals (:func:`_least_quantile_circle`).
+    settings : holecli.settings.RimSettings or RobustSettings
+        Source of ``clip`` when not given.
 
     Returns
     -------
@@ -288,6 +286,7 @@ def fit_circle_robust(xy, *, clip=CLIP_SIGMAS, floor=0.0, max_rounds=10, start=N
         ``kept`` marks the points of the final fit.
     """
     xy = _check(xy)
+    clip = settings.clip_sigmas if clip is None else clip
     mean, scale, u, params = _normalised(xy, start if start is not None else _least_quantile_circle(xy))
     # Start from the points the initial circle explains (within 3 robust sd), not from all of them:
     # a fit to every point leans toward the outliers and the clipping then keeps them.
