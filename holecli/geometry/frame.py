@@ -117,9 +117,10 @@ def check_view_angle(direction, min_sine=None, *, settings=DEFAULT_SETTINGS.plan
     ----------
     direction : (3,) float
         The view in the plane frame (the plane's normal is z); need not be unit length.
-    min_sine : float
+    min_sine : float, optional
         Smallest sine of the angle between ``direction`` and the plane (default: ``settings.view_min_sine``).
     settings : holecli.settings.PlaneSettings or RobustSettings
+        Source of ``min_sine`` when not given.
 
     Raises
     ------

@@ -125,6 +125,7 @@ def occupancy_grid(xy, cell, max_speck_cells=None, *, settings=DEFAULT_SETTINGS.
     max_speck_cells : int, optional
         Largest cluster of occupied cells that can be a speck (default: ``settings.max_speck_cells``).
     settings : holecli.settings.CandidateSettings or RobustSettings
+        Source of ``max_speck_cells`` when not given.
 
     Returns
     -------
