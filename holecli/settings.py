@@ -37,9 +37,10 @@ Both spellings make one::
     RobustSettings(cell_gaps=3.0)
     RobustSettings(candidates=CandidateSettings(cell_gaps=3.0))
 
-A step is given the settings (the whole object or its group, which answer the same names); the
-module-level defaults that still copy a field of :data:`DEFAULT_SETTINGS` at import (in
-``robust.method``, ``lattice``, ``bias`` and ``countersink``) change only where a step is given the object.
+A step is given the settings (the whole object or its group, which answer the same names) and reads
+them; where a step is not given any it reads :data:`DEFAULT_SETTINGS`. The module-level copies of a
+field still made at import (``holecli.robust.countersink``'s ``MIN_SLOPE`` and the like,
+``edge_loops.POCKET_MAX_DEPTH_RATIO``) do not follow a caller's settings.
 """
 
 from __future__ import annotations
