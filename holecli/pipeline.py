@@ -84,11 +84,9 @@ def _check_options(view_dir, min_diameter, max_holes, gauge_depth=None):
 
 
 def _settings_changed(settings, defaults):
-    """The (name, value) pairs of ``settings`` that differ from ``defaults``, in field order."""
-    from dataclasses import fields
-
-    return tuple((field.name, getattr(settings, field.name)) for field in fields(settings)
-                 if getattr(settings, field.name) != getattr(defaults, field.name))
+    """The (name, value) pairs of ``settings`` that differ from ``defaults``, by their flat names in the
+    order of :meth:`holecli.settings.RobustSettings.flat_items`."""
+    return tuple((name, value) for name, value in settings.flat_items() if value != getattr(defaults, name))
 
 
 def _plain(value):

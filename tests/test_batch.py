@@ -507,7 +507,7 @@ def test_workers_end_when_the_batch_process_is_killed(repo_root, scans, tmp_path
     while time.monotonic() < deadline and len(workers) < 2:
         time.sleep(0.1)
         children = f"/proc/{parent.pid}/task/{parent.pid}/children"
-        workers = [int(pid) for pid in open(children).read().split()] if os.path.exists(children) else []
+        workers = [int(pid) for pid in Path(children).read_text().split()] if os.path.exists(children) else []
     assert len(workers) == 2, "the pool did not start"
     parent.kill()
     parent.wait()

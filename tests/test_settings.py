@@ -1,17 +1,91 @@
-"""The robust method's tunables (holecli.settings): every field checked when the object is made."""
+"""The robust method's tunables (holecli.settings): grouped per step, each field checked against the range
+beside it when the object is made, read by its own (flat) name as well as through its group."""
 
+import math
+import pickle
 from dataclasses import fields, replace
 
 import pytest
 
-from holecli.settings import DEFAULT_SETTINGS, RobustSettings
+from holecli.settings import (
+    DEFAULT_SETTINGS,
+    GROUP_OF,
+    GROUPS,
+    CandidateSettings,
+    CountersinkSettings,
+    PlaneSettings,
+    Range,
+    RobustSettings,
+)
+
+
+@pytest.mark.parametrize("group, kind", GROUPS, ids=[group for group, _ in GROUPS])
+def test_every_field_of_every_group_has_a_range_and_a_valid_default(group, kind):
+    assert isinstance(getattr(DEFAULT_SETTINGS, group), kind)
+    for item in fields(kind):
+        allowed = item.metadata["range"]
+        assert allowed.admits(item.default), item.name
+        assert not allowed.admits(float("nan")), item.name
+        with pytest.raises(ValueError, match=rf"^RobustSettings\.{item.name} must be "):
+            kind(**{item.name: float("nan")})
 
 
 def test_the_defaults_are_valid_and_every_field_is_checked():
     assert RobustSettings() == DEFAULT_SETTINGS
-    for field in fields(RobustSettings):
-        with pytest.raises(ValueError, match=f"RobustSettings.{field.name} must be"):
-            replace(DEFAULT_SETTINGS, **{field.name: float("nan")})
+    for item in RobustSettings.flat_fields():
+        with pytest.raises(ValueError, match=f"RobustSettings.{item.name} must be"):
+            replace(DEFAULT_SETTINGS, **{item.name: float("nan")})
+
+
+def test_a_flat_name_is_its_groups_field():
+    assert len(GROUP_OF) == len(RobustSettings.flat_fields())  # no name in two groups
+    for name, group in GROUP_OF.items():
+        assert getattr(DEFAULT_SETTINGS, name) == getattr(getattr(DEFAULT_SETTINGS, group), name)
+    assert [name for name, _ in DEFAULT_SETTINGS.flat_items()] == list(GROUP_OF)
+
+
+def test_flat_and_grouped_construction_agree():
+    flat = RobustSettings(cell_gaps=3.0, cone_min_slope=0.3)
+    grouped = RobustSettings(candidates=CandidateSettings(cell_gaps=3.0),
+                             countersink=CountersinkSettings(cone_min_slope=0.3))
+    assert flat == grouped and hash(flat) == hash(grouped)
+    assert flat.cell_gaps == flat.candidates.cell_gaps == 3.0
+    assert flat.plane is not None and flat.plane == DEFAULT_SETTINGS.plane
+    # dataclasses.replace passes the groups and the flat change together: the flat name wins.
+    assert replace(DEFAULT_SETTINGS, cell_gaps=3.0) == RobustSettings(cell_gaps=3.0)
+    assert replace(grouped, cell_gaps=2.0).candidates == CandidateSettings()
+    assert pickle.loads(pickle.dumps(flat)) == flat
+
+
+def test_settings_are_frozen():
+    with pytest.raises(AttributeError):
+        DEFAULT_SETTINGS.cell_gaps = 3.0
+    with pytest.raises(AttributeError):
+        DEFAULT_SETTINGS.plane = PlaneSettings()
+
+
+def test_unknown_names_and_wrong_groups_are_refused():
+    with pytest.raises(TypeError, match="unexpected keyword argument 'cell_gap'"):
+        RobustSettings(cell_gap=3.0)
+    with pytest.raises(TypeError, match="RobustSettings.plane must be a PlaneSettings"):
+        RobustSettings(plane=CandidateSettings())
+
+
+@pytest.mark.parametrize("name, value, message", [
+    ("alpha_gaps", -1.0, "RobustSettings.alpha_gaps must be a number in (0.0, inf), got -1.0"),
+    ("threads", 0, "RobustSettings.threads must be an integer in [1, 1024], got 0"),
+    ("full_arc_deg", 361.0, "RobustSettings.full_arc_deg must be a number in (0.0, 360.0], got 361.0"),
+    ("cone_depth_slope_ratio", 1.0, "RobustSettings.cone_depth_slope_ratio must be a number in (-inf, 1.0), got 1.0"),
+    ("bias_offsets", (1, -2), "RobustSettings.bias_offsets must be a non-empty tuple of positive numbers, got (1, -2)"),
+])
+def test_a_refusal_names_the_field_and_its_range(name, value, message):
+    with pytest.raises(ValueError) as flat:
+        RobustSettings(**{name: value})
+    assert str(flat.value) == message
+    group = GROUP_OF[name]
+    with pytest.raises(ValueError) as grouped:
+        replace(getattr(DEFAULT_SETTINGS, group), **{name: value})
+    assert str(grouped.value) == message
 
 
 @pytest.mark.parametrize("name, value", [
@@ -33,52 +107,49 @@ def test_limits_that_are_allowed(name, value):
     assert getattr(replace(DEFAULT_SETTINGS, **{name: value}), name) == value
 
 
-def test_function_defaults_are_the_settings():
-    """One value per tunable: the steps' own defaults are RobustSettings' (unit tests exercise the
-    values production uses)."""
-    import inspect
+def test_ranges_open_closed_and_counts():
+    open_ = Range(0.0, 1.0)
+    assert not open_.admits(0.0) and open_.admits(0.5) and not open_.admits(1.0)
+    assert Range(0.0, 1.0, closed=True).admits(1.0)
+    assert Range(-math.inf, 1.0).admits(-math.inf)
+    counts = Range(1, 3, integer=True)
+    assert counts.admits(1) and counts.admits(3) and not counts.admits(4) and not counts.admits(2.0)
+    assert not counts.admits(True)
 
-    from holecli.geometry import circle, frame, plane
-    from holecli.robust import bias, candidates, countersink, lattice, sampling
 
-    def defaults(function):
-        return {name: p.default for name, p in inspect.signature(function).parameters.items()
-                if p.default is not inspect.Parameter.empty}
+def test_the_steps_take_the_settings_they_are_given():
+    """A step given settings reads them (no module copy of a default stands in their way)."""
+    import numpy as np
+
+    from holecli.geometry.circle import fit_circle_robust
+    from holecli.robust.candidates import occupancy_grid
+
+    angles = np.linspace(0.0, 2.0 * np.pi, 40, endpoint=False)
+    radii = 1.0 + 0.01 * np.random.default_rng(0).standard_normal(len(angles))
+    radii[0] = 1.3  # one point 30 sigmas off the circle: clipped at 4 sigmas, kept at 1e6
+    xy = radii[:, None] * np.column_stack([np.cos(angles), np.sin(angles)])
+    assert not fit_circle_robust(xy).kept[0]
+    assert fit_circle_robust(xy, settings=RobustSettings(clip_sigmas=1e6)).kept.all()
+    # Two occupied cells far from everything: a speck at max_speck_cells 8, material at 0.
+    grid = np.stack(np.meshgrid(np.arange(30.0), np.arange(30.0)), axis=-1).reshape(-1, 2)
+    ring = grid[np.hypot(grid[:, 0] - 15, grid[:, 1] - 15) > 8]
+    specks = np.array([[15.0, 15.0], [16.0, 15.0]])
+    points = np.vstack([ring, specks])
+    default = occupancy_grid(points, 1.0)
+    kept = occupancy_grid(points, 1.0, settings=RobustSettings(max_speck_cells=0))
+    cells = default.cell_of(specks)
+    assert not default.material[cells[:, 0], cells[:, 1]].any()
+    assert kept.material[cells[:, 0], cells[:, 1]].all()
+
+
+def test_function_defaults_still_copied_from_the_settings():
+    """The module copies of RobustSettings' defaults that remain (in modules of another step of issue
+    26): they must stay equal to the settings until they go."""
+    from holecli.robust import countersink, edge_loops
 
     s = DEFAULT_SETTINGS
-    robust = defaults(plane.fit_plane_robust)
-    assert (robust["sample"], robust["hypotheses"], robust["quantile"], robust["clip"]) == (
-        s.ransac_sample, s.ransac_hypotheses, s.ransac_quantile, s.plane_clip)
-    assert (robust["max_rounds"], robust["refine_sample"], robust["max_faces"]) == (
-        s.plane_refine_rounds, s.plane_refine_sample, s.plane_max_faces)
-    assert defaults(frame.check_view_angle)["min_sine"] == s.view_min_sine
-    from holecli.robust import edge_loops
     assert edge_loops.POCKET_MAX_DEPTH_RATIO == s.pocket_max_depth_ratio
-    windows = defaults(sampling.estimate_sampling)
-    assert (windows["windows"], windows["window_points"]) == (s.sampling_windows, s.sampling_window_points)
-    assert defaults(circle.fit_circle_robust)["clip"] == circle.CLIP_SIGMAS == s.clip_sigmas
-    assert defaults(candidates.occupancy_grid)["max_speck_cells"] == candidates.MAX_SPECK_CELLS == s.max_speck_cells
-    assert defaults(countersink.fit_cone_edge)["depth_slope_ratio"] == s.cone_depth_slope_ratio
     assert (countersink.MIN_SLOPE, countersink.MAX_SLOPE, countersink.MIN_POINTS_BELOW, countersink.DEPTH_BINS,
-            countersink.MIN_BIN_POINTS) == (s.cone_min_slope, s.cone_max_slope, s.cone_min_points_below,
-                                            s.cone_depth_bins, s.cone_min_bin_points)
-    for function in (sampling.estimate_sampling, countersink.fit_cone_edge, lattice.lattice_steps,
-                     lattice.separating_circle, bias.sampling_bias, bias.synthetic_rim_fit):
-        assert defaults(function)["settings"] is DEFAULT_SETTINGS
-
-
-def test_the_new_tunables_keep_their_values():
-    """Moving a literal into RobustSettings changed no value."""
-    s = DEFAULT_SETTINGS
-    assert (s.plane_refine_rounds, s.plane_refine_sample, s.plane_max_faces, s.view_min_sine) == (20, 50_000, 3, 0.05)
-    assert s.sampling_window_offset_sd == 0.7
-    assert (s.sampling_gap_percentile, s.sampling_inner_fraction, s.sampling_line_coherence,
-            s.sampling_min_pitch_spacings, s.sampling_lattice_coherence, s.sampling_pitch_neighbours) == (
-        90.0, 0.6, 0.6, 1.3, 0.6, 16)
-    assert s.max_speck_cells == 8
-    assert (s.cut_alphas, s.bias_min_rim_points, s.bias_max_excess_alphas) == (2.0, 5, 1.0)
-    assert (s.lattice_present_steps, s.lattice_missing_steps, s.lattice_min_present_fraction,
-            s.lattice_min_brackets, s.lattice_max_gap_deg, s.lattice_others_steps) == (0.15, 0.5, 0.5, 8, 90.0, 2.0)
-    assert (s.cone_min_slope, s.cone_max_slope, s.cone_min_points_below, s.cone_below_sigmas, s.cone_inner_widths,
-            s.cone_trim_sigmas, s.cone_trim_rounds, s.cone_edge_steps, s.cone_depth_bins,
-            s.cone_min_bin_points) == (0.2, 3.0, 12, 3.0, 2.0, 3.0, 3, 64, 8, 3)
+            countersink.MIN_BIN_POINTS, countersink.DEPTH_SLOPE_RATIO) == (
+        s.cone_min_slope, s.cone_max_slope, s.cone_min_points_below, s.cone_depth_bins, s.cone_min_bin_points,
+        s.cone_depth_slope_ratio)

@@ -12,11 +12,8 @@ import numpy as np
 
 from holecli.errors import PointsError
 from holecli.geometry.kernels import circles_through
+from holecli.geometry.lsq import gauss_newton, levenberg_marquardt, trimmed_refit
 from holecli.settings import DEFAULT_SETTINGS
-
-# A radial residual above this many robust standard deviations marks a rim point as an outlier: the
-# robust method's value (RobustSettings.clip_sigmas), so that a default fit is the production fit.
-CLIP_SIGMAS = DEFAULT_SETTINGS.clip_sigmas
 
 
 @dataclass(frozen=True, eq=False)
@@ -135,72 +132,17 @@ def fit_circle_geometric(xy, start=None):
     """
     xy = _check(xy)
     mean, scale, u, x0 = _normalised(xy, start if start is not None else fit_circle_algebraic(xy))
-    solution = _levenberg_marquardt(u, x0)
+    solution = _solve(u, x0)
     center = solution[:2] * scale + mean
     radius = float(abs(solution[2]) * scale)
     residuals = np.hypot(*(xy - center).T) - radius
     return CircleFit(center=center, radius=radius, residuals=residuals, kept=np.ones(len(xy), bool))
 
 
-def _levenberg_marquardt(u, params, iterations=200, tolerance=1e-14):
-    """Minimise the squared radial residuals of the centred, scaled points ``u`` from ``params``.
-
-    Levenberg-Marquardt with Marquardt's diagonal scaling, as MINPACK's ``lmder`` (scipy's
-    ``least_squares(method="lm")``) does, on a 3 x 3 system: it stops when the step falls below
-    ``tolerance`` (relative) or no step lowers the cost (the flat valley of a short arc is followed to
-    its bottom, not left where the decrease first gets small). Numpy only: importing scipy.optimize costs the
-    command line about half a second.
-
-    Parameters
-    ----------
-    u : (n, 2) float
-    params : (3,) float
-        Start ``(cx, cy, r)`` in the units of ``u``.
-
-    Returns
-    -------
-    (3,) float
-    """
-    params = np.asarray(params, dtype=np.float64)
-    residual = _radial(params, u)
-    cost = float(residual @ residual)
-    damping = 1e-3
-    for _ in range(iterations):
-        jacobian = _radial_jacobian(params, u)
-        normal = jacobian.T @ jacobian
-        gradient = jacobian.T @ residual
-        diagonal = np.maximum(np.diag(normal), 1e-300)
-        while True:
-            try:
-                step = np.linalg.solve(normal + damping * np.diag(diagonal), -gradient)
-            except np.linalg.LinAlgError:
-                step = np.zeros(3)
-            trial = params + step
-            trial_residual = _radial(trial, u)
-            trial_cost = float(trial_residual @ trial_residual)
-            if trial_cost <= cost:
-                break
-            damping *= 10.0
-            if damping > 1e16:
-                return params
-        decrease = cost - trial_cost
-        params, residual, cost = trial, trial_residual, trial_cost
-        damping = max(damping / 10.0, 1e-16)
-        if np.max(np.abs(step)) <= tolerance * (1.0 + np.max(np.abs(params))) or (decrease == 0.0 and damping < 1e-12):
-            break
-    return params
-
-
-def _gauss_newton(u, params, iterations=50):
-    """Geometric circle fit by Gauss-Newton on centred, scaled points (fast path, no scipy overhead)."""
-    for _ in range(iterations):
-        residual = _radial(params, u)
-        jacobian = _radial_jacobian(params, u)
-        step, *_ = np.linalg.lstsq(jacobian, -residual, rcond=None)
-        params = params + step
-        if np.max(np.abs(step)) < 1e-13:
-            break
-    return params
+def _solve(u, params):
+    """The geometric fit of the centred, scaled points ``u`` from ``params`` ``(cx, cy, r)`` in their units
+    (:func:`holecli.geometry.lsq.levenberg_marquardt` with the radial residuals' analytic Jacobian)."""
+    return levenberg_marquardt(lambda p: _radial(p, u), params, lambda p, f: _radial_jacobian(p, u))
 
 
 def _least_quantile_circle(xy, hypotheses=200, quantile=75):
@@ -258,7 +200,7 @@ def _least_quantile_circle(xy, hypotheses=200, quantile=75):
     return center, radius
 
 
-def fit_circle_robust(xy, *, clip=CLIP_SIGMAS, floor=0.0, max_rounds=10, start=None):
+def fit_circle_robust(xy, *, clip=None, floor=0.0, max_rounds=10, start=None, settings=DEFAULT_SETTINGS.rim):
     """Geometric circle fit with iterative sigma clipping of radial outliers.
 
     Each round fits the kept points geometrically, estimates the residual scale robustly
@@ -269,9 +211,9 @@ def fit_circle_robust(xy, *, clip=CLIP_SIGMAS, floor=0.0, max_rounds=10, start=N
     ----------
     xy : (n, 2) float
         At least three points, not collinear.
-    clip : float
-        Clipping threshold in robust standard deviations (default ``CLIP_SIGMAS``, the robust
-        method's ``RobustSettings.clip_sigmas``).
+    clip : float, optional
+        Clipping threshold in robust standard deviations (default ``settings.clip_sigmas``, so that a
+        default fit is the production fit).
     floor : float
         Smallest residual scale, in the units of ``xy`` (keeps noise-free data from clipping
         round-off).
@@ -281,6 +223,8 @@ def fit_circle_robust(xy, *, clip=CLIP_SIGMAS, floor=0.0, max_rounds=10, start=N
         Initial center and radius; by default the algebraic fit of all points, or a
         least-quantile-of-squares circle through three of them when it halves the 75th percentile of
         the absolute residuals (:func:`_least_quantile_circle`).
+    settings : holecli.settings.RimSettings or RobustSettings
+        Source of ``clip`` when not given.
 
     Returns
     -------
@@ -288,25 +232,16 @@ def fit_circle_robust(xy, *, clip=CLIP_SIGMAS, floor=0.0, max_rounds=10, start=N
         ``kept`` marks the points of the final fit.
     """
     xy = _check(xy)
+    clip = settings.clip_sigmas if clip is None else clip
     mean, scale, u, params = _normalised(xy, start if start is not None else _least_quantile_circle(xy))
-    # Start from the points the initial circle explains (within 3 robust sd), not from all of them:
+    def refit(p, kept):  # from the previous round's circle: Gauss-Newton (lsq.gauss_newton says why)
+        points = u[kept]
+        return gauss_newton(lambda q: _radial(q, points), p, lambda q, f: _radial_jacobian(q, points))
+
+    # Start from the points the initial circle explains (within clip robust sd), not from all of them:
     # a fit to every point leans toward the outliers and the clipping then keeps them.
-    residual = _radial(params, u)
-    sigma = max(1.4826 * float(np.median(np.abs(residual))), floor / scale)
-    kept = np.abs(residual) <= clip * sigma
-    if kept.sum() < 3:
-        kept = np.ones(len(xy), dtype=bool)
-    for _ in range(max_rounds):
-        params = _gauss_newton(u[kept], params)
-        residual = _radial(params, u)
-        sigma = max(1.4826 * float(np.median(np.abs(residual[kept]))), floor / scale)
-        new_kept = np.abs(residual) <= clip * sigma
-        if new_kept.sum() < 3:
-            break
-        if np.array_equal(new_kept, kept):
-            break
-        kept = new_kept
-    params = _gauss_newton(u[kept], params)
+    params, kept = trimmed_refit(refit, lambda p: _radial(p, u), params,
+                                 clip=clip, floor=floor / scale, rounds=max_rounds, minimum=3, refit_last=True)
     center = params[:2] * scale + mean
     radius = float(abs(params[2]) * scale)
     residuals = np.hypot(*(xy[kept] - center).T) - radius

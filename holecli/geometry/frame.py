@@ -109,7 +109,7 @@ def from_plane_frame(local, origin, rotation):
     return np.asarray(local, dtype=np.float64) @ rotation + origin
 
 
-def check_view_angle(direction, min_sine=DEFAULT_SETTINGS.view_min_sine):
+def check_view_angle(direction, min_sine=None, *, settings=DEFAULT_SETTINGS.plane):
     """Refuse a viewing direction that grazes the plane: a sensor looking along it cannot have seen
     the surface found (most likely a wall or a side, not the face it scanned).
 
@@ -117,8 +117,10 @@ def check_view_angle(direction, min_sine=DEFAULT_SETTINGS.view_min_sine):
     ----------
     direction : (3,) float
         The view in the plane frame (the plane's normal is z); need not be unit length.
-    min_sine : float
-        Smallest sine of the angle between ``direction`` and the plane (RobustSettings.view_min_sine).
+    min_sine : float, optional
+        Smallest sine of the angle between ``direction`` and the plane (default: ``settings.view_min_sine``).
+    settings : holecli.settings.PlaneSettings or RobustSettings
+        Source of ``min_sine`` when not given.
 
     Raises
     ------
@@ -126,6 +128,7 @@ def check_view_angle(direction, min_sine=DEFAULT_SETTINGS.view_min_sine):
         When ``direction`` is zero or within ``asin(min_sine)`` of the plane.
     """
     direction = _unit(direction, "view direction")
+    min_sine = settings.view_min_sine if min_sine is None else min_sine
     if abs(direction[2]) < min_sine:
         raise PointsError(
             f"view direction {np.round(direction, 4).tolist()} is within "

@@ -371,11 +371,8 @@ def _sheet_sides(faces):
                         and abs(float(face[1] @ largest[1])) >= cos_limit]
 
 
-def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
-                     hypotheses=DEFAULT_SETTINGS.ransac_hypotheses, quantile=DEFAULT_SETTINGS.ransac_quantile,
-                     clip=DEFAULT_SETTINGS.plane_clip, max_rounds=DEFAULT_SETTINGS.plane_refine_rounds,
-                     refine_sample=DEFAULT_SETTINGS.plane_refine_sample, max_faces=DEFAULT_SETTINGS.plane_max_faces,
-                     view=None):
+def fit_plane_robust(points, *, rng=0, sample=None, hypotheses=None, quantile=None, clip=None, max_rounds=None,
+                     refine_sample=None, max_faces=None, view=None, settings=DEFAULT_SETTINGS.plane):
     """Plane of the dominant surface, ignoring bore-wall, countersink, inside-hole and outlier points.
 
     RANSAC hypotheses from point triples are scored by the ``quantile`` of their absolute residuals
@@ -394,7 +391,7 @@ def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
     ``clip / sqrt(12)`` steps (1.15 at clip 4) would keep the next level by a hair, whatever the
     plane's offset between levels.
 
-    Every default is the field of :data:`holecli.settings.DEFAULT_SETTINGS` named in brackets.
+    Every tunable not given is the field of ``settings`` named in brackets.
 
     Parameters
     ----------
@@ -421,6 +418,8 @@ def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
         whole CAD mesh holds the bottom face, the sides and the bore walls as well as the top.
         Without it, faces holding alike many points are told apart as if the sensor were above the
         file's +z (:func:`_dominant_face`).
+    settings : holecli.settings.PlaneSettings or RobustSettings
+        Source of the tunables not given (default: :data:`holecli.settings.DEFAULT_SETTINGS`'s).
 
     Returns
     -------
@@ -431,6 +430,13 @@ def fit_plane_robust(points, *, rng=0, sample=DEFAULT_SETTINGS.ransac_sample,
     points = np.asarray(points, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 3 or len(points) < 3:
         raise PointsError(f"a plane needs an (n >= 3, 3) array, got shape {points.shape}")
+    sample = settings.ransac_sample if sample is None else sample
+    hypotheses = settings.ransac_hypotheses if hypotheses is None else hypotheses
+    quantile = settings.ransac_quantile if quantile is None else quantile
+    clip = settings.plane_clip if clip is None else clip
+    max_rounds = settings.plane_refine_rounds if max_rounds is None else max_rounds
+    refine_sample = settings.plane_refine_sample if refine_sample is None else refine_sample
+    max_faces = settings.plane_max_faces if max_faces is None else max_faces
     rng = np.random.default_rng(rng)
     # Work relative to a point among the cloud's (the median of a thousand of them, so a stray point
     # far away is not it) without a centred copy of all the points; only samples are copied.

@@ -13,7 +13,7 @@ The fits are Levenberg-Marquardt on forward-difference Jacobians (five or six pa
 points: the residuals are cheap) inside a trimming loop: before the first fit (from the starting surface) and after each fit the
 points farther than ``trim_sigmas`` robust standard deviations of the residuals (never less than
 ``floor``) are set aside and the fit is repeated, so that stray points from another surface do not
-pull it. Numpy only.
+pull it (:mod:`holecli.geometry.lsq`). Numpy only.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from holecli.geometry.kernels import robust_sigma
+from holecli.geometry.lsq import covariance, forward_difference, levenberg_marquardt, trimmed_refit
 
 
 @dataclass(frozen=True)
@@ -113,83 +113,33 @@ def _cone_residuals(parameters, local):
     return (rho - r0 - t * np.tan(theta)) * np.cos(theta)
 
 
-def _levenberg_marquardt(residuals, start, steps, iterations=50, tolerance=1e-12):
-    """Minimise ``sum(residuals(p)^2)`` from ``start``; ``steps`` are the finite-difference steps."""
-    p = np.array(start, dtype=np.float64)
-    f = residuals(p)
-    cost = float(f @ f)
-    damping = 1e-3
-    for _ in range(iterations):
-        jacobian = np.empty((len(f), len(p)))
-        for k, step in enumerate(steps):
-            shifted = p.copy()
-            shifted[k] += step
-            jacobian[:, k] = (residuals(shifted) - f) / step
-        normal = jacobian.T @ jacobian
-        gradient = jacobian.T @ f
-        improved = False
-        for _ in range(12):
-            try:
-                delta = np.linalg.solve(normal + damping * np.diag(np.diag(normal) + 1e-300), -gradient)
-            except np.linalg.LinAlgError:
-                damping *= 10.0
-                continue
-            candidate = p + delta
-            g = residuals(candidate)
-            new_cost = float(g @ g)
-            if np.isfinite(new_cost) and new_cost <= cost:
-                improved = True
-                p, f, decrease, cost = candidate, g, cost - new_cost, new_cost
-                damping = max(damping / 10.0, 1e-12)
-                break
-            damping *= 10.0
-        if not improved or decrease <= tolerance * max(cost, 1e-300):
-            break
-    return p
-
-
 def _trimmed(residuals_of, start, steps, local, floor, trim_sigmas, rounds):
-    """The fit repeated on the points within ``trim_sigmas`` robust sigmas of the previous fit."""
-    p = np.array(start, dtype=np.float64)
-    # The first round already leaves out what lies far from the starting surface: a good start (the
-    # cone's hinge, the wall's median radius) then keeps a neighbouring surface's points from pulling
-    # the first fit into a wrong minimum that trimming after it would no longer leave.
-    residuals = residuals_of(p, local)
-    kept = np.abs(residuals) <= trim_sigmas * max(robust_sigma(residuals), floor)
-    if np.count_nonzero(kept) < len(p) + 1:
-        kept = np.ones(len(local), dtype=bool)
-    for _ in range(rounds):
-        p = _levenberg_marquardt(lambda q: residuals_of(q, local[kept]), p, steps)
-        residuals = residuals_of(p, local)
-        scale = max(robust_sigma(residuals[kept]), floor)
-        new_kept = np.abs(residuals) <= trim_sigmas * scale
-        if np.count_nonzero(new_kept) < len(p) + 1 or np.array_equal(new_kept, kept):
-            break
-        kept = new_kept
+    """The fit repeated on the points within ``trim_sigmas`` robust sigmas of the previous fit
+    (:func:`holecli.geometry.lsq.trimmed_refit`), each fit Levenberg-Marquardt on the forward
+    differences of ``steps``; the parameters, the residuals of every point, which were kept and their rms."""
+    def fit(p, kept):
+        def residuals(q):
+            return residuals_of(q, local[kept])
+        return levenberg_marquardt(residuals, p, forward_difference(residuals, steps), iterations=50,
+                                   tolerance=1e-12, stop="decrease")
+
+    p, kept = trimmed_refit(fit, lambda q: residuals_of(q, local), start, clip=trim_sigmas, floor=floor,
+                            rounds=rounds, minimum=len(start) + 1)
     residuals = residuals_of(p, local)
     rms = float(np.sqrt(np.mean(residuals[kept] ** 2)))
     return p, residuals, kept, rms
 
 
 def _covariance(residuals_of, p, steps, local):
-    """Least-squares covariance ``s^2 (J^T J)^-1`` of the parameters ``p`` fitted to ``local`` (the
-    points kept), ``s^2`` the residuals' variance on n - len(p) degrees of freedom and ``J`` the
-    forward-difference Jacobian; None when singular or too few points. In the fit's frame: the axis
-    tilts ``a, b`` are radians to first order."""
-    f = residuals_of(p, local)
-    n, k = len(f), len(p)
-    if n <= k:
+    """Least-squares covariance of the parameters ``p`` fitted to ``local`` (the points kept), on the
+    forward-difference Jacobian (:func:`holecli.geometry.lsq.covariance`); None when singular or too
+    few points. In the fit's frame: the axis tilts ``a, b`` are radians to first order."""
+    def residuals(q):
+        return residuals_of(q, local)
+    f = residuals(p)
+    if len(f) <= len(p):
         return None
-    jacobian = np.empty((n, k))
-    for i, step in enumerate(steps):
-        shifted = np.array(p, dtype=np.float64)
-        shifted[i] += step
-        jacobian[:, i] = (residuals_of(shifted, local) - f) / step
-    try:
-        inverse = np.linalg.inv(jacobian.T @ jacobian)
-    except np.linalg.LinAlgError:
-        return None
-    return inverse * float(f @ f) / (n - k)
+    return covariance(forward_difference(residuals, steps)(p, f), f)
 
 
 def _reference_frame(points, origin, direction, radius):

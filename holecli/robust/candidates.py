@@ -22,9 +22,6 @@ from holecli.settings import DEFAULT_SETTINGS
 
 _CROSS = ndimage.generate_binary_structure(2, 1)
 _SQUARE = np.ones((3, 3), dtype=bool)
-# Clusters of occupied cells up to this size that the opening removes are specks, not material
-# (RobustSettings.max_speck_cells).
-MAX_SPECK_CELLS = DEFAULT_SETTINGS.max_speck_cells
 
 
 @dataclass(frozen=True, eq=False)
@@ -112,7 +109,7 @@ class Void:
         return self.cells.max(axis=0)
 
 
-def occupancy_grid(xy, cell, max_speck_cells=MAX_SPECK_CELLS):
+def occupancy_grid(xy, cell, max_speck_cells=None, *, settings=DEFAULT_SETTINGS.candidates):
     """The occupancy grid of ``xy`` at ``cell``, padded by at least two empty cells on every side.
 
     Specks (small clusters of occupied cells that hold no 3 x 3 block and touch no material: random
@@ -125,13 +122,16 @@ def occupancy_grid(xy, cell, max_speck_cells=MAX_SPECK_CELLS):
         Surface points in the plane frame.
     cell : float
         The cell's side, file units (``cell_gaps`` gaps in the pipeline).
-    max_speck_cells : int
-        Largest cluster of occupied cells that can be a speck (RobustSettings.max_speck_cells).
+    max_speck_cells : int, optional
+        Largest cluster of occupied cells that can be a speck (default: ``settings.max_speck_cells``).
+    settings : holecli.settings.CandidateSettings or RobustSettings
+        Source of ``max_speck_cells`` when not given.
 
     Returns
     -------
     Grid
     """
+    max_speck_cells = settings.max_speck_cells if max_speck_cells is None else max_speck_cells
     # Cell boundaries at whole multiples of the cell from the frame's origin (the points' centroid in
     # the pipeline), so that the grid is the same after a half turn of the frame.
     origin = (np.floor(xy.min(axis=0) / cell) - 2.0) * cell

@@ -79,23 +79,21 @@ def _line_pitch(window, direction, spacing, neighbours):
     return float(np.median(across[np.arange(len(window)), nearest][found]))
 
 
-def estimate_sampling(xy, windows=DEFAULT_SETTINGS.sampling_windows,
-                      window_points=DEFAULT_SETTINGS.sampling_window_points, *, settings=DEFAULT_SETTINGS):
+def estimate_sampling(xy, windows=None, window_points=None, *, settings=DEFAULT_SETTINGS.sampling):
     """Measure spacing, gap scale and scan-line structure of 2D surface points.
 
     Parameters
     ----------
     xy : (n, 2) float
         Surface points projected onto their plane.
-    windows : int
-        Number of local windows (placed at coordinate quantiles).
-    window_points : int
-        Target number of points per window.
-    settings : RobustSettings
+    windows : int, optional
+        Number of local windows (placed at coordinate quantiles); default ``settings.sampling_windows``.
+    window_points : int, optional
+        Target number of points per window; default ``settings.sampling_window_points``.
+    settings : holecli.settings.SamplingSettings or RobustSettings
         Source of the thresholds ``sampling_gap_percentile``, ``sampling_inner_fraction``,
-        ``sampling_line_coherence``, ``sampling_min_pitch_spacings``, ``sampling_lattice_coherence``
-        and ``sampling_pitch_neighbours``. ``windows`` and ``window_points`` default to its
-        ``sampling_windows`` and ``sampling_window_points`` of :data:`holecli.settings.DEFAULT_SETTINGS`.
+        ``sampling_line_coherence``, ``sampling_min_pitch_spacings``, ``sampling_lattice_coherence``,
+        ``sampling_pitch_neighbours`` and ``sampling_window_offset_sd``, and of the defaults above.
 
     Returns
     -------
@@ -104,6 +102,8 @@ def estimate_sampling(xy, windows=DEFAULT_SETTINGS.sampling_windows,
     n = len(xy)
     if n < 10:
         raise PointsError(f"too few surface points to measure the sampling: {n}")
+    windows = settings.sampling_windows if windows is None else windows
+    window_points = settings.sampling_window_points if window_points is None else window_points
     # Column-major: the window box tests read x and y as contiguous columns, a few times each.
     columns = np.asfortranarray(xy)
     x, y = columns[:, 0], columns[:, 1]

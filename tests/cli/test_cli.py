@@ -471,8 +471,8 @@ def test_detect_output_dash_is_stdout(run, table1_files, tmp_path, monkeypatch):
 @pytest.mark.slow
 def test_detect_output_removes_temporaries_left_by_a_killed_run(holecli_process, table1_files, tmp_path):
     output = tmp_path / "result.json"
-    writer = holecli_process("detect", table1_files[".ply"], "-o", output, start=True)
-    writer.wait(60)
+    with holecli_process("detect", table1_files[".ply"], "-o", output, start=True) as writer:
+        writer.wait(60)
     output.unlink()
     stale = tmp_path / f".result.json.{writer.pid}.1234abcd.tmp"  # that process is gone
     stale.write_text('{"half": ')

@@ -122,7 +122,8 @@ def test_recovers_the_transform_and_writes_corrected_targets(reg, part, tmp_path
     assert record["outliers"] == [] and record["free_dofs"] == [] and record["verdict"] == "pass"
     assert record["uncertainty"]["source"] == "sigmas"
     assert all(u > 0 for u in record["uncertainty"]["translation"] + record["uncertainty"]["rotation_deg"])
-    rows = list(csv.DictReader(corrected.open()))
+    with corrected.open() as handle:
+        rows = list(csv.DictReader(handle))
     assert [row["name"] for row in rows] == ["T1", "T2"]
     truth = np.array([[10, 5, 0], [50, 30, 0]]) @ TRUE_ROTATION.T + TRUE_TRANSLATION
     got = np.array([[float(row[k]) for k in ("x", "y", "z")] for row in rows])
@@ -382,7 +383,8 @@ def test_two_holes_one_moved_warn_widen_and_exit_8(reg, part, tmp_path):
     # widened: an added sigma of the discrepancy's size on every hole
     for widened, tight in zip(record["uncertainty"]["translation"], clean_record["uncertainty"]["translation"]):
         assert widened > 10 * tight
-    rows = list(csv.DictReader(corrected.open()))
+    with corrected.open() as handle:
+        rows = list(csv.DictReader(handle))
     assert all(float(row["u_x"]) > 0.01 for row in rows)
     with_verdict = reg(*_paths(part, "A1", "A3_moved"), "--name", "A3_moved.ply=A3", "--spec", part / "part.toml",
                        "--max-residual", 0.5)

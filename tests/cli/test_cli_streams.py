@@ -304,10 +304,10 @@ def _assert_quiet_broken_pipe(returncode, stderr, name="stdout"):
 
 @pytest.mark.parametrize("fmt", ["json", "csv", "table"])
 def test_detect_into_a_pipe_closed_before_the_result_exits_141(holecli_process, scan_files, fmt):
-    process = holecli_process("detect", scan_files["ply"], "--format", fmt, start=True)
-    process.stdout.close()  # the only reader goes away before holecli writes: its write fails with EPIPE
-    stderr = process.stderr.read()
-    process.wait(timeout=120)
+    with holecli_process("detect", scan_files["ply"], "--format", fmt, start=True) as process:
+        process.stdout.close()  # the only reader goes away before holecli writes: its write fails with EPIPE
+        stderr = process.stderr.read()
+        process.wait(timeout=120)
     _assert_quiet_broken_pipe(process.returncode, stderr)
 
 
@@ -326,12 +326,12 @@ def _consumer(lines):
 
 def _batch_into(holecli_process, consumer, *args, **popen_options):
     """``holecli batch ARGS | consumer``: (holecli's exit code, its stderr, the consumer's stdout)."""
-    batch = holecli_process("batch", *args, start=True, **popen_options)
-    reader = subprocess.Popen(consumer, stdin=batch.stdout, stdout=subprocess.PIPE, text=True)
-    batch.stdout.close()  # the consumer holds the only read end
-    consumed, _ = reader.communicate(timeout=120)
-    stderr = batch.stderr.read() if batch.stderr else None
-    batch.wait(timeout=120)
+    with holecli_process("batch", *args, start=True, **popen_options) as batch:
+        with subprocess.Popen(consumer, stdin=batch.stdout, stdout=subprocess.PIPE, text=True) as reader:
+            batch.stdout.close()  # the consumer holds the only read end
+            consumed, _ = reader.communicate(timeout=120)
+        stderr = batch.stderr.read() if batch.stderr else None
+        batch.wait(timeout=120)
     return batch.returncode, stderr, consumed
 
 

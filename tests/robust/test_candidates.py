@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from holecli.robust.candidates import MAX_SPECK_CELLS, Grid, Void, distance_to_outside, find_voids, occupancy_grid
+from holecli.robust.candidates import Grid, Void, distance_to_outside, find_voids, occupancy_grid
+from holecli.settings import DEFAULT_SETTINGS
 
 H = 0.1
 CELL = 0.15  # about two gaps of a grid of spacing h (the pipeline's cell)
@@ -90,13 +91,13 @@ def test_specks_inside_a_hole_are_removed():
 
 
 def test_a_large_island_inside_a_hole_is_material():
-    """A cluster of more than MAX_SPECK_CELLS cells (a boss, debris) stays: the void becomes a ring."""
+    """A cluster of more than max_speck_cells cells (a boss, debris) stays: the void becomes a ring."""
     center = np.array([0.0, 0.0])
     material = outside_disk(patch(), center, 2.0)
     island = patch(-0.5, 0.5, -0.5, 0.5)
     grid = occupancy_grid(np.concatenate([material, island]), CELL)
     assert np.count_nonzero(grid.lookup(grid.material, island)) == len(island)
-    assert len(np.unique(grid.cell_of(island), axis=0)) > MAX_SPECK_CELLS
+    assert len(np.unique(grid.cell_of(island), axis=0)) > DEFAULT_SETTINGS.max_speck_cells
     voids = find_voids(grid)
     assert len(voids) == 1
     distance = np.hypot(*(void_centers(grid, voids[0]) - center).T)
