@@ -128,7 +128,7 @@ class RobustSettings:
     threads_from_points: int = 200_000
     # A countersink cone's points below the surface must deepen toward the center at least at this
     # fraction of the cone's fitted slope (depth per radius): the flat floor of a blind hole, at one
-    # depth all across the inside, is not a cone (check "flat_floor" of holecli.robust.countersink).
+    # depth all across the inside, is not a cone (check "flat_floor" of holecli.robust.estimators.cone).
     cone_depth_slope_ratio: float = 0.3
     # Fewest rim points for a full hole, and for a partial hole or any hole found in a bay of the
     # scan's border (where the dents of a ragged border must not pass for holes).
@@ -183,7 +183,7 @@ class RobustSettings:
     # larger than this stays, and the void around it becomes a ring.
     max_speck_cells: int = 8
 
-    # --- Synthetic holes of the bias correction (holecli.robust.bias), in alphas ---
+    # --- Synthetic holes of the bias correction (holecli.robust.estimators.rim_fit), in alphas ---
     # Points within this many alphas of the outer line of the triangulated ring are cut-zone
     # material (the cut, not a hole, leaves empty triangles there): an alpha disk's diameter.
     cut_alphas: float = 2.0
@@ -193,7 +193,7 @@ class RobustSettings:
     # (the rim ran off into another void), and is left out of the mean.
     bias_max_excess_alphas: float = 1.0
 
-    # --- Lattice brackets (holecli.robust.lattice), in lattice steps ---
+    # --- Lattice brackets (holecli.robust.estimators.lattice), in lattice steps ---
     # A neighbour one step along an axis is present within this fraction of the step: far above the
     # in-plane noise of a quiet regular scan, far below half a step.
     lattice_present_steps: float = 0.15
@@ -212,7 +212,7 @@ class RobustSettings:
     # Other material points within this many steps outside the circle must lie outside it too.
     lattice_others_steps: float = 2.0
 
-    # --- Countersink cone (holecli.robust.countersink.fit_cone_edge) ---
+    # --- Countersink cone (holecli.robust.estimators.cone.fit_cone_edge) ---
     # A cone's wall slopes between these (depth per unit radius: 0.2 is 11 degrees from the surface,
     # 3.0 is 72; a 100-degree countersink slopes 0.84, a 60-degree one 1.73); a steeper "cone" is a
     # bore wall, a flatter one is noise.

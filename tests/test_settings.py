@@ -39,7 +39,8 @@ def test_function_defaults_are_the_settings():
     import inspect
 
     from holecli.geometry import circle, frame, plane
-    from holecli.robust import bias, candidates, countersink, lattice, sampling
+    from holecli.robust import candidates, sampling
+    from holecli.robust.estimators import cone, lattice, rim_fit
 
     def defaults(function):
         return {name: p.default for name, p in inspect.signature(function).parameters.items()
@@ -58,12 +59,12 @@ def test_function_defaults_are_the_settings():
     assert (windows["windows"], windows["window_points"]) == (s.sampling_windows, s.sampling_window_points)
     assert defaults(circle.fit_circle_robust)["clip"] == circle.CLIP_SIGMAS == s.clip_sigmas
     assert defaults(candidates.occupancy_grid)["max_speck_cells"] == candidates.MAX_SPECK_CELLS == s.max_speck_cells
-    assert defaults(countersink.fit_cone_edge)["depth_slope_ratio"] == s.cone_depth_slope_ratio
-    assert (countersink.MIN_SLOPE, countersink.MAX_SLOPE, countersink.MIN_POINTS_BELOW, countersink.DEPTH_BINS,
-            countersink.MIN_BIN_POINTS) == (s.cone_min_slope, s.cone_max_slope, s.cone_min_points_below,
+    assert defaults(cone.fit_cone_edge)["depth_slope_ratio"] == s.cone_depth_slope_ratio
+    assert (cone.MIN_SLOPE, cone.MAX_SLOPE, cone.MIN_POINTS_BELOW, cone.DEPTH_BINS,
+            cone.MIN_BIN_POINTS) == (s.cone_min_slope, s.cone_max_slope, s.cone_min_points_below,
                                             s.cone_depth_bins, s.cone_min_bin_points)
-    for function in (sampling.estimate_sampling, countersink.fit_cone_edge, lattice.lattice_steps,
-                     lattice.separating_circle, bias.sampling_bias, bias.synthetic_rim_fit):
+    for function in (sampling.estimate_sampling, cone.fit_cone_edge, lattice.lattice_steps,
+                     lattice.separating_circle, rim_fit.sampling_bias, rim_fit.synthetic_rim_fit):
         assert defaults(function)["settings"] is DEFAULT_SETTINGS
 
 
