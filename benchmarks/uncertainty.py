@@ -22,7 +22,7 @@ holes found count:
   ``--cad-suite DIR``; measured with each cloud's view direction (``--view-dir``; a CAD cloud's bulk may
   lie on other faces than the holes').
 
-The method terms of the uncertainty (holecli.robust.uncertainty.METHOD_TERMS) were calibrated on the
+The method terms of the uncertainty (holecli.robust.estimators.METHOD_TERMS) were calibrated on the
 simulators' seeds 0-199; the default seeds (1000 on) are held out of the same generators, and the
 validation and CAD suites are held out entirely: the table's last column says which.
 

@@ -39,7 +39,7 @@ Both spellings make one::
 
 A step is given the settings (the whole object or its group, which answer the same names) and reads
 them; where a step is not given any it reads :data:`DEFAULT_SETTINGS`. The module-level copies of a
-field still made at import (``holecli.robust.countersink``'s ``MIN_SLOPE`` and the like,
+field still made at import (``holecli.robust.estimators.cone``'s ``MIN_SLOPE`` and the like,
 ``edge_loops.POCKET_MAX_DEPTH_RATIO``) do not follow a caller's settings.
 """
 
@@ -254,7 +254,7 @@ class AcceptanceSettings(_Group):
 
 @dataclass(frozen=True)
 class BiasSettings(_Group):
-    """The sampling-bias correction and its synthetic holes (:mod:`holecli.robust.bias`)."""
+    """The sampling-bias correction and its synthetic holes (:mod:`holecli.robust.estimators.rim_fit`)."""
 
     # Sampling-bias correction: synthetic holes cut at r + k * period for these k (the pattern's
     # period: line pitch or grid spacing; half an alpha on irregular sampling), in this many passes.
@@ -280,7 +280,7 @@ class BiasSettings(_Group):
 
 @dataclass(frozen=True)
 class LatticeSettings(_Group):
-    """The lattice brackets of a regular scan (:mod:`holecli.robust.lattice`), in lattice steps."""
+    """The lattice brackets of a regular scan (:mod:`holecli.robust.estimators.lattice`), in lattice steps."""
 
     # A neighbour one step along an axis is present within this fraction of the step: far above the
     # in-plane noise of a quiet regular scan, far below half a step.
@@ -303,7 +303,7 @@ class LatticeSettings(_Group):
 
 @dataclass(frozen=True)
 class EmptyCircleSettings(_Group):
-    """When the edge is the largest empty circle (:mod:`holecli.robust.empty_circle`)."""
+    """When the edge is the largest empty circle (:mod:`holecli.robust.estimators.empty_circle`)."""
 
     # On irregular sampling (random points, a cloud sampled from a CAD mesh) the edge is the largest empty
     # circle of the surface points when their height noise is at most this fraction of the mean point
@@ -315,7 +315,7 @@ class EmptyCircleSettings(_Group):
 
 @dataclass(frozen=True)
 class CountersinkSettings(_Group):
-    """The countersink cone at a hole's edge (:func:`holecli.robust.countersink.fit_cone_edge`)."""
+    """The countersink cone at a hole's edge (:func:`holecli.robust.estimators.cone.fit_cone_edge`)."""
 
     # A cone's wall slopes between these (depth per unit radius: 0.2 is 11 degrees from the surface,
     # 3.0 is 72; a 100-degree countersink slopes 0.84, a 60-degree one 1.73); a steeper "cone" is a
@@ -343,7 +343,7 @@ class CountersinkSettings(_Group):
     cone_min_bin_points: int = count(3, 1, 10 ** 9)
     # A countersink cone's points below the surface must deepen toward the center at least at this
     # fraction of the cone's fitted slope (depth per radius): the flat floor of a blind hole, at one
-    # depth all across the inside, is not a cone (check "flat_floor" of holecli.robust.countersink).
+    # depth all across the inside, is not a cone (check "flat_floor" of holecli.robust.estimators.cone).
     # Below 1: a cone's points must deepen at some fraction of its slope; -inf turns the check off.
     cone_depth_slope_ratio: float = number(0.3, -_INF, 1.0)
     # A cone must be resolved by the scan: its points clearly below the surface must reach this many

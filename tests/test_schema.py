@@ -171,7 +171,7 @@ def test_every_rejection_check_and_estimator_is_in_the_schema():
     """The schema lists every check that can refuse a candidate (pocket, the edge loops' ...) and every
     estimator of an edge (edge_loops): a record holecli writes is always valid."""
     from holecli.robust.method import REJECTION_REASONS
-    from holecli.robust.uncertainty import METHOD_TERMS
+    from holecli.robust.estimators import METHOD_TERMS
 
     defs = record_schema()["$defs"]
     assert set(defs["rejection"]["properties"]["check"]["enum"]) == set(REJECTION_REASONS)

@@ -145,7 +145,8 @@ def test_the_steps_take_the_settings_they_are_given():
 def test_function_defaults_still_copied_from_the_settings():
     """The module copies of RobustSettings' defaults that remain (in modules of another step of issue
     26): they must stay equal to the settings until they go."""
-    from holecli.robust import countersink, edge_loops
+    from holecli.robust import edge_loops
+    from holecli.robust.estimators import cone as countersink
 
     s = DEFAULT_SETTINGS
     assert edge_loops.POCKET_MAX_DEPTH_RATIO == s.pocket_max_depth_ratio

@@ -13,7 +13,7 @@ out of the material: the side without the points below the surface):
    and at most ``shape_depth_radii`` radii deep; a point is *below* when it lies more than
    ``shape_below_sigmas`` sigmas of the surface ring's noise under the surface.
 2. A countersunk hole (the robust method accepted a cone at the edge, see
-   :mod:`holecli.robust.countersink`): the cone is fitted to the points below near the hinge the
+   :mod:`holecli.robust.estimators.cone`): the cone is fitted to the points below near the hinge the
    edge fit found, then again to every point within four rms of the first fit. Its diameter is taken
    where its axis meets the surface, its depth from there to where it meets the bore (fitted below
    it) or, with no bore seen, to the cone points' inner edge.

@@ -10,9 +10,10 @@ Steps (each its own module):
 5. per candidate, a local Delaunay triangulation and its alpha-shape rim (:mod:`holecli.robust.boundary`);
 6. a robust geometric circle fit (:mod:`holecli.robust.edge`, :mod:`holecli.geometry.circle`), checks that the void is
    a round hole and not a boss, a dent of the border or a natural gap, and its scanned coverage;
-7. the edge: where a countersink cone meets the surface (:mod:`holecli.robust.countersink`; the flat floor of
-   a blind hole is no cone), else the rim fit corrected for the sampling bias, by lattice brackets on
-   regular scans (:mod:`holecli.robust.lattice`) or by synthetic holes (:mod:`holecli.robust.bias`); a local plane
+7. the edge: where a countersink cone meets the surface (:mod:`holecli.robust.estimators.cone`; the flat
+   floor of a blind hole is no cone), else the rim fit corrected for the sampling bias, by lattice
+   brackets on regular scans (:mod:`holecli.robust.estimators.lattice`) or by synthetic holes
+   (:mod:`holecli.robust.estimators.rim_fit`); a local plane
    gives the normal and the 3D center.
 """
 
@@ -30,21 +31,17 @@ from holecli.geometry.frame import canonical_rotation, check_view_angle, from_pl
 from holecli.geometry.kernels import CellIndex, box_indices, largest_angular_gap, orient_normal, robust_sigma
 from holecli.geometry.plane import ASSUMED_VIEW, PlaneFit, fit_plane_robust, fit_plane_scatter, hidden_points
 from holecli.results import Hole, Plane, Rejection, Scales, Uncertainty
-from holecli.robust.bias import RimScales, sampling_errors
 from holecli.robust.boundary import hole_rim, near_box_edge
 from holecli.robust.candidates import distance_to_outside, find_voids, occupancy_grid, scanned_hull
-from holecli.robust.countersink import Cone, fit_cone_edge, points_on_hinge
 from holecli.robust.doubts import Doubts, doubt_warnings, edge_bore_warning
 from holecli.robust.edge import fit_edge
 from holecli.robust.edge_loops import (LOOP_CHECKS, coordinate_step, edge_loops, faces_empty, looks_like_vertices,
                                        top_face)
+from holecli.robust.estimators import CONE, ESTIMATOR_NAMED, SceneQueries, estimate_edge
 from holecli.robust.facing import decide, fan_side, fan_spacing, MIN_POINTS as SEEN_MIN_POINTS, seen_through
-from holecli.robust.empty_circle import empty_circle_errors, largest_empty_circle
 from holecli.robust.hole_shape import measure_hole_shape
-from holecli.robust.lattice import lattice_errors, lattice_steps, separating_circle
 from holecli.robust.sampling import estimate_sampling
-from holecli.robust.uncertainty import (edge_uncertainty, plane_uncertainty, resolution_uncertainty,
-                                        synthetic_reflections)
+from holecli.robust.uncertainty import edge_uncertainty, plane_uncertainty, resolution_uncertainty
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.stages import StageClock
 
@@ -324,116 +321,6 @@ def _scanned_fraction(scene, grid, center, radius, rings=48, spokes=96):
     return float(np.mean(grid.lookup(hull, disk)))
 
 
-def _countersink(scene, center, radius, settings):
-    """The countersink cone around a fitted rim, or the named check it failed (a
-    :class:`holecli.robust.countersink.NotACone`; see :mod:`holecli.robust.countersink`).
-
-    The edge is searched within a window of the rim's radius. Where the surface band is wide (a
-    scan of a curved panel, whose plane lies tens of um off the surface), the top of the cone counts
-    as surface and the rim lies inside the edge by more than the window: an edge found at the
-    window's outer limit (settings ``cone_window_limit``) moves the window out to it, up to
-    ``cone_window_moves`` times.
-    """
-    width = 2.0 * scene.alpha
-    cone = None
-    for _ in range(settings.cone_window_moves + 1):
-        xy, depth = _points_around_edge(scene, center, radius, width, settings)
-        rho = np.hypot(xy[:, 0] - center[0], xy[:, 1] - center[1])
-        found = fit_cone_edge(rho, depth, radius, width, scene.height_noise,
-                              depth_slope_ratio=settings.cone_depth_slope_ratio, settings=settings,
-                              gap=scene.sampling.gap)
-        if not isinstance(found, Cone):
-            return found if cone is None else cone
-        cone = found
-        if found.radius < radius + (1.0 - settings.cone_window_limit) * width:
-            break
-        radius = found.radius
-    return cone
-
-
-def _points_around_edge(scene, center, radius, width, settings):
-    """The points within [r - 2 width, r + width] of ``center`` that may lie on a countersink's cone
-    (plane frame xy, (k, 2)), and their depth below the surface around the hole (k,)."""
-    index = _within(scene, scene.xy, center, max(radius - settings.cone_inner_widths * width, 0.0), radius + width)
-    # Points above the surface band (outliers, a stray point 1e8 off along the normal) are on no
-    # cone, and one of them would outweigh every other point in the hinge's least squares.
-    index = index[scene.heights[index] <= scene.band]
-    xy = scene.xy[index]
-    return xy, _surface_height(scene, center, radius, settings, xy) - scene.heights[index]
-
-
-def _cone_in_the_plane(scene, center, cone, settings):
-    """Center and edge radius of a countersink from its cone, ``depth = s * max(0, R - |xy - c|)``
-    fitted to the points around the edge with the center ``c`` free, and the covariance of
-    ``(cx, cy, R)`` (None when the rim's center and the hinge's edge stay).
-
-    The hinge of :func:`holecli.robust.countersink.fit_cone_edge` takes the rim's center; the rim lies inside
-    the edge by what the surface band hides of the cone, and on a tilted scan the camera sees more of
-    one side of the cone than of the other, so the rim's center is off by up to 0.3 spacings there.
-    The cone's own points, wherever they are, say where its axis is. A fit that runs off (its center
-    or edge more than the edge's search window away, or its slope below a cone's) is not trusted: the
-    rim's center and the hinge's edge stay.
-    """
-    from scipy.optimize import least_squares
-
-    width = 2.0 * scene.alpha
-    around_xy, around_depth = _points_around_edge(scene, center, cone.radius, width, settings)
-    start = np.array([center[0], center[1], cone.radius, cone.slope])
-    for _ in range(2):
-        # Only the points on the cone: a bore wall seen on one side of a tilted scan would pull the
-        # free center and edge toward itself (soft_l1 tempers an outlier, not hundreds). They are
-        # chosen about the accepted cone, then again about the fitted one: about the rim's center,
-        # which is off on a tilted scan, good points of one side of the cone miss the first choice.
-        cx, cy, edge, slope = start
-        rho = np.hypot(around_xy[:, 0] - cx, around_xy[:, 1] - cy)
-        inside = rho < edge
-        among = inside if np.count_nonzero(inside) >= settings.cone_min_points_below else None
-        kept = points_on_hinge(rho, around_depth, edge, slope, scene.height_noise, 1e-12 * cone.radius,
-                               settings.cone_trim_sigmas, among=among)
-        # The loss's scale is the cone points' own scatter about the hinge, not the surface's noise: a
-        # CAD countersink's facets lie up to a sagitta off the cone, and at the noise's scale soft_l1
-        # weighs them as outliers and the edge falls toward the facets' apothem (a 24-gon: -18 um).
-        misfit = around_depth - slope * np.maximum(edge - rho, 0.0)
-        scale = max(robust_sigma(misfit if among is None else misfit[among]), scene.height_noise,
-                    1e-12 * cone.radius)
-        xy, depth = around_xy[kept], around_depth[kept]
-        if len(xy) < settings.cone_min_points_below:
-            return center, cone.radius, None
-
-        def residuals(parameters, xy=xy, depth=depth):
-            cx, cy, edge, slope = parameters
-            rho = np.hypot(xy[:, 0] - cx, xy[:, 1] - cy)
-            return (depth - slope * np.maximum(edge - rho, 0.0)) / scale
-
-        try:
-            result = least_squares(residuals, start, loss="soft_l1", f_scale=3.0, x_scale=[width, width, width, 1.0])
-        except (ValueError, np.linalg.LinAlgError):
-            return center, cone.radius, None
-        start = result.x
-    cx, cy, edge, slope = result.x
-    shift = float(np.hypot(cx - center[0], cy - center[1]))
-    if not result.success or shift > width or abs(edge - cone.radius) > width or not settings.cone_min_slope <= slope:
-        return center, cone.radius, None
-    covariance = _least_squares_covariance(result, scale)  # None: singular (no covariance, not a crash)
-    return np.array([cx, cy]), float(edge), None if covariance is None else covariance[:3, :3]
-
-
-def _least_squares_covariance(result, scale):
-    """Covariance of the parameters of a scipy ``least_squares`` result whose residuals were divided
-    by ``scale``: ``s^2 (J^T J)^-1`` with ``s^2`` the residuals' variance (n - p degrees of freedom),
-    in the parameters' units; None when the Jacobian is singular."""
-    jacobian = result.jac
-    n, p = jacobian.shape
-    if n <= p:
-        return None
-    try:
-        inverse = np.linalg.inv(jacobian.T @ jacobian)
-    except np.linalg.LinAlgError:
-        return None
-    variance = float(result.fun @ result.fun) / (n - p)
-    return inverse * variance
-
-
 def _surface_height(scene, center, radius, settings, xy):
     """Height of the surface itself at ``xy`` (plane frame) near a hole: 0, the global plane, unless
     the surface in the ring [r, 3r] curves away from it significantly (a curved panel, where the plane
@@ -526,6 +413,10 @@ def _void_neighbourhood(scene, grid, void, void_mask, margin, settings):
     high = centers.max(axis=0) + 0.5 * cell + margin
     local = scene.material_xy[_box(scene, scene.material_xy, low, high)]
     return local, near_box_edge(local, low, high, settings.cut_alphas * alpha)
+
+
+# The scene's spatial queries the edge estimators ask (holecli.robust.estimators).
+_QUERIES = SceneQueries(within=_within, surface_height=_surface_height)
 
 
 def _measure_void(scene, grid, void, settings):
@@ -657,34 +548,14 @@ def _measure_void(scene, grid, void, settings):
     above, allowed_above = _boss_points(scene, grid, center, radius, settings)
     if above > allowed_above:
         return reject("boss", above, allowed_above, center, radius)
-    cone = _countersink(scene, center, radius, settings)
-    if isinstance(cone, Cone):
+    edge = estimate_edge(scene, _QUERIES, local, rim_xy[used], center, radius, partial, floor, settings)
+    if edge.estimator is CONE:
         # A countersunk hole: its edge is where the cone meets the surface.
-        cone_center, cone_radius, covariance = _cone_in_the_plane(scene, center, cone, settings)
-        return _Measured(center=cone_center, radius=cone_radius, bias=radius - cone_radius, fit=fit,
-                         rim_xy=rim_xy[used], partial=partial, arc_deg=arc, cone_slope=cone.slope,
-                         estimator="cone", cone_covariance=covariance)
-    edge, estimator, synthetic, radii = None, "rim_fit", None, None
-    if scene.sampling.lattice_axes and not partial:
-        steps = lattice_steps(local, scene.sampling.lattice_axes, scene.sampling.spacing, settings=settings)
-        edge = separating_circle(local, rim_xy[used], steps, center, radius, settings=settings, radii=True)
-        if edge is not None:
-            estimator = "lattice"
-            radii = edge[3]
-            synthetic = _lattice_errors(scene, edge[0], edge[1], steps, settings, floor)
-    # The largest empty circle on irregular sampling whose in-plane scatter is small: on a noisy
-    # surface the noise carries points into the hole and the empty circle shrinks with it.
-    quiet = scene.height_noise * np.sqrt(scene.surface_density) <= settings.empty_circle_max_noise
-    if edge is None and not partial and scene.sampling.period is None and quiet:
-        found = _empty_circle(scene, local, center, radius, settings)
-        if found is not None:
-            edge, synthetic = found[:3], found[3]
-            estimator = "empty_circle"
-    if edge is not None:
-        center, corrected = edge[0], edge[1]
-        bias = radius - corrected
-    else:
-        bias, synthetic = _sampling_bias(scene, center, radius, settings, floor, partial)
+        return _Measured(center=edge.center, radius=edge.radius, bias=edge.bias, fit=fit, rim_xy=rim_xy[used],
+                         partial=partial, arc_deg=arc, cone_slope=edge.cone_slope, estimator=CONE.name,
+                         cone_covariance=edge.cone_covariance)
+    center, bias, estimator = edge.center, edge.bias, edge.estimator.name
+    synthetic, radii = edge.synthetic, edge.radius_range
     if radius - bias < scene.min_radius:
         return reject("below_min_diameter", 2.0 * (radius - bias), 2.0 * scene.min_radius, center, radius - bias)
     # The band's edge lies inside the fringe of mixed points a wide laser line leaves at the rim:
@@ -765,92 +636,6 @@ def _outline_shape(rim_xy):
     return length, width, major
 
 
-def _lattice_errors(scene, center, radius, steps, settings, floor):
-    """:func:`holecli.robust.lattice.lattice_errors` of a hole of the lattice measured at ``center``
-    with ``radius``: synthetic holes cut into the material around it, the lattice's period apart."""
-    offsets = [k * scene.sampling.spacing for k in settings.bias_offsets]
-    scales, ring = _synthetic_ring(scene, center, radius, offsets, settings, floor)
-    return lattice_errors(ring, center, radius, offsets, scales, steps, settings=settings,
-                          reflections=_reflections(scene, center, radius, offsets))
-
-
-def _reflections(scene, center, radius, offsets):
-    """:func:`holecli.robust.uncertainty.synthetic_reflections` for synthetic holes of ``radius +
-    offsets`` at ``center``: the surface points deeper than two gaps inside ``radius`` give the
-    density, and a reflection within 1.5 cells of the edge joins the material (a speck farther in
-    is removed by the occupancy grid, :func:`holecli.robust.candidates.occupancy_grid`)."""
-    inner = radius - 2.0 * scene.sampling.gap
-    count = len(_within(scene, scene.surface_xy, center, 0.0, inner)) if inner > 0 else 0
-    return synthetic_reflections(count, inner, center, [radius + offset for offset in offsets], 1.5 * scene.cell)
-
-
-def _synthetic_ring(scene, center, radius, offsets, settings, floor):
-    """The scales of a synthetic rim and the material points around a hole that synthetic holes of
-    ``radius + offsets`` are cut into."""
-    period = scene.sampling.period or 0.5 * scene.alpha
-    reach = scene.alpha + 2.0 * scene.cell
-    margin = settings.margin_alphas * scene.alpha + scene.cell
-    ring = scene.material_xy[_within(scene, scene.material_xy, center, radius - period,
-                                     radius + offsets[-1] + margin + period)]
-    scales = RimScales(alpha=scene.alpha, reach=reach, margin=margin, clip=settings.clip_sigmas, floor=floor,
-                       depth=scene.envelope)
-    return scales, ring
-
-
-def _sampling_bias(scene, center, radius, settings, floor, partial):
-    """Radial sampling bias of a rim fit of ``radius`` at ``center`` (see :mod:`holecli.robust.bias`)
-    and the :class:`holecli.robust.bias.SyntheticErrors` of its last pass (None when none measured).
-
-    The last pass measures at least ``uncertainty_min_synthetic`` synthetic holes, so that the
-    spread of their errors gives the hole's uncertainty (:mod:`holecli.robust.uncertainty`)."""
-    period = scene.sampling.period or 0.5 * scene.alpha
-    # Enough synthetic holes for about bias_rim_points rim points in all: a large hole's rim alone
-    # pins the bias down, a small one needs several.
-    rim_points = max(2.0 * np.pi * radius / scene.sampling.spacing, 1.0)
-    count = int(np.clip(np.ceil(settings.bias_rim_points / rim_points), 1, len(settings.bias_offsets)))
-    final = max(count, min(settings.uncertainty_min_synthetic, len(settings.bias_offsets)))
-    offsets = [k * period for k in settings.bias_offsets[:final]]
-    scales, ring = _synthetic_ring(scene, center, radius, offsets, settings, floor)
-    bias, errors = 0.0, None
-    allow_open = partial
-    for passes in range(settings.bias_passes):
-        # Cut the synthetic holes in phase with the current estimate of the true edge.
-        last = passes == settings.bias_passes - 1
-        used = offsets if last else offsets[:count]
-        estimate = sampling_errors(ring, center, radius - bias, used, scales, allow_open=allow_open, settings=settings,
-                                   reflections=_reflections(scene, center, radius - bias, used))
-        if estimate is None and errors is None and not allow_open:
-            # A full hole near the scan's border: the synthetic holes cut around it (larger than
-            # it) reach the outside and their rims open. Measured as for a partial hole rather than
-            # not at all (issue 24: a d3.96 hole 0.23 mm from the border kept +53 um uncorrected).
-            allow_open = True
-            estimate = sampling_errors(ring, center, radius - bias, used, scales, allow_open=True, settings=settings,
-                                       reflections=_reflections(scene, center, radius - bias, used))
-        if estimate is None:
-            break
-        bias, errors = estimate.bias, estimate
-    return bias, errors
-
-
-def _empty_circle(scene, local, center, radius, settings):
-    """The edge of a hole in irregular sampling: the largest circle empty of its surface points,
-    less that circle's overshoot on synthetic holes cut into the same points (see
-    :mod:`holecli.robust.empty_circle`). ``(center, radius, overshoot, SyntheticErrors)`` or None."""
-    reach = scene.alpha
-    found = largest_empty_circle(local, center, radius, reach)
-    if found is None:
-        return None
-    empty_center, empty_radius = found
-    offsets = [k * scene.sampling.gap for k in settings.bias_offsets]
-    ring = scene.surface_xy[_within(scene, scene.surface_xy, empty_center, empty_radius,
-                                    empty_radius + offsets[-1] + 3.0 * reach)]
-    errors = empty_circle_errors(ring, empty_center, empty_radius, offsets, reach,
-                                 reflections=_reflections(scene, empty_center, empty_radius, offsets))
-    if errors is None:
-        return None
-    return empty_center, empty_radius - errors.bias, errors.bias, errors
-
-
 def _measure_voids(scene, grid, voids, settings):
     """:func:`_measure_void` of every void (a hole or a rejection), in order; on a large cloud two at
     a time in threads.
@@ -910,9 +695,10 @@ def _uncertainty(scene, measured):
     """The :class:`holecli.results.Uncertainty` of a measured hole's edge and surface (the values below
     the edge are added with its shape, :func:`_with_shape`)."""
     fit = measured.fit
-    u_center, u_diameter = edge_uncertainty(measured.estimator, measured.synthetic, measured.rim_xy, fit.center,
-                                            fit.radius, float(scene.sampling.spacing), float(scene.height_noise),
-                                            measured.cone_covariance, diameter_correction=2.0 * measured.bias,
+    u_center, u_diameter = edge_uncertainty(ESTIMATOR_NAMED[measured.estimator], measured.synthetic, measured.rim_xy,
+                                            fit.center, fit.radius, float(scene.sampling.spacing),
+                                            float(scene.height_noise), measured.cone_covariance,
+                                            diameter_correction=2.0 * measured.bias,
                                             edge_fringe=measured.fringe[0],
                                             resolution=scene.resolution, radius_range=measured.radius_range,
                                             density=float(scene.surface_density))

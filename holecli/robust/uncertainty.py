@@ -6,7 +6,7 @@ Edge (center in the plane, diameter)
     The error of an edge estimate comes from where the sampling put the points near the edge and
     from the noise, neither of which the rim points' residuals describe (on a grid or on stripes
     they are not independent, and the residual scatter is mostly the depth of the rim, not noise).
-    So the uncertainty is measured the way the sampling bias is (:mod:`holecli.robust.bias`):
+    So the uncertainty is measured the way the sampling bias is (:mod:`holecli.robust.estimators.rim_fit`):
     synthetic holes of known center and radius are cut into the points around the real hole and
     measured by the same estimator as the hole (the rim fit, the lattice's separating circle, the
     largest empty circle); their errors are a sample of the errors the real measurement makes.
@@ -26,15 +26,16 @@ Edge (center in the plane, diameter)
 
     What the synthetic holes cannot show (the edge of a real hole is not a clean cut through the
     points: range noise seen off the ray, the wall's top, the profiler's lattice) is a *method term*
-    added in quadrature, ``a h`` and ``b sigma_h`` per estimator (:data:`METHOD_TERMS`; ``h`` the
-    point spacing, ``sigma_h`` the surface's height noise), as ISO 15530-3 adds the bias seen on
+    added in quadrature, ``a h`` and ``b sigma_h`` per estimator (its ``method_terms``,
+    :data:`holecli.robust.estimators.METHOD_TERMS`; ``h`` the point spacing, ``sigma_h`` the
+    surface's height noise), as ISO 15530-3 adds the bias seen on
     calibrated workpieces: the scenes of ``benchmarks/uncertainty.py`` with seeds 0-199 are those
     workpieces (the terms that bring each simulator's pooled coverage nearest 95 %), and the
     benchmark's default seeds (1000 on) validate them. The real-scan simulator's range noise lies
     along the ray, partly in the plane, and the rim fit sees it (``b`` of ``rim_fit``); the synthetic
     simulator's noise is along the normal only, so there the same term is wider than needed.
 
-    The empty circle's bias correction is given a Type B term of its own (:data:`CORRECTION_SHARE`).
+    The empty circle's bias correction is given a Type B term of its own (its ``correction_share``).
 
     With few synthetic holes the spread is itself uncertain: a ``k``-sample standard deviation is
     widened by the ratio of Student's t to the normal quantile at 95 %, so that ``value +- 2u``
@@ -61,28 +62,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
-# The method terms (a, b) of each estimator, for the in-plane center and the diameter: added in
-# quadrature as a h and b sigma_h (see the module docstring for how they were measured).
-METHOD_TERMS = {
-    "rim_fit": {"center": (0.0, 0.3), "diameter": (0.0, 0.7)},
-    "lattice": {"center": (0.002, 0.0), "diameter": (0.015, 0.1)},
-    "empty_circle": {"center": (0.015, 0.3), "diameter": (0.0, 0.0)},
-    "cone": {"center": (0.002, 0.0), "diameter": (0.01, 0.0)},
-}
-
-# The empty circle's sampling-bias correction is itself uncertain: its synthetic holes see the
-# points around the real hole, not the reflections deep inside it that bound the empty circle. The
-# true correction is taken to lie anywhere between none and twice the one applied (a rectangular
-# distribution, GUM 4.3.7): a standard uncertainty of |correction| / sqrt(3) on the diameter.
-CORRECTION_SHARE = {"empty_circle": 1.0 / math.sqrt(3.0)}
-
-# The largest empty circle's center on random sampling of density rho around an edge of radius R: a few
-# closest points pin it, and its error per coordinate has a standard deviation of about 0.46 / (rho R)
-# (simulated: Poisson points of 16-400 per unit area, R = 1.25-4, 150 draws each, 0.41-0.50), with tails
-# that a handful of synthetic holes rarely sample (1 in 50 beyond 4 times it). Rounded up to 0.5, a floor
-# of the empty circle's center uncertainty (random sampling is the one it is used on).
-EMPTY_CIRCLE_CENTER = 0.5
 
 
 def resolution_uncertainty(resolution) -> float:
@@ -232,10 +211,12 @@ def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, heig
 
     Parameters
     ----------
-    estimator : str
-        ``"rim_fit"`` or ``"empty_circle"`` (bias corrected by the synthetic holes' mean error),
-        ``"lattice"`` (not corrected) or ``"cone"`` (a countersink's edge from its cone fit).
-    synthetic : holecli.robust.bias.SyntheticErrors or None
+    estimator : holecli.robust.estimators.EdgeEstimator
+        What measured the edge: rim fit or empty circle (bias corrected by the synthetic holes' mean
+        error), lattice (not corrected) or cone (a countersink's edge from its cone fit); its
+        ``method_terms``, ``correction_share``, ``center_floor``, ``bias_corrected``, ``at_least_fit``
+        and ``from_cone_covariance`` decide the terms below.
+    synthetic : holecli.robust.estimators.SyntheticErrors or None
         The estimator's errors on synthetic holes (None: none could be measured).
     rim_xy : (m, 2) float
         The rim points the hole's circle was fitted to (plane frame).
@@ -248,9 +229,9 @@ def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, heig
     height_noise : float
         The surface's height noise ``sigma_h``.
     cone_covariance : (3, 3) float, optional
-        For ``"cone"``: the covariance of the cone edge's ``(cx, cy, R)``.
+        For the cone: the covariance of the cone edge's ``(cx, cy, R)``.
     diameter_correction : float, optional
-        The sampling-bias correction applied to the diameter (for :data:`CORRECTION_SHARE`).
+        The sampling-bias correction applied to the diameter (for the estimator's ``correction_share``).
     edge_fringe : float, optional
         Mean radial width ``F`` of the fringe of mixed points along the edge (a laser line of finite
         width; :func:`holecli.robust.method._edge_fringe`), whose middle was taken as the edge: the
@@ -260,17 +241,18 @@ def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, heig
         The data's resolution: the center's uncertainty is at least
         :func:`resolution_uncertainty` of it, the diameter's twice that.
     radius_range : (low, high), optional
-        For ``"lattice"``: the smallest and largest radius of a circle that separates every bracket
-        (:func:`holecli.robust.lattice.separating_circle`). The points do not say where in that range
-        the edge lies: rectangular over it (GUM 4.3.7), ``(high - low) / sqrt(12)`` on the radius,
+        For the lattice: the smallest and largest radius of a circle that separates every bracket
+        (:func:`holecli.robust.estimators.lattice.separating_circle`). The points do not say where in
+        that range the edge lies: rectangular over it (GUM 4.3.7), ``(high - low) / sqrt(12)`` on the radius,
         which replaces the synthetic holes' spread when it is the larger. The synthetic holes sample
         the ranges of other radii at the same center; this is the hole's own, the wider one on a
         lattice aligned with the hole when a lattice position lies on the edge (a round radius on a
         round pitch): the truth is then at the range's outer end, ``sqrt(3) u`` from the estimate.
     density : float, optional
-        For ``"empty_circle"``: the surface's points per unit area ``rho``; the center's uncertainty
-        is at least :data:`EMPTY_CIRCLE_CENTER` ``/ (rho R)``, that of a largest empty circle on random
-        sampling, whose heavy tails the synthetic holes rarely sample.
+        The surface's points per unit area ``rho``, for the estimator's ``center_floor`` (the empty
+        circle's: the center's uncertainty is at least
+        :data:`holecli.robust.estimators.empty_circle.EMPTY_CIRCLE_CENTER` ``/ (rho R)``, that of a
+        largest empty circle on random sampling, whose heavy tails the synthetic holes rarely sample).
 
     Returns
     -------
@@ -279,12 +261,13 @@ def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, heig
     diameter : float
     """
     u_center, u_radius = _sampled_uncertainty(estimator, synthetic, rim_xy, center, radius, cone_covariance)
-    (ca, cb), (da, db) = METHOD_TERMS[estimator]["center"], METHOD_TERMS[estimator]["diameter"]
-    correction = CORRECTION_SHARE.get(estimator, 0.0) * abs(float(diameter_correction))
+    (ca, cb), (da, db) = estimator.method_terms["center"], estimator.method_terms["diameter"]
+    correction = estimator.correction_share * abs(float(diameter_correction))
     if radius_range is not None:
         u_radius = max(u_radius, abs(float(radius_range[1]) - float(radius_range[0])) / math.sqrt(12.0))
-    if estimator == "empty_circle" and density and radius > 0:
-        u_center = max(u_center, EMPTY_CIRCLE_CENTER / (float(density) * float(radius)))
+    floor = estimator.center_floor(density, radius)
+    if floor:
+        u_center = max(u_center, floor)
     least = resolution_uncertainty(resolution)
     return (max(math.hypot(u_center, ca * spacing, cb * height_noise), least),
             max(math.hypot(2.0 * u_radius, da * spacing, db * height_noise, correction,
@@ -296,7 +279,7 @@ def _sampled_uncertainty(estimator, synthetic, rim_xy, center, radius, cone_cova
     fit = circle_fit_covariance(rim_xy, center, radius)
     fit_center = 0.0 if fit is None else math.sqrt(max(float(np.linalg.eigvalsh(fit[:2, :2])[-1]), 0.0))
     fit_radius = 0.0 if fit is None else math.sqrt(max(float(fit[2, 2]), 0.0))
-    if estimator == "cone" and cone_covariance is not None:
+    if estimator.from_cone_covariance and cone_covariance is not None:
         cone_center = math.sqrt(max(float(np.linalg.eigvalsh(cone_covariance[:2, :2])[-1]), 0.0))
         return cone_center, math.sqrt(max(float(cone_covariance[2, 2]), 0.0))
     if synthetic is None or len(synthetic.radial) == 0:
@@ -306,13 +289,13 @@ def _sampled_uncertainty(estimator, synthetic, rim_xy, center, radius, cone_cova
     shifts = np.asarray(synthetic.center, dtype=np.float64)
     # the center errors: 2k values about zero (no correction is applied to the center)
     spread_center = math.sqrt(float(np.mean(shifts ** 2))) * small_sample_factor(2 * k)
-    if estimator == "lattice":
+    if not estimator.bias_corrected:
         spread_radius = math.sqrt(float(np.mean(radial ** 2))) * small_sample_factor(k)
     elif k >= 2:
         spread_radius = float(np.std(radial, ddof=1)) * math.sqrt(1.0 + 1.0 / k) * small_sample_factor(k - 1)
     else:
         spread_radius = 0.0
-    if estimator != "rim_fit":
+    if not estimator.at_least_fit:
         return spread_center, spread_radius
     return max(spread_center, fit_center), max(spread_radius, fit_radius)
 

@@ -5,17 +5,18 @@ import numpy as np
 import pytest
 
 from holecli import detect
-from holecli.robust import uncertainty
-from holecli.robust.uncertainty import EMPTY_CIRCLE_CENTER, edge_uncertainty
+from holecli.robust.estimators import EMPTY_CIRCLE, METHOD_TERMS, RIM_FIT, empty_circle
+from holecli.robust.estimators.empty_circle import EMPTY_CIRCLE_CENTER
+from holecli.robust.uncertainty import edge_uncertainty
 from holecli.simulation.synth import HoleSpec, SceneSpec, make_scan
 
 
 def test_the_empty_circles_center_has_its_random_sampling_floor():
     # no synthetic holes: the floor 0.5 / (rho R) and the method term; the other estimators do not get it
-    u, _ = edge_uncertainty("empty_circle", None, np.zeros((0, 2)), (0.0, 0.0), 2.0, 0.1, 0.0, density=100.0)
-    term = uncertainty.METHOD_TERMS["empty_circle"]["center"][0] * 0.1
+    u, _ = edge_uncertainty(EMPTY_CIRCLE, None, np.zeros((0, 2)), (0.0, 0.0), 2.0, 0.1, 0.0, density=100.0)
+    term = METHOD_TERMS["empty_circle"]["center"][0] * 0.1
     assert u == pytest.approx(np.hypot(EMPTY_CIRCLE_CENTER / 200.0, term))
-    u, _ = edge_uncertainty("rim_fit", None, np.zeros((0, 2)), (0.0, 0.0), 2.0, 0.1, 0.0, density=100.0)
+    u, _ = edge_uncertainty(RIM_FIT, None, np.zeros((0, 2)), (0.0, 0.0), 2.0, 0.1, 0.0, density=100.0)
     assert u == 0.0
 
 
@@ -44,5 +45,5 @@ def _coverage(scenes):
 def test_the_empty_circles_center_is_covered_on_random_sampling(monkeypatch):
     # 60 scenes, 120 coordinates: 94.2 % with the floor; 90.0 % without it (the synthetic holes alone)
     assert _coverage(60) >= 0.92
-    monkeypatch.setattr(uncertainty, "EMPTY_CIRCLE_CENTER", 0.0)
+    monkeypatch.setattr(empty_circle, "EMPTY_CIRCLE_CENTER", 0.0)
     assert _coverage(60) < 0.92

@@ -131,7 +131,7 @@ def test_a_bias_correction_that_cannot_be_measured_widens_u_and_warns(monkeypatc
     0) is never silent: the hole says bias_not_measured and its diameter's u covers the correction it
     would have had (up to two gaps). Seen with --view-dir on a hole at the border of an inclined
     face (issue 24's survey, angle_face_from_top: +53 um with the u of a corrected diameter)."""
-    import holecli.robust.method as method
+    import holecli.robust.estimators.rim_fit as rim_fit
     from holecli.simulation.synth import HoleSpec, SceneSpec, make_scan
 
     scene = SceneSpec(holes=(HoleSpec(center=(0.37, -0.21), diameter=3.0),), extent=(-4.5, 4.5, -4.5, 4.5),
@@ -139,7 +139,7 @@ def test_a_bias_correction_that_cannot_be_measured_widens_u_and_warns(monkeypatc
     points = make_scan(scene, 0).points
     (measured,) = detect(points).holes
     assert measured.uncertainty.estimator == "rim_fit"
-    monkeypatch.setattr(method, "sampling_errors", lambda *args, **kwargs: None)
+    monkeypatch.setattr(rim_fit, "sampling_errors", lambda *args, **kwargs: None)
     detection = detect(points)
     (hole,) = detection.holes
     assert hole.bias_correction == 0.0

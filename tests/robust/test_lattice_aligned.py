@@ -1,7 +1,7 @@
 """A lattice aligned with the hole (issue 24): the scan centred on the hole's nominal position, a round
 diameter on a round pitch, measured over many fresh profiler scans (holecli.simulation.profiler).
 
-The separating circle (holecli.robust.lattice) pins the edge between the last material position and
+The separating circle (holecli.robust.estimators.lattice) pins the edge between the last material position and
 the first missing one of each bracket; it is the middle of the radii the brackets allow. On a lattice
 of random phase the truth lies anywhere in that range and the estimate is unbiased. With the lattice's
 node on the hole's center the positions at one distance come in fours (stripes) or eights (a grid), so
@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from holecli.pipeline import detect
-from holecli.robust.lattice import lattice_steps, separating_circle
+from holecli.robust.estimators.lattice import lattice_steps, separating_circle
 from holecli.simulation.panel import FeatureSpec, PanelSpec, build_panel, panel_truth
 from holecli.simulation.profiler import ProfilerSpec
 from holecli.simulation.scan_part import scan_part

@@ -18,6 +18,7 @@ import pytest
 
 from holecli.geometry.plane import LEVEL_LIMIT, fit_plane_robust, level_step
 from holecli.pipeline import detect
+from holecli.robust.estimators import CONE
 from holecli.robust.uncertainty import edge_uncertainty, plane_uncertainty, resolution_uncertainty
 
 from noise_free_scans import judge, noise_free_scan
@@ -98,7 +99,7 @@ def test_uncertainties_not_below_the_resolution():
     assert normal >= least / 5.0
     angles = np.linspace(0, 2 * np.pi, 60, endpoint=False)
     rim = 2.0 * np.column_stack([np.cos(angles), np.sin(angles)])
-    u_center, u_diameter = edge_uncertainty("cone", None, rim, np.zeros(2), 2.0, 0.0, 0.0,
+    u_center, u_diameter = edge_uncertainty(CONE, None, rim, np.zeros(2), 2.0, 0.0, 0.0,
                                             cone_covariance=np.zeros((3, 3)), resolution=STEP)
     assert u_center == pytest.approx(least) and u_diameter == pytest.approx(2 * least)
 

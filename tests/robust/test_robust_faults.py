@@ -3,7 +3,7 @@
 * One stray point far away (1e3 to 1e12 file units) must not change what is measured: the plane's
   noise floor comes from the surface's own points, never from the extent of the whole cloud.
 * The visible flat floor of a blind hole is not a countersink cone (check ``"flat_floor"`` of
-  :mod:`holecli.robust.countersink`): the diameter is the bore's.
+  :mod:`holecli.robust.estimators.cone`): the diameter is the bore's.
 
 Each fault has a known-answer test on one scene, then a test over consecutive seeds of randomly
 drawn scenes (hole size, pattern, noise, pose, fault) with a bound on the failures. More seeds than
@@ -21,7 +21,7 @@ import pytest
 
 from holecli.geometry.plane import fit_plane_robust
 from holecli.pipeline import detect
-from holecli.robust.countersink import DEPTH_SLOPE_RATIO, Cone, NotACone, fit_cone_edge
+from holecli.robust.estimators.cone import DEPTH_SLOPE_RATIO, Cone, NotACone, fit_cone_edge
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.simulation.synth import BORE, COUNTERSINK, HoleSpec, SceneSpec, make_scan
 

@@ -9,8 +9,8 @@ import pytest
 
 from holecli import detect
 from holecli.robust import uncertainty
-from holecli.robust.bias import SyntheticErrors
-from holecli.robust.uncertainty import (METHOD_TERMS, circle_fit_covariance, edge_uncertainty, plane_uncertainty,
+from holecli.robust.estimators import EMPTY_CIRCLE, LATTICE, METHOD_TERMS, RIM_FIT, SyntheticErrors
+from holecli.robust.uncertainty import (circle_fit_covariance, edge_uncertainty, plane_uncertainty,
                                         small_sample_factor, synthetic_reflections)
 
 REPO = Path(__file__).resolve().parents[2]
@@ -45,8 +45,8 @@ def test_a_corrected_estimator_takes_the_spread_and_the_lattice_the_root_mean_sq
     # the same synthetic errors: a constant excess of 5 with a spread of 1
     errors = _errors([4.0, 5.0, 6.0, 5.0], [[0.0, 0.0]] * 4)
     rim = np.column_stack([np.cos(np.linspace(0, 6, 50)), np.sin(np.linspace(0, 6, 50))])
-    _, empty = edge_uncertainty("empty_circle", errors, rim, (0.0, 0.0), 1.0, spacing=0.0, height_noise=0.0)
-    _, lattice = edge_uncertainty("lattice", errors, rim, (0.0, 0.0), 1.0, spacing=0.0, height_noise=0.0)
+    _, empty = edge_uncertainty(EMPTY_CIRCLE, errors, rim, (0.0, 0.0), 1.0, spacing=0.0, height_noise=0.0)
+    _, lattice = edge_uncertainty(LATTICE, errors, rim, (0.0, 0.0), 1.0, spacing=0.0, height_noise=0.0)
     spread = np.std([4.0, 5.0, 6.0, 5.0], ddof=1) * math.sqrt(1.25) * small_sample_factor(3)
     assert empty == pytest.approx(2.0 * spread)  # corrected by the mean: the spread remains
     rms = math.sqrt(np.mean(np.square([4.0, 5.0, 6.0, 5.0]))) * small_sample_factor(4)
@@ -59,7 +59,7 @@ def test_the_rim_fit_is_at_least_its_least_squares_covariance():
     rng = np.random.default_rng(2)
     angle = rng.uniform(0, 2 * np.pi, 200)
     rim = (1.0 + rng.normal(0, 0.01, 200))[:, None] * np.column_stack([np.cos(angle), np.sin(angle)])
-    center, diameter = edge_uncertainty("rim_fit", errors, rim, (0.0, 0.0), 1.0, spacing=0.0, height_noise=0.0)
+    center, diameter = edge_uncertainty(RIM_FIT, errors, rim, (0.0, 0.0), 1.0, spacing=0.0, height_noise=0.0)
     covariance = circle_fit_covariance(rim, (0.0, 0.0), 1.0)
     assert diameter == pytest.approx(2.0 * math.sqrt(covariance[2, 2]))
     assert center > 0
@@ -68,7 +68,7 @@ def test_the_rim_fit_is_at_least_its_least_squares_covariance():
 def test_the_method_terms_add_in_quadrature():
     errors = _errors([0.0] * 4, [[0.0, 0.0]] * 4)
     rim = np.column_stack([np.cos(np.linspace(0, 6, 50)), np.sin(np.linspace(0, 6, 50))])
-    center, diameter = edge_uncertainty("lattice", errors, rim, (0.0, 0.0), 1.0, spacing=0.1, height_noise=0.01)
+    center, diameter = edge_uncertainty(LATTICE, errors, rim, (0.0, 0.0), 1.0, spacing=0.1, height_noise=0.01)
     (ca, cb), (da, db) = METHOD_TERMS["lattice"]["center"], METHOD_TERMS["lattice"]["diameter"]
     assert center == pytest.approx(math.hypot(ca * 0.1, cb * 0.01))
     assert diameter == pytest.approx(math.hypot(da * 0.1, db * 0.01))
@@ -80,14 +80,14 @@ def test_the_empty_circles_correction_adds_a_rectangular_type_b_term():
     # reflections deep inside the real hole (seeds 0-199: 77 % diameter coverage without this term)
     errors = _errors([0.0] * 4, [[0.0, 0.0]] * 4)
     rim = np.column_stack([np.cos(np.linspace(0, 6, 50)), np.sin(np.linspace(0, 6, 50))])
-    plain = edge_uncertainty("empty_circle", errors, rim, (0.0, 0.0), 1.0, spacing=0.1, height_noise=0.01)
-    corrected = edge_uncertainty("empty_circle", errors, rim, (0.0, 0.0), 1.0, spacing=0.1, height_noise=0.01,
+    plain = edge_uncertainty(EMPTY_CIRCLE, errors, rim, (0.0, 0.0), 1.0, spacing=0.1, height_noise=0.01)
+    corrected = edge_uncertainty(EMPTY_CIRCLE, errors, rim, (0.0, 0.0), 1.0, spacing=0.1, height_noise=0.01,
                                  diameter_correction=-0.3)
     assert corrected[0] == plain[0]
     assert corrected[1] == pytest.approx(math.hypot(plain[1], 0.3 / math.sqrt(3.0)))
-    lattice = edge_uncertainty("lattice", errors, rim, (0.0, 0.0), 1.0, spacing=0.1, height_noise=0.01,
+    lattice = edge_uncertainty(LATTICE, errors, rim, (0.0, 0.0), 1.0, spacing=0.1, height_noise=0.01,
                                diameter_correction=-0.3)
-    assert lattice == edge_uncertainty("lattice", errors, rim, (0.0, 0.0), 1.0, spacing=0.1, height_noise=0.01)
+    assert lattice == edge_uncertainty(LATTICE, errors, rim, (0.0, 0.0), 1.0, spacing=0.1, height_noise=0.01)
 
 
 def test_synthetic_reflections_follow_the_real_density_in_the_band():
@@ -142,13 +142,13 @@ def test_the_reflections_given_to_the_synthetic_holes_are_needed(monkeypatch):
     """100 reflections inside the Table I hole: the synthetic holes must see reflections near their
     edge too, else the bias correction leaves the edge pulled in (by 15 um)."""
     from holecli.io import load_points
-    from holecli.robust import method
+    from holecli.robust.estimators import harness
 
     points = load_points(REPO / "sample_clouds" / "table1_inside100.csv")
     hole = detect(points).holes[0]
     assert abs(hole.diameter - 3.0) <= 2.0 * hole.uncertainty.diameter
     with_reflections = abs(hole.diameter - 3.0)
-    monkeypatch.setattr(method, "_reflections", lambda *args: None)
+    monkeypatch.setattr(harness, "reflections", lambda *args: None)
     without = detect(points).holes[0]
     assert abs(without.diameter - 3.0) > 2.0 * with_reflections
 

@@ -1,11 +1,11 @@
-"""The least-median hinge's slope search (:func:`holecli.robust.countersink._least_median_slope`) skips
+"""The least-median hinge's slope search (:func:`holecli.robust.estimators.cone._least_median_slope`) skips
 the medians that cannot be the smallest: it must give what the argmin of every median gives, to the last
 bit, on the cones, bore walls, floors, ties and quantised depths it meets."""
 
 import numpy as np
 import pytest
 
-from holecli.robust.countersink import _least_median_slope, _median_errors
+from holecli.robust.estimators.cone import _least_median_slope, _median_errors
 
 
 def _every_median(depth, ramp, slopes):

@@ -1,11 +1,11 @@
-"""Tests of holecli.robust.bias: the sampling bias of a rim fit, measured with synthetic holes."""
+"""Tests of holecli.robust.estimators.rim_fit: the sampling bias of a rim fit, measured with synthetic holes."""
 
 import numpy as np
 import pytest
 
-from holecli.robust.bias import RimScales, sampling_bias, synthetic_rim_fit
 from holecli.robust.boundary import hole_rim
 from holecli.robust.edge import fit_edge
+from holecli.robust.estimators.rim_fit import RimScales, sampling_bias, synthetic_rim_fit
 from holecli.settings import DEFAULT_SETTINGS
 
 pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"

@@ -1,9 +1,9 @@
-"""The largest empty circle and its overshoot on synthetic holes (holecli.robust.empty_circle)."""
+"""The largest empty circle and its overshoot on synthetic holes (holecli.robust.estimators.empty_circle)."""
 
 import numpy as np
 import pytest
 
-from holecli.robust.empty_circle import empty_circle_bias, largest_empty_circle
+from holecli.robust.estimators.empty_circle import empty_circle_bias, largest_empty_circle
 
 H = 0.1
 RADIUS = 1.5

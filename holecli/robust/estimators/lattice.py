@@ -17,7 +17,9 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from holecli.geometry.kernels import largest_angular_gap
-from holecli.robust.bias import SyntheticErrors, synthetic_rim
+from holecli.robust.estimators import harness
+from holecli.robust.estimators.harness import EdgeEstimate, synthetic_errors
+from holecli.robust.estimators.rim_fit import synthetic_rim, synthetic_ring
 from holecli.settings import DEFAULT_SETTINGS
 
 
@@ -177,7 +179,7 @@ def lattice_errors(xy, center, radius, offsets, scales, steps, *, settings=DEFAU
 
     Each synthetic hole of radius ``radius + offset`` is cut at ``center`` into ``xy`` and measured
     as a real hole of the lattice is: its rim extracted and fitted
-    (:func:`holecli.robust.bias.synthetic_rim`), then the separating circle of its brackets along
+    (:func:`holecli.robust.estimators.rim_fit.synthetic_rim`), then the separating circle of its brackets along
     the lattice ``steps``, from that fit.
 
     Parameters
@@ -189,7 +191,7 @@ def lattice_errors(xy, center, radius, offsets, scales, steps, *, settings=DEFAU
         The hole's radius.
     offsets : sequence of float
         Positive offsets of the synthetic radii.
-    scales : holecli.robust.bias.RimScales
+    scales : holecli.robust.estimators.rim_fit.RimScales
     steps : sequence of (2,) float or None
         The lattice's step vectors (:func:`lattice_steps`).
     settings : RobustSettings
@@ -198,20 +200,62 @@ def lattice_errors(xy, center, radius, offsets, scales, steps, *, settings=DEFAU
 
     Returns
     -------
-    holecli.robust.bias.SyntheticErrors or None
+    holecli.robust.estimators.harness.SyntheticErrors or None
         None when no synthetic hole could be measured.
     """
-    radial, shifts = [], []
-    for i, offset in enumerate(offsets):
-        synthetic = radius + offset
-        inside = None if reflections is None else reflections[i]
+    def measure(synthetic, inside):
         rim = synthetic_rim(xy, center, synthetic, scales, allow_open=False, settings=settings, inside=inside)
         if rim is None:
-            continue
+            return None
         edge = separating_circle(rim.local, rim.rim_xy, steps, rim.fit.center, rim.fit.radius, settings=settings)
-        if edge is not None:
-            radial.append(edge[1] - synthetic)
-            shifts.append(np.asarray(edge[0]) - center)
-    if not radial:
-        return None
-    return SyntheticErrors(radial=np.array(radial), center=np.array(shifts).reshape(-1, 2))
+        return None if edge is None else edge[:2]
+
+    return synthetic_errors(measure, center, [radius + offset for offset in offsets], reflections)
+
+
+def _lattice_errors(scene, queries, center, radius, steps, settings, floor):
+    """:func:`lattice_errors` of a hole of the lattice measured at ``center`` with ``radius``:
+    synthetic holes cut into the material around it, the lattice's period apart."""
+    offsets = [k * scene.sampling.spacing for k in settings.bias_offsets]
+    scales, ring = synthetic_ring(scene, queries, center, radius, offsets, settings, floor)
+    return lattice_errors(ring, center, radius, offsets, scales, steps, settings=settings,
+                          reflections=harness.reflections(scene, queries, center, radius, offsets))
+
+
+class Lattice:
+    """The largest-margin circle separating present from missing lattice positions
+    (:func:`separating_circle`): a full hole on a regularly sampled scan (a grid, stripes).
+
+    Not bias corrected: the radius's uncertainty is the root mean square of its errors on synthetic
+    holes, at least the rectangular one over the range of radii the brackets allow."""
+
+    name = "lattice"
+    # The method terms (a, b) for the in-plane center and the diameter: a h and b sigma_h in
+    # quadrature (see holecli.robust.uncertainty for how they were measured).
+    method_terms = {"center": (0.002, 0.0), "diameter": (0.015, 0.1)}
+    correction_share = 0.0
+    bias_corrected = False      # its errors' root mean square is the u, not their spread
+    at_least_fit = False
+    from_cone_covariance = False
+
+    def center_floor(self, density, radius):
+        """No floor of the center's uncertainty."""
+        return 0.0
+
+    def applies(self, scene, partial, settings):
+        """A full hole on a scan whose sampling is regular along at least one axis."""
+        return bool(scene.sampling.lattice_axes) and not partial
+
+    def edge(self, scene, queries, local, rim_xy, center, radius, partial, floor, settings):
+        """The separating circle of the brackets around the rim, and its errors on synthetic holes;
+        None when the brackets give none."""
+        steps = lattice_steps(local, scene.sampling.lattice_axes, scene.sampling.spacing, settings=settings)
+        edge = separating_circle(local, rim_xy, steps, center, radius, settings=settings, radii=True)
+        if edge is None:
+            return None
+        synthetic = _lattice_errors(scene, queries, edge[0], edge[1], steps, settings, floor)
+        return EdgeEstimate(estimator=self, center=edge[0], radius=edge[1], bias=radius - edge[1],
+                            synthetic=synthetic, radius_range=edge[3])
+
+
+LATTICE = Lattice()

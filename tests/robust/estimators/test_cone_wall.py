@@ -4,7 +4,7 @@ The points within the edge's search window then hold the cone and, at the bore's
 of wall points millimetres deep: as many as the cone's on a coarse scan. A least-squares hinge bends
 to the wall's slope (steeper than any countersink: the hole was taken for a counterbore and its
 diameter read 0.1-0.2 mm small); such a hinge is fitted again from a least-median start
-(:func:`holecli.robust.countersink._least_median_hinge`), taken only when its points below the surface
+(:func:`holecli.robust.estimators.cone._least_median_hinge`), taken only when its points below the surface
 spread over the radii (``wall_column``), and the free-center cone fit takes only the points on the cone."""
 
 import math
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from holecli.pipeline import detect
-from holecli.robust.countersink import Cone, fit_cone_edge
+from holecli.robust.estimators.cone import Cone, fit_cone_edge
 from holecli.simulation.panel import FeatureSpec, PanelSpec, build_panel, panel_truth
 from holecli.simulation.profiler import ProfilerSpec
 from holecli.simulation.scan_part import scan_part

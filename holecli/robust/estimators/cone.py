@@ -21,6 +21,7 @@ from functools import partial
 import numpy as np
 
 from holecli.geometry.kernels import robust_sigma
+from holecli.robust.estimators.harness import EdgeEstimate
 from holecli.settings import DEFAULT_SETTINGS
 
 # The defaults, from RobustSettings (see there): a countersink wall slopes between MIN_SLOPE and
@@ -340,3 +341,152 @@ def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOP
     if ratio < depth_slope_ratio:
         return NotACone("flat_floor", ratio, depth_slope_ratio)
     return Cone(radius=edge, slope=slope, points=int(keep.sum()))
+
+
+def _countersink(scene, queries, center, radius, settings):
+    """The countersink cone around a fitted rim, or the named check it failed (a
+    :class:`NotACone`).
+
+    The edge is searched within a window of the rim's radius. Where the surface band is wide (a
+    scan of a curved panel, whose plane lies tens of um off the surface), the top of the cone counts
+    as surface and the rim lies inside the edge by more than the window: an edge found at the
+    window's outer limit (settings ``cone_window_limit``) moves the window out to it, up to
+    ``cone_window_moves`` times.
+    """
+    width = 2.0 * scene.alpha
+    cone = None
+    for _ in range(settings.cone_window_moves + 1):
+        xy, depth = _points_around_edge(scene, queries, center, radius, width, settings)
+        rho = np.hypot(xy[:, 0] - center[0], xy[:, 1] - center[1])
+        found = fit_cone_edge(rho, depth, radius, width, scene.height_noise,
+                              depth_slope_ratio=settings.cone_depth_slope_ratio, settings=settings,
+                              gap=scene.sampling.gap)
+        if not isinstance(found, Cone):
+            return found if cone is None else cone
+        cone = found
+        if found.radius < radius + (1.0 - settings.cone_window_limit) * width:
+            break
+        radius = found.radius
+    return cone
+
+
+def _points_around_edge(scene, queries, center, radius, width, settings):
+    """The points within [r - 2 width, r + width] of ``center`` that may lie on a countersink's cone
+    (plane frame xy, (k, 2)), and their depth below the surface around the hole (k,)."""
+    index = queries.within(scene, scene.xy, center, max(radius - settings.cone_inner_widths * width, 0.0),
+                           radius + width)
+    # Points above the surface band (outliers, a stray point 1e8 off along the normal) are on no
+    # cone, and one of them would outweigh every other point in the hinge's least squares.
+    index = index[scene.heights[index] <= scene.band]
+    xy = scene.xy[index]
+    return xy, queries.surface_height(scene, center, radius, settings, xy) - scene.heights[index]
+
+
+def _cone_in_the_plane(scene, queries, center, cone, settings):
+    """Center and edge radius of a countersink from its cone, ``depth = s * max(0, R - |xy - c|)``
+    fitted to the points around the edge with the center ``c`` free, and the covariance of
+    ``(cx, cy, R)`` (None when the rim's center and the hinge's edge stay).
+
+    The hinge of :func:`fit_cone_edge` takes the rim's center; the rim lies inside
+    the edge by what the surface band hides of the cone, and on a tilted scan the camera sees more of
+    one side of the cone than of the other, so the rim's center is off by up to 0.3 spacings there.
+    The cone's own points, wherever they are, say where its axis is. A fit that runs off (its center
+    or edge more than the edge's search window away, or its slope below a cone's) is not trusted: the
+    rim's center and the hinge's edge stay.
+    """
+    from scipy.optimize import least_squares
+
+    width = 2.0 * scene.alpha
+    around_xy, around_depth = _points_around_edge(scene, queries, center, cone.radius, width, settings)
+    start = np.array([center[0], center[1], cone.radius, cone.slope])
+    for _ in range(2):
+        # Only the points on the cone: a bore wall seen on one side of a tilted scan would pull the
+        # free center and edge toward itself (soft_l1 tempers an outlier, not hundreds). They are
+        # chosen about the accepted cone, then again about the fitted one: about the rim's center,
+        # which is off on a tilted scan, good points of one side of the cone miss the first choice.
+        cx, cy, edge, slope = start
+        rho = np.hypot(around_xy[:, 0] - cx, around_xy[:, 1] - cy)
+        inside = rho < edge
+        among = inside if np.count_nonzero(inside) >= settings.cone_min_points_below else None
+        kept = points_on_hinge(rho, around_depth, edge, slope, scene.height_noise, 1e-12 * cone.radius,
+                               settings.cone_trim_sigmas, among=among)
+        # The loss's scale is the cone points' own scatter about the hinge, not the surface's noise: a
+        # CAD countersink's facets lie up to a sagitta off the cone, and at the noise's scale soft_l1
+        # weighs them as outliers and the edge falls toward the facets' apothem (a 24-gon: -18 um).
+        misfit = around_depth - slope * np.maximum(edge - rho, 0.0)
+        scale = max(robust_sigma(misfit if among is None else misfit[among]), scene.height_noise,
+                    1e-12 * cone.radius)
+        xy, depth = around_xy[kept], around_depth[kept]
+        if len(xy) < settings.cone_min_points_below:
+            return center, cone.radius, None
+
+        def residuals(parameters, xy=xy, depth=depth):
+            cx, cy, edge, slope = parameters
+            rho = np.hypot(xy[:, 0] - cx, xy[:, 1] - cy)
+            return (depth - slope * np.maximum(edge - rho, 0.0)) / scale
+
+        try:
+            result = least_squares(residuals, start, loss="soft_l1", f_scale=3.0, x_scale=[width, width, width, 1.0])
+        except (ValueError, np.linalg.LinAlgError):
+            return center, cone.radius, None
+        start = result.x
+    cx, cy, edge, slope = result.x
+    shift = float(np.hypot(cx - center[0], cy - center[1]))
+    if not result.success or shift > width or abs(edge - cone.radius) > width or not settings.cone_min_slope <= slope:
+        return center, cone.radius, None
+    covariance = _least_squares_covariance(result, scale)  # None: singular (no covariance, not a crash)
+    return np.array([cx, cy]), float(edge), None if covariance is None else covariance[:3, :3]
+
+
+def _least_squares_covariance(result, scale):
+    """Covariance of the parameters of a scipy ``least_squares`` result whose residuals were divided
+    by ``scale``: ``s^2 (J^T J)^-1`` with ``s^2`` the residuals' variance (n - p degrees of freedom),
+    in the parameters' units; None when the Jacobian is singular."""
+    jacobian = result.jac
+    n, p = jacobian.shape
+    if n <= p:
+        return None
+    try:
+        inverse = np.linalg.inv(jacobian.T @ jacobian)
+    except np.linalg.LinAlgError:
+        return None
+    variance = float(result.fun @ result.fun) / (n - p)
+    return inverse * variance
+
+
+class ConeEstimator:
+    """A countersink's cone, fitted to the points around the rim (:func:`fit_cone_edge`, then with its
+    center free, :func:`_cone_in_the_plane`): the edge is where the cone meets the surface. First in
+    precedence: tried on every hole, taken whenever the points look like a cone.
+
+    Its uncertainty is the cone fit's least-squares covariance when there is one."""
+
+    name = "cone"
+    # The method terms (a, b) for the in-plane center and the diameter: a h and b sigma_h in
+    # quadrature (see holecli.robust.uncertainty for how they were measured).
+    method_terms = {"center": (0.002, 0.0), "diameter": (0.01, 0.0)}
+    correction_share = 0.0
+    bias_corrected = True
+    at_least_fit = False
+    from_cone_covariance = True  # center and radius u from the cone fit's covariance, when it has one
+
+    def center_floor(self, density, radius):
+        """No floor of the center's uncertainty."""
+        return 0.0
+
+    def applies(self, scene, partial, settings):
+        """Every hole (whether there is a cone is the fit's to say)."""
+        return True
+
+    def edge(self, scene, queries, local, rim_xy, center, radius, partial, floor, settings):
+        """The cone's edge in the plane, its slope and covariance; None when the points around the
+        rim are no cone (:class:`NotACone`)."""
+        cone = _countersink(scene, queries, center, radius, settings)
+        if not isinstance(cone, Cone):
+            return None
+        cone_center, cone_radius, covariance = _cone_in_the_plane(scene, queries, center, cone, settings)
+        return EdgeEstimate(estimator=self, center=cone_center, radius=cone_radius, bias=radius - cone_radius,
+                            cone_slope=cone.slope, cone_covariance=covariance)
+
+
+CONE = ConeEstimator()

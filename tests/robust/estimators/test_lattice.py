@@ -1,9 +1,9 @@
-"""Tests of holecli.robust.lattice: lattice step vectors and the largest-margin separating circle."""
+"""Tests of holecli.robust.estimators.lattice: lattice step vectors and the largest-margin separating circle."""
 
 import numpy as np
 import pytest
 
-from holecli.robust.lattice import lattice_steps, separating_circle
+from holecli.robust.estimators.lattice import lattice_steps, separating_circle
 
 H = 0.1
 CENTER = np.array([0.37, -0.21])
