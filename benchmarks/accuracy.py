@@ -9,7 +9,9 @@ distance), the absolute diameter error and the normal's angle error, the number 
 e_gamma). It then checks the targets of the accuracy work and, with ``--heavy``, the heavy-noise
 levels 0.1 mm and 0.3 mm (sigma read in millimetres). Exit status 1 when a target is missed.
 
-Run:  python benchmarks/accuracy.py [--seeds 20] [--heavy]
+Run:  python benchmarks/accuracy.py [--seeds 20] [--heavy] [--docs]
+
+``--docs`` writes the table into its block of docs/validation/accuracy.md (``--docs-page PATH``: another page).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from benchmarks._docs_table import VALIDATION, add_docs_options, docs_target, recording  # noqa: E402
 from holecli import detect  # noqa: E402
 from holecli.simulation.synth import TABLE1_SPACING, make_scan, table1_scene  # noqa: E402
 
@@ -67,26 +70,31 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=20, help="seeds per noise level (default 20)")
     parser.add_argument("--heavy", action="store_true", help="also run sigma = 0.1 mm and 0.3 mm")
+    add_docs_options(parser, VALIDATION / "accuracy.md")
     args = parser.parse_args(argv)
+    docs = docs_target(parser, args, argv, "accuracy.py", ["accuracy"])
 
-    print(f"Table I protocol, {args.seeds} seeds per level; errors: center um (3D), diameter um, normal deg")
-    header = f"{'noise':>6} {'method':<24} {'center med/max':>16} {'diam med/max':>16} {'normal med/max':>20} {'fail':>5}"
-    print(header)
-    print("-" * len(header))
-    medians = {}
-    missed = []
-    for level in sorted(PAPER):
-        scene = table1_scene(level)
-        pc, pd, pn = paper_figures(level)
-        print(f"{level:>6.0%} {'paper (published)':<24} {pc:>16.2f} {pd:>16.1f} {pn:>20.2g} {'':>5}")
-        for name, options in METHODS.items():
-            table, failures = errors(scene, args.seeds, options)
-            med = np.nanmedian(table, axis=0) if failures < args.seeds else np.full(3, np.nan)
-            top = np.nanmax(table, axis=0) if failures < args.seeds else np.full(3, np.nan)
-            medians[(level, name)] = (med, failures)
-            print(f"{'':>6} {name:<24} {med[0]:>7.2f}/{top[0]:<8.2f} {med[1]:>7.2f}/{top[1]:<8.2f} "
-                  f"{med[2]:>9.2g}/{top[2]:<10.2g} {failures:>5}")
-        print()
+    with recording() as printed:
+        print(f"Table I protocol, {args.seeds} seeds per level; errors: center um (3D), diameter um, normal deg")
+        header = f"{'noise':>6} {'method':<24} {'center med/max':>16} {'diam med/max':>16} {'normal med/max':>20} {'fail':>5}"
+        print(header)
+        print("-" * len(header))
+        medians = {}
+        missed = []
+        for level in sorted(PAPER):
+            scene = table1_scene(level)
+            pc, pd, pn = paper_figures(level)
+            print(f"{level:>6.0%} {'paper (published)':<24} {pc:>16.2f} {pd:>16.1f} {pn:>20.2g} {'':>5}")
+            for name, options in METHODS.items():
+                table, failures = errors(scene, args.seeds, options)
+                med = np.nanmedian(table, axis=0) if failures < args.seeds else np.full(3, np.nan)
+                top = np.nanmax(table, axis=0) if failures < args.seeds else np.full(3, np.nan)
+                medians[(level, name)] = (med, failures)
+                print(f"{'':>6} {name:<24} {med[0]:>7.2f}/{top[0]:<8.2f} {med[1]:>7.2f}/{top[1]:<8.2f} "
+                      f"{med[2]:>9.2g}/{top[2]:<10.2g} {failures:>5}")
+            print()
+    if docs:
+        docs.write("accuracy", printed.text)
     # Targets: with --view-dir 0,0,-1 every median at most a fifth of the paper's figure and no failure;
     # without it, every median below the paper's figure.
     print("targets:")

@@ -19,7 +19,9 @@ median and worst error, the target and whether it is met (median within the targ
 3 x the target). Bore diameters count where the scan saw at least 90 deg of the wall (holecli reports
 null otherwise). Exit status 1 when a target is missed.
 
-Run:  python benchmarks/features.py [--seeds 4] [--classes cs82,cs90,...]
+Run:  python benchmarks/features.py [--seeds 4] [--classes cs82,cs90,...] [--docs]
+
+``--docs`` writes the table into its block of docs/method/robust.md (``--docs-page PATH``: another page).
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from benchmarks._docs_table import add_docs_options, docs_target, recording  # noqa: E402
 from holecli.io import read_cloud  # noqa: E402
 from holecli.pipeline import detect  # noqa: E402
 from holecli.simulation.panel import FeatureSpec, PanelSpec, build_panel, panel_truth  # noqa: E402
@@ -213,41 +216,46 @@ def main(argv=None):
     parser.add_argument("--seeds", type=int, default=4, help="scenes per class")
     parser.add_argument("--classes", default=",".join(CLASSES))
     parser.add_argument("--verbose", action="store_true", help="print every scene")
+    add_docs_options(parser, ROOT / "docs" / "method" / "robust.md")
     args = parser.parse_args(argv)
-    collected = {}
-    print(f"{'class':<13} {'found':>6} {'typed':>6} {'cpu s':>6}  warnings | notes")
-    for kind in args.classes.split(","):
-        rows = [measure(kind, seed) for seed in range(args.seeds)]
-        for seed, row in enumerate(rows):
-            for name, error in row["errors"]:
-                collected.setdefault(name, []).append((error, kind, seed))
-            if args.verbose:
-                print(f"  {kind} seed {seed}: {row['type']} pitch {row['pitch']:.3f} noise {row['noise']:.3f} "
-                      f"view {row['view_tilt']:.0f} drill {row['drill_tilt']:.0f} "
-                      + " ".join(f"{n}={e:+.4f}" for n, e in row["errors"]) + f" {row['warnings']} {row['notes']}")
-        warnings = sorted({code for row in rows for code in row["warnings"]})
-        notes = sorted({code for row in rows for code in row["notes"]})
-        print(f"{kind:<13} {sum(r['found'] for r in rows):>3}/{len(rows):<2} {sum(r['typed'] for r in rows):>3}/{len(rows):<2} "
-              f"{np.median([r['cpu'] for r in rows]):>6.2f}  {', '.join(warnings) or 'none'} | {', '.join(notes)}",
-              flush=True)
-    print()
-    print(f"{'value':<21} {'scenes':>6} {'median':>9} {'worst':>9} {'target':>8}  met")
-    missed = False
-    for name, (target, unit, scale) in TARGETS.items():
-        values = collected.get(name, [])
-        if not values:
-            print(f"{name:<21} {0:>6}")
-            continue
-        errors = np.abs([v[0] for v in values]) * scale
-        median, worst = float(np.median(errors)), float(np.max(errors))
-        met = median <= target and worst <= 3.0 * target
-        missed |= not met
-        print(f"{name:<21} {len(values):>6} {median:>7.3f} {unit:<2}{worst:>7.3f} {unit:<2}{target:>5g} {unit:<3} "
-              f"{'yes' if met else 'NO'}")
-    values = collected.get("axis direction", [])
-    if values:
-        errors = np.abs([v[0] for v in values])
-        print(f"{'(axis direction)':<21} {len(values):>6} {np.median(errors):>7.3f} deg{np.max(errors):>6.3f} deg")
+    docs = docs_target(parser, args, argv, "features.py", ["features"])
+    with recording() as printed:
+        collected = {}
+        print(f"{'class':<13} {'found':>6} {'typed':>6} {'cpu s':>6}  warnings | notes")
+        for kind in args.classes.split(","):
+            rows = [measure(kind, seed) for seed in range(args.seeds)]
+            for seed, row in enumerate(rows):
+                for name, error in row["errors"]:
+                    collected.setdefault(name, []).append((error, kind, seed))
+                if args.verbose:
+                    print(f"  {kind} seed {seed}: {row['type']} pitch {row['pitch']:.3f} noise {row['noise']:.3f} "
+                          f"view {row['view_tilt']:.0f} drill {row['drill_tilt']:.0f} "
+                          + " ".join(f"{n}={e:+.4f}" for n, e in row["errors"]) + f" {row['warnings']} {row['notes']}")
+            warnings = sorted({code for row in rows for code in row["warnings"]})
+            notes = sorted({code for row in rows for code in row["notes"]})
+            print(f"{kind:<13} {sum(r['found'] for r in rows):>3}/{len(rows):<2} {sum(r['typed'] for r in rows):>3}/{len(rows):<2} "
+                  f"{np.median([r['cpu'] for r in rows]):>6.2f}  {', '.join(warnings) or 'none'} | {', '.join(notes)}",
+                  flush=True)
+        print()
+        print(f"{'value':<21} {'scenes':>6} {'median':>9} {'worst':>9} {'target':>8}  met")
+        missed = False
+        for name, (target, unit, scale) in TARGETS.items():
+            values = collected.get(name, [])
+            if not values:
+                print(f"{name:<21} {0:>6}")
+                continue
+            errors = np.abs([v[0] for v in values]) * scale
+            median, worst = float(np.median(errors)), float(np.max(errors))
+            met = median <= target and worst <= 3.0 * target
+            missed |= not met
+            print(f"{name:<21} {len(values):>6} {median:>7.3f} {unit:<2}{worst:>7.3f} {unit:<2}{target:>5g} {unit:<3} "
+                  f"{'yes' if met else 'NO'}")
+        values = collected.get("axis direction", [])
+        if values:
+            errors = np.abs([v[0] for v in values])
+            print(f"{'(axis direction)':<21} {len(values):>6} {np.median(errors):>7.3f} deg{np.max(errors):>6.3f} deg")
+    if docs:
+        docs.write("features", printed.text)
     return 1 if missed else 0
 
 

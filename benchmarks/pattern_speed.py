@@ -13,7 +13,9 @@ temporary worktree; it needs that revision's ``benchmarks/speed.py``), each case
 current code's, and the ratio baseline / current is printed: a same-run comparison on a shared machine.
 
 Run:  python benchmarks/pattern_speed.py [--sizes 10000,100000,1000000] [--patterns grid,stripes,random]
-                                         [--repeats 3] [--baseline REV]
+                                         [--repeats 3] [--baseline REV] [--docs]
+
+``--docs`` writes the table into its block of docs/validation/speed.md (``--docs-page PATH``: another page).
 """
 
 from __future__ import annotations
@@ -28,6 +30,9 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from benchmarks._docs_table import VALIDATION, add_docs_options, docs_target, recording  # noqa: E402
 
 CHILD = r"""
 import json, sys, time
@@ -77,37 +82,42 @@ def main(argv=None):
     parser.add_argument("--patterns", default="grid,stripes,random")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--baseline", default=None, help="a git revision to measure in the same run")
+    add_docs_options(parser, VALIDATION / "speed.md")
     args = parser.parse_args(argv)
+    docs = docs_target(parser, args, argv, "pattern_speed.py", ["pattern_speed"])
     sizes = [int(s) for s in args.sizes.split(",")]
     baseline_dir = None
     if args.baseline:
         baseline_dir = Path(tempfile.mkdtemp(prefix="holecli-baseline-"))
         subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q", str(baseline_dir),
                         args.baseline], check=True)
-    try:
-        header = f"{'pattern':<8} {'points':>10} {'holes':>5} {'cpu s':>8} {'wall s':>8} {'exponent':>8}"
-        if baseline_dir:
-            header += f" {'base cpu s':>10} {'base exp':>8} {'base/now':>8}"
-        print(header)
-        for pattern in args.patterns.split(","):
-            previous = previous_base = None
-            for points in sizes:
-                now = measure(ROOT, pattern, points, args.repeats)
-                exponent = "" if previous is None else \
-                    f"{math.log(now['cpu'] / previous['cpu']) / math.log(now['points'] / previous['points']):8.2f}"
-                line = (f"{pattern:<8} {now['points']:>10,} {now['holes']:>5} {now['cpu']:8.3f} {now['wall']:8.3f} "
-                        f"{exponent:>8}")
-                if baseline_dir:
-                    base = measure(baseline_dir, pattern, points, args.repeats)
-                    base_exponent = "" if previous_base is None else \
-                        f"{math.log(base['cpu'] / previous_base['cpu']) / math.log(base['points'] / previous_base['points']):8.2f}"
-                    line += f" {base['cpu']:10.3f} {base_exponent:>8} {base['cpu'] / now['cpu']:7.2f}x"
-                    previous_base = base
-                print(line, flush=True)
-                previous = now
-    finally:
-        if baseline_dir:
-            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(baseline_dir)], check=False)
+    with recording() as printed:
+        try:
+            header = f"{'pattern':<8} {'points':>10} {'holes':>5} {'cpu s':>8} {'wall s':>8} {'exponent':>8}"
+            if baseline_dir:
+                header += f" {'base cpu s':>10} {'base exp':>8} {'base/now':>8}"
+            print(header)
+            for pattern in args.patterns.split(","):
+                previous = previous_base = None
+                for points in sizes:
+                    now = measure(ROOT, pattern, points, args.repeats)
+                    exponent = "" if previous is None else \
+                        f"{math.log(now['cpu'] / previous['cpu']) / math.log(now['points'] / previous['points']):8.2f}"
+                    line = (f"{pattern:<8} {now['points']:>10,} {now['holes']:>5} {now['cpu']:8.3f} {now['wall']:8.3f} "
+                            f"{exponent:>8}")
+                    if baseline_dir:
+                        base = measure(baseline_dir, pattern, points, args.repeats)
+                        base_exponent = "" if previous_base is None else \
+                            f"{math.log(base['cpu'] / previous_base['cpu']) / math.log(base['points'] / previous_base['points']):8.2f}"
+                        line += f" {base['cpu']:10.3f} {base_exponent:>8} {base['cpu'] / now['cpu']:7.2f}x"
+                        previous_base = base
+                    print(line, flush=True)
+                    previous = now
+        finally:
+            if baseline_dir:
+                subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(baseline_dir)], check=False)
+    if docs:
+        docs.write("pattern_speed", printed.text)
     return 0
 
 

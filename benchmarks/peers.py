@@ -57,7 +57,9 @@ Suites: any folder holding scans with a ``NAME.truth.json`` beside each ``NAME.p
 Run (from the repository's root; the validation suite takes about 4 minutes on 2 cores):
 
     python benchmarks/peers.py --suite ../shared/validation/realistic [--suite CAD_FOLDER] [--only TEXT]
-                               [--methods holecli,open3d,pcl] [--view-dir] [--json OUT.json] [--quiet]
+                               [--methods holecli,open3d,pcl] [--view-dir] [--json OUT.json] [--quiet] [--docs]
+
+``--docs`` writes the table into its block of docs/validation/peers.md (``--docs-page PATH``: another page).
 """
 
 from __future__ import annotations
@@ -77,6 +79,8 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import ConvexHull, cKDTree
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks._docs_table import VALIDATION, add_docs_options, docs_target  # noqa: E402
 
 SCAN_EXTENSIONS = (".ply", ".pcd", ".csv", ".txt", ".xyz", ".las", ".laz", ".e57")
 
@@ -628,7 +632,9 @@ def main(argv=None):
     parser.add_argument("--view-dir", action="store_true", help="give holecli each scan's viewing direction")
     parser.add_argument("--json", help="write every file's results and the summary here")
     parser.add_argument("--quiet", action="store_true", help="print the table only")
+    add_docs_options(parser, VALIDATION / "peers.md")
     args = parser.parse_args(argv)
+    docs = docs_target(parser, args, argv, "peers.py", ["peers"])
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     unknown = [m for m in methods if m not in METHODS]
     if unknown:
@@ -659,7 +665,10 @@ def main(argv=None):
     if not summaries:
         return 2
     print()
-    print(format_table(summaries))
+    table = format_table(summaries)
+    print(table)
+    if docs:
+        docs.write("peers", table)
     if args.json:
         Path(args.json).write_text(json.dumps({"view_dir": args.view_dir, "summary": summaries, "files": everything},
                                               indent=1, default=float))

@@ -15,7 +15,9 @@ mesh's truth, and the median CPU time of detect; at the end, the warnings of a d
 noise, pitch 0.02-0.2 mm): every full hole found, no extra, median center and diameter error <= 3 um,
 worst <= 15 um. Exit status 1 when a target is missed.
 
-Run:  python benchmarks/realistic.py [--seeds 6] [--classes through,countersunk,...]
+Run:  python benchmarks/realistic.py [--seeds 6] [--classes through,countersunk,...] [--docs]
+
+``--docs`` writes the table into its block of docs/validation/accuracy.md (``--docs-page PATH``: another page).
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from benchmarks._docs_table import VALIDATION, add_docs_options, docs_target, recording  # noqa: E402
 from holecli.pipeline import detect  # noqa: E402
 from holecli.robust.doubts import DOUBT_CODES  # noqa: E402
 from holecli.simulation.panel import FLOOR, TOP, WALL, FeatureSpec, PanelSpec, build_panel, panel_truth  # noqa: E402
@@ -170,44 +173,49 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=6, help="scenes per class")
     parser.add_argument("--classes", default=",".join(CLASSES))
+    add_docs_options(parser, VALIDATION / "accuracy.md")
     args = parser.parse_args(argv)
-    rows, all_center, all_diameter, missed, doubts = [], [], [], 0, {}
-    print(f"{'class':<13} {'found':>7} {'extra':>5} {'center um med/max':>18} {'|diameter| um med/max':>20} "
-          f"{'signed d':>8} {'cpu s':>6}")
-    for kind in args.classes.split(","):
-        results = [measure(kind, seed) for seed in range(args.seeds)]
-        found = sum(r["found"] for r in results)
-        expected = sum(r["expected"] for r in results)
-        extra = sum(r["extra"] for r in results)
-        center = [e for r in results for e in r["center"]]
-        diameter = [e for r in results for e in r["diameter"]]
-        all_center += center
-        all_diameter += diameter
-        missed += expected - found
-        cpu = float(np.median([r["cpu"] for r in results]))
+    docs = docs_target(parser, args, argv, "realistic.py", ["realistic"])
+    with recording() as printed:
+        rows, all_center, all_diameter, missed, doubts = [], [], [], 0, {}
+        print(f"{'class':<13} {'found':>7} {'extra':>5} {'center um med/max':>18} {'|diameter| um med/max':>20} "
+              f"{'signed d':>8} {'cpu s':>6}")
+        for kind in args.classes.split(","):
+            results = [measure(kind, seed) for seed in range(args.seeds)]
+            found = sum(r["found"] for r in results)
+            expected = sum(r["expected"] for r in results)
+            extra = sum(r["extra"] for r in results)
+            center = [e for r in results for e in r["center"]]
+            diameter = [e for r in results for e in r["diameter"]]
+            all_center += center
+            all_diameter += diameter
+            missed += expected - found
+            cpu = float(np.median([r["cpu"] for r in results]))
 
-        def stats(values, absolute=True):
-            values = np.abs(values) if absolute else np.asarray(values)
-            return f"{np.median(values):7.2f}/{np.max(values):7.2f}" if len(values) else f"{'-':>7}/{'-':>7}"
+            def stats(values, absolute=True):
+                values = np.abs(values) if absolute else np.asarray(values)
+                return f"{np.median(values):7.2f}/{np.max(values):7.2f}" if len(values) else f"{'-':>7}/{'-':>7}"
 
-        print(f"{kind:<13} {found:>3}/{expected:<3} {extra:>5} {stats(center):>18} {stats(diameter):>20} "
-              f"{(np.median(diameter) if diameter else float('nan')):8.2f} {cpu:6.2f}")
-        rows.append((kind, found, expected, extra))
-        doubts[kind] = [code for r in results for code in r["doubts"]]
-    extras = sum(row[3] for row in rows)
-    print()
-    print(f"overall: {len(all_center)} holes measured, {missed} missed, {extras} extra; center median "
-          f"{np.median(all_center):.2f} um, worst {np.max(all_center):.2f} um; |diameter| median "
-          f"{np.median(np.abs(all_diameter)):.2f} um, worst {np.max(np.abs(all_diameter)):.2f} um")
-    fired = {kind: codes for kind, codes in doubts.items() if codes}
-    print("warnings of a doubtful result (holecli.robust.doubts): "
-          + ("; ".join(f"{kind}: {', '.join(sorted(set(codes)))} ({len(codes)})" for kind, codes in fired.items())
-             or "none"))
-    ok = (missed == 0 and extras == 0 and np.median(all_center) <= TARGET_MEDIAN_UM
-          and np.median(np.abs(all_diameter)) <= TARGET_MEDIAN_UM and np.max(all_center) <= TARGET_WORST_UM
-          and np.max(np.abs(all_diameter)) <= TARGET_WORST_UM)
-    print(f"targets (every hole, no extra, median <= {TARGET_MEDIAN_UM} um, worst <= {TARGET_WORST_UM} um): "
-          f"{'met' if ok else 'MISSED'}")
+            print(f"{kind:<13} {found:>3}/{expected:<3} {extra:>5} {stats(center):>18} {stats(diameter):>20} "
+                  f"{(np.median(diameter) if diameter else float('nan')):8.2f} {cpu:6.2f}")
+            rows.append((kind, found, expected, extra))
+            doubts[kind] = [code for r in results for code in r["doubts"]]
+        extras = sum(row[3] for row in rows)
+        print()
+        print(f"overall: {len(all_center)} holes measured, {missed} missed, {extras} extra; center median "
+              f"{np.median(all_center):.2f} um, worst {np.max(all_center):.2f} um; |diameter| median "
+              f"{np.median(np.abs(all_diameter)):.2f} um, worst {np.max(np.abs(all_diameter)):.2f} um")
+        fired = {kind: codes for kind, codes in doubts.items() if codes}
+        print("warnings of a doubtful result (holecli.robust.doubts): "
+              + ("; ".join(f"{kind}: {', '.join(sorted(set(codes)))} ({len(codes)})" for kind, codes in fired.items())
+                 or "none"))
+        ok = (missed == 0 and extras == 0 and np.median(all_center) <= TARGET_MEDIAN_UM
+              and np.median(np.abs(all_diameter)) <= TARGET_MEDIAN_UM and np.max(all_center) <= TARGET_WORST_UM
+              and np.max(np.abs(all_diameter)) <= TARGET_WORST_UM)
+        print(f"targets (every hole, no extra, median <= {TARGET_MEDIAN_UM} um, worst <= {TARGET_WORST_UM} um): "
+              f"{'met' if ok else 'MISSED'}")
+    if docs:
+        docs.write("realistic", printed.text)
     return 0 if ok else 1
 
 

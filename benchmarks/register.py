@@ -45,7 +45,10 @@ two holes as just said), false alarms (a clean cell flagged) in <= 1 % of the cl
 count. Exit status 1 when any target is missed.
 
 Run:  python benchmarks/register.py [--seeds 30] [--first-seed 0] [--jobs 2] [--view-dir] [--dump FILE.json]
-                                    [--consistency-seeds 200]
+                                    [--consistency-seeds 200] [--docs]
+
+``--docs`` writes the summaries of passes 1 and 2 and the table of pass 3 into their blocks (``register``,
+``register-consistency``) of docs/validation/registration.md (``--docs-page PATH``: another page).
 """
 
 from __future__ import annotations
@@ -65,6 +68,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from benchmarks._docs_table import VALIDATION, add_docs_options, docs_target, recording  # noqa: E402
 from holecli.pipeline import detect  # noqa: E402
 from holecli.registration import RegistrationError, register  # noqa: E402
 from holecli.simulation.cell import random_cell, simulate_cell  # noqa: E402
@@ -318,7 +322,10 @@ def main(argv=None):
     parser.add_argument("--dump", default=None, help="write every cell's figures to this JSON file")
     parser.add_argument("--consistency-seeds", type=int, default=200,
                         help="pass 3: cells per (holes, move) (default 200; 0 skips the pass)")
+    add_docs_options(parser, VALIDATION / "registration.md")
     args = parser.parse_args(argv)
+    docs = docs_target(parser, args, argv, "register.py",
+                       ["register"] + (["register-consistency"] if args.consistency_seeds else []))
     wall, cpu = time.perf_counter(), time.process_time()
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     tasks = [(seed, False, args.view_dir) for seed in seeds] + [(seed, True, args.view_dir) for seed in seeds]
@@ -366,24 +373,25 @@ def main(argv=None):
     false = sum(1 for r in ok if r["outliers"]) / max(len(ok), 1)
     named = sum(1 for r in ok_moved if r["outliers"] == r["moved"]) / max(len(ok_moved), 1)
     failed = len(clean) - len(ok) + len(moved) - len(ok_moved)
-    print(f"pass 1 ({len(ok)} of {len(clean)} cells registered)")
-    print(f"  median translation error      {translation:8.2f} um   (target <= {TARGETS['translation_um']:g})")
-    print(f"  median rotation error         {rotation:8.5f} deg  (target <= {TARGETS['rotation_deg']:g})")
-    print(f"  median target error >= {FAR:g} mm {far:6.2f} um   (target <= {TARGETS['far_target_um']:g}; "
-          f"{far_count} targets, max {far_max:.2f})")
-    print(f"  median target error, all      {_median([e for r in ok for e in r['target_um']]):8.2f} um   "
-          f"(max {max([e for r in ok for e in r['target_um']], default=float('nan')):.2f})")
-    print(f"  median detection error        {_median([e for r in ok for e in r['detect_um']]):8.2f} um   "
-          f"(max {max([e for r in ok for e in r['detect_um']], default=float('nan')):.2f})")
-    print(f"  cells with a false outlier    {false:8.1%}      (target <= {TARGETS['false_outliers']:.0%})")
-    print(f"  coverage of +-{K:g}u (median |e|/u): translation {_coverage([x for r in ok for x in r['ratio_t']])}, "
-          f"rotation {_coverage([x for r in ok for x in r['ratio_w']])}, "
-          f"targets {_coverage([x for r in ok for x in r['ratio_targets']])}")
-    wrong = [f"{r['seed']}: {','.join(r['outliers']) or 'none'} for {','.join(r['moved'])}"
-             for r in ok_moved if r["outliers"] != r["moved"]]
-    print(f"pass 2 ({len(ok_moved)} of {len(moved)} cells registered)")
-    print(f"  moved hole named (exactly)    {named:8.1%}      (target >= {TARGETS['named']:.0%})"
-          + (f"; not: {'; '.join(wrong)}" if wrong else ""))
+    with recording() as summary:
+        print(f"pass 1 ({len(ok)} of {len(clean)} cells registered)")
+        print(f"  median translation error      {translation:8.2f} um   (target <= {TARGETS['translation_um']:g})")
+        print(f"  median rotation error         {rotation:8.5f} deg  (target <= {TARGETS['rotation_deg']:g})")
+        print(f"  median target error >= {FAR:g} mm {far:6.2f} um   (target <= {TARGETS['far_target_um']:g}; "
+              f"{far_count} targets, max {far_max:.2f})")
+        print(f"  median target error, all      {_median([e for r in ok for e in r['target_um']]):8.2f} um   "
+              f"(max {max([e for r in ok for e in r['target_um']], default=float('nan')):.2f})")
+        print(f"  median detection error        {_median([e for r in ok for e in r['detect_um']]):8.2f} um   "
+              f"(max {max([e for r in ok for e in r['detect_um']], default=float('nan')):.2f})")
+        print(f"  cells with a false outlier    {false:8.1%}      (target <= {TARGETS['false_outliers']:.0%})")
+        print(f"  coverage of +-{K:g}u (median |e|/u): translation {_coverage([x for r in ok for x in r['ratio_t']])}, "
+              f"rotation {_coverage([x for r in ok for x in r['ratio_w']])}, "
+              f"targets {_coverage([x for r in ok for x in r['ratio_targets']])}")
+        wrong = [f"{r['seed']}: {','.join(r['outliers']) or 'none'} for {','.join(r['moved'])}"
+                 for r in ok_moved if r["outliers"] != r["moved"]]
+        print(f"pass 2 ({len(ok_moved)} of {len(moved)} cells registered)")
+        print(f"  moved hole named (exactly)    {named:8.1%}      (target >= {TARGETS['named']:.0%})"
+              + (f"; not: {'; '.join(wrong)}" if wrong else ""))
     missed = []
     if not translation <= TARGETS["translation_um"]:
         missed.append(f"translation {translation:.2f} um")
@@ -399,7 +407,12 @@ def main(argv=None):
         missed.append(f"{failed} cells not registered")
     if args.consistency_seeds:
         print()
-        missed += report_consistency(consistency, args.consistency_seeds)
+        with recording() as consistency_table:
+            missed += report_consistency(consistency, args.consistency_seeds)
+    if docs:
+        docs.write("register", summary.text)
+        if args.consistency_seeds:
+            docs.write("register-consistency", consistency_table.text)
     print()
     print("targets: " + ("met" if not missed else "MISSED: " + "; ".join(missed)))
     cpu = time.process_time() - cpu + children

@@ -23,7 +23,9 @@ Also prints the load time of a 10^6-point binary PCD and a 10^6-row CSV, the tim
 CPU time of a whole ``holecli detect sample_clouds/table1.ply`` process split into the interpreter's
 start, the imports, the load, ``detect`` and the rest (output, exit).
 
-Run:  python benchmarks/speed.py [--max-points 10000000]
+Run:  python benchmarks/speed.py [--max-points 10000000] [--docs]
+
+``--docs`` writes the table into its block of docs/validation/speed.md (``--docs-page PATH``: another page).
 """
 
 from __future__ import annotations
@@ -43,6 +45,8 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+
+from benchmarks._docs_table import VALIDATION, add_docs_options, docs_target, recording  # noqa: E402
 
 # The paper's Table II: points -> seconds (MATLAB, one thread of an i7-6700).
 PAPER_TABLE_II = {416: 0.20, 1572: 0.62, 6733: 2.72, 9498: 4.03}
@@ -211,45 +215,50 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--max-points", type=float, default=1e7, help="largest size to run (default 1e7)")
     parser.add_argument("--child", nargs=4, help=argparse.SUPPRESS)
+    add_docs_options(parser, VALIDATION / "speed.md")
     args = parser.parse_args(argv)
     if args.child:
         size, kind, repeats, delaunay = args.child
         child(int(size), kind, int(repeats), bool(int(delaunay)))
         return 0
+    docs = docs_target(parser, args, argv, "speed.py", ["speed"])
 
-    sizes = [(416, "table1", 21), (1572, "table1", 21), (6733, "table1", 21), (9498, "table1", 21),
-             (100_000, "stripes", 5), (1_000_000, "stripes", 5), (10_000_000, "stripes", 1), (915_000, "cad", 3)]
-    print(f"{'scan':<8} {'points':>10} {'holes':>5} {'load s':>7} {'pipeline s':>10} {'cpu s':>7} {'exponent':>8} "
-          f"{'vs Table II':>11} {'Delaunay s':>10} {'vs Delaunay':>11} {'peak MB':>7}")
-    previous = {}
-    for size, kind, repeats in sizes:
-        if size > args.max_points:
-            continue
-        row = run_child(size, kind, repeats, delaunay=size <= 1_000_000)
-        paper = PAPER_TABLE_II.get(size)
-        versus_paper = f"{paper / row['pipeline']:>10.0f}x" if paper else f"{'':>11}"
-        if row["delaunay"] is not None:
-            versus_delaunay = f"{row['delaunay'] / row['pipeline']:>10.1f}x"
-            delaunay = f"{row['delaunay']:>10.4f}"
-        else:
-            versus_delaunay, delaunay = f"{'':>11}", f"{'':>10}"
-        exponent = ""
-        if kind in previous:
-            before = previous[kind]
-            exponent = f"{math.log(row['cpu'] / before['cpu']) / math.log(row['points'] / before['points']):.2f}"
-        previous[kind] = row
-        print(f"{kind:<8} {row['points']:>10,} {row['holes']:>5} {row['load']:>7.3f} {row['pipeline']:>10.4f} "
-              f"{row['cpu']:>7.3f} {exponent:>8} {versus_paper} {delaunay} {versus_delaunay} {row['peak_mb']:>7.0f}",
-              flush=True)
-    loads = load_times()
-    print(f"load 10^6 points: binary PCD {loads['scan.pcd']:.3f} s, CSV {loads['scan.csv']:.3f} s")
-    import_time, heavy_import, help_time, heavy_help = startup()
-    print(f"import holecli: {import_time:.3f} s, open3d/matplotlib imported: {heavy_import}")
-    print(f"holecli --help: {help_time:.3f} s (whole process), open3d/matplotlib imported: {heavy_help}")
-    split = one_shot_split()
-    print(f"holecli detect on a {split['points']:,}-point PLY, CPU s (median of {split['runs']} runs): whole process "
-          f"{split['total']:.3f} = interpreter {split['interpreter']:.3f} + imports {split['imports']:.3f} "
-          f"+ load {split['load']:.3f} + detect {split['detect']:.3f} + output and exit {split['rest']:.3f}")
+    with recording() as printed:
+        sizes = [(416, "table1", 21), (1572, "table1", 21), (6733, "table1", 21), (9498, "table1", 21),
+                 (100_000, "stripes", 5), (1_000_000, "stripes", 5), (10_000_000, "stripes", 1), (915_000, "cad", 3)]
+        print(f"{'scan':<8} {'points':>10} {'holes':>5} {'load s':>7} {'pipeline s':>10} {'cpu s':>7} {'exponent':>8} "
+              f"{'vs Table II':>11} {'Delaunay s':>10} {'vs Delaunay':>11} {'peak MB':>7}")
+        previous = {}
+        for size, kind, repeats in sizes:
+            if size > args.max_points:
+                continue
+            row = run_child(size, kind, repeats, delaunay=size <= 1_000_000)
+            paper = PAPER_TABLE_II.get(size)
+            versus_paper = f"{paper / row['pipeline']:>10.0f}x" if paper else f"{'':>11}"
+            if row["delaunay"] is not None:
+                versus_delaunay = f"{row['delaunay'] / row['pipeline']:>10.1f}x"
+                delaunay = f"{row['delaunay']:>10.4f}"
+            else:
+                versus_delaunay, delaunay = f"{'':>11}", f"{'':>10}"
+            exponent = ""
+            if kind in previous:
+                before = previous[kind]
+                exponent = f"{math.log(row['cpu'] / before['cpu']) / math.log(row['points'] / before['points']):.2f}"
+            previous[kind] = row
+            print(f"{kind:<8} {row['points']:>10,} {row['holes']:>5} {row['load']:>7.3f} {row['pipeline']:>10.4f} "
+                  f"{row['cpu']:>7.3f} {exponent:>8} {versus_paper} {delaunay} {versus_delaunay} {row['peak_mb']:>7.0f}",
+                  flush=True)
+        loads = load_times()
+        print(f"load 10^6 points: binary PCD {loads['scan.pcd']:.3f} s, CSV {loads['scan.csv']:.3f} s")
+        import_time, heavy_import, help_time, heavy_help = startup()
+        print(f"import holecli: {import_time:.3f} s, open3d/matplotlib imported: {heavy_import}")
+        print(f"holecli --help: {help_time:.3f} s (whole process), open3d/matplotlib imported: {heavy_help}")
+        split = one_shot_split()
+        print(f"holecli detect on a {split['points']:,}-point PLY, CPU s (median of {split['runs']} runs): whole process "
+              f"{split['total']:.3f} = interpreter {split['interpreter']:.3f} + imports {split['imports']:.3f} "
+              f"+ load {split['load']:.3f} + detect {split['detect']:.3f} + output and exit {split['rest']:.3f}")
+    if docs:
+        docs.write("speed", printed.text)
     return 0
 
 
