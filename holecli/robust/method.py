@@ -29,6 +29,7 @@ from holecli.errors import PointsError
 from holecli.geometry.frame import canonical_rotation, check_view_angle, from_plane_frame
 from holecli.geometry.kernels import CellIndex, box_indices, largest_angular_gap, orient_normal, robust_sigma
 from holecli.geometry.plane import ASSUMED_VIEW, PlaneFit, fit_plane_robust, fit_plane_scatter, hidden_points
+from holecli.geometry.quadric import curved_quadric
 from holecli.results import Hole, Plane, Rejection, Scales, Uncertainty
 from holecli.robust.bias import RimScales, sampling_errors
 from holecli.robust.boundary import hole_rim, near_box_edge
@@ -36,8 +37,7 @@ from holecli.robust.candidates import distance_to_outside, find_voids, occupancy
 from holecli.robust.countersink import Cone, fit_cone_edge, points_on_hinge
 from holecli.robust.doubts import Doubts, doubt_warnings, edge_bore_warning
 from holecli.robust.edge import fit_edge
-from holecli.robust.edge_loops import (LOOP_CHECKS, coordinate_step, edge_loops, faces_empty, looks_like_vertices,
-                                       top_face)
+from holecli.robust.edge_loops import coordinate_step, edge_loops, faces_empty, looks_like_vertices, top_face
 from holecli.robust.facing import decide, fan_side, fan_spacing, MIN_POINTS as SEEN_MIN_POINTS, seen_through
 from holecli.robust.empty_circle import empty_circle_errors, largest_empty_circle
 from holecli.robust.hole_shape import measure_hole_shape
@@ -47,6 +47,7 @@ from holecli.robust.uncertainty import (edge_uncertainty, plane_uncertainty, res
                                         synthetic_reflections)
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.stages import StageClock
+from holecli.vocabulary import NOTE_CODES, REJECTION_REASONS
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,26 +92,6 @@ class _Rejected:
     center: np.ndarray
     radius: float
     shape: object = None  # (length, width, direction (2,)) of a cut-out that is not round
-
-
-# What each check means, for the record and for people (holecli detect --explain).
-REJECTION_REASONS = {
-    "no_rim": "no hole boundary around the void (a gap of the sampling)",
-    "too_few_rim_points": "too few rim points for a circle fit",
-    "no_circle_fit": "the rim points do not give a circle",
-    "below_min_diameter": "smaller than the minimum diameter",
-    "material_inside": "surface material fills the inside of the fitted circle (the island of a groove, not a hole)",
-    "not_round": "the rim is not round (robust scatter of the radial residuals above the limit)",
-    "material_in_first_circle": "surface material lies deep inside the circle first fitted to its rim "
-                                "(the long sides of a slot or cut-out, not reflections inside a hole)",
-    "partial_rim_arc": "a partial hole whose rim covers too little of its circle",
-    "boss": "material stands above the surface inside it (a pin or boss, not a hole)",
-    "pocket": "a flat floor shallower than any drilled hole's (a pocket or spot face, not a hole)",
-    "duplicate": "the same hole as another candidate with more rim points",
-    "partial_left_out": "a partial hole, left out by --full-only",
-    "beyond_max_holes": "smaller than the holes kept by --max-holes",
-    **LOOP_CHECKS,  # the loops of a CAD export's vertices (holecli.robust.edge_loops)
-}
 
 
 @dataclass(frozen=True, eq=False)
@@ -211,15 +192,15 @@ def _tangent_of_quadric(points, plane, near, sigmas, resolution=0.0):
 
     A plane through the ring around a hole of a curved panel (cylindrical, R 500-2000 mm) lies below
     or above the surface at the hole by the sag of the ring (10 um for a 5 mm hole at R 800): the
-    quadric follows the curvature and puts the center on the surface. The quadric is taken
-    only where the surface really curves (:func:`_curved_quadric`, check ``curvature_sigmas``). On a
-    symmetric ring the linear terms (the normal) are those of the plane.
+    quadric follows the curvature and puts the center on the surface. The quadric is taken only where
+    the surface really curves (:func:`holecli.geometry.quadric.curved_quadric`, check
+    ``curvature_sigmas``). On a symmetric ring the linear terms (the normal) are those of the plane.
     """
     foot, basis = _plane_frame_at(plane, near)
     first, second, normal = basis
     local = (points - foot) @ basis.T
     scale = float(np.sqrt(np.mean(local[:, 0] ** 2 + local[:, 1] ** 2)))  # conditioning: unit-size coordinates
-    quadric = _curved_quadric(local, scale, sigmas, resolution)
+    quadric = curved_quadric(local, scale, sigmas, resolution)
     if quadric is None:
         return plane
     origin = np.zeros((1, 2))
@@ -443,7 +424,7 @@ def _surface_height(scene, center, radius, settings, xy):
     if len(ring) < 30:
         return np.zeros(len(xy))
     local = np.column_stack([scene.surface_xy[ring] - center, scene.heights[scene.surface_index[ring]]])
-    quadric = _curved_quadric(local, radius, settings.curvature_sigmas, scene.resolution)
+    quadric = curved_quadric(local, radius, settings.curvature_sigmas, scene.resolution)
     if quadric is None:
         return np.zeros(len(xy))
     return quadric.height(xy - center)
@@ -532,7 +513,7 @@ def _measure_void(scene, grid, void, settings):
     """Measure one void: its rim, the edge circle, and the checks that make it a hole.
 
     The checks, in order, each a :class:`_Rejected` with its value and limit when it fails (names in
-    :data:`REJECTION_REASONS`; every one is held by a counter-example in
+    :data:`holecli.vocabulary.REJECTION_REASONS`; every one is held by a counter-example in
     ``tests/robust/test_acceptance.py`` or ``tests/robust/test_rejections.py``): ``no_rim``,
     ``too_few_rim_points``, ``no_circle_fit``, ``below_min_diameter``, ``material_inside`` (the island
     of a groove inside the circle), ``not_round``, ``material_in_first_circle`` (the first circle
@@ -1199,7 +1180,6 @@ def _pocket_depth(hole, settings):
 def _loop_hole(scene, loop):
     """The :class:`Hole` of an edge loop of a CAD export's vertices (:mod:`holecli.robust.edge_loops`)."""
     from holecli.results import Bore, Counterbore, Countersink, HoleNote
-    from holecli.robust.hole_shape import NOTE_CODES
 
     def world(center2d, height):
         return from_plane_frame(np.array([center2d[0], center2d[1], height]), scene.origin, scene.rotation)
@@ -1344,8 +1324,8 @@ def _on_curved_surface(scene, measured, settings, view_dir, rng):
     the top of a countersink's cone counts as surface on one side of the hole more than on the other,
     and the rim, the edge and the center move (50 um). Here the points within ``crop_radii`` radii of
     the hole are taken into the frame of the ring's own plane, the quadric of the ring
-    (:func:`_curved_quadric`) is subtracted from their heights, and the hole is measured on that flat
-    crop by the same method; its center and normal go back onto the quadric.
+    (:func:`holecli.geometry.quadric.curved_quadric`) is subtracted from their heights, and the hole is
+    measured on that flat crop by the same method; its center and normal go back onto the quadric.
     """
     center, radius = measured.center, measured.radius
     ring = _ring_plane(scene, center, radius, settings.crop_ring_radii)
@@ -1359,7 +1339,7 @@ def _on_curved_surface(scene, measured, settings, view_dir, rng):
         # The crop's frame with the sensor on +z, as the scene's (its detect_robust takes that side).
         second, normal = -second, -normal
         basis = np.vstack([first, second, normal])
-    quadric = _curved_quadric((ring_points - foot) @ basis.T, radius, settings.curvature_sigmas, scene.resolution)
+    quadric = curved_quadric((ring_points - foot) @ basis.T, radius, settings.curvature_sigmas, scene.resolution)
     if quadric is None:
         return None
     crop = scene.points[_within(scene, scene.xy, center, 0.0, settings.crop_radii * radius)]
@@ -1383,63 +1363,6 @@ def _on_curved_surface(scene, measured, settings, view_dir, rng):
     world_normal = orient_normal(normal - ds * first - dt * second)
     return Hole(**{**hole.__dict__, "center": tuple(map(float, world_center)),
                    "normal": tuple(map(float, world_normal))})
-
-
-@dataclass(frozen=True, eq=False)
-class _Quadric:
-    """``h(s, t) = a + b u + c v + d u^2 + e u v + f v^2`` with ``u, v = s / scale, t / scale``."""
-
-    coefficients: np.ndarray
-    scale: float
-
-    def height(self, st):
-        u, v = st[:, 0] / self.scale, st[:, 1] / self.scale
-        return np.column_stack([np.ones_like(u), u, v, u * u, u * v, v * v]) @ self.coefficients
-
-    def gradient(self, st):
-        """(dh/ds, dh/dt) at each of ``st`` (k, 2)."""
-        a, b, c, d, e, f = self.coefficients
-        u, v = st[:, 0] / self.scale, st[:, 1] / self.scale
-        return np.column_stack([b + 2 * d * u + e * v, c + e * u + 2 * f * v]) / self.scale
-
-
-def _curved_quadric(local, scale, sigmas, resolution=0.0):
-    """The quadric of ``local`` ((k, 3): s, t and the height, in a frame centred on a hole), or None
-    when the surface is not significantly curved there: its sag at the origin within ``sigmas``
-    standard errors (check ``curvature_sigmas``), within the round-off of the coordinates, or within
-    the heights' ``resolution`` (a noise-free quantised face's levels lie in bands across it, which
-    a quadric bends to by a fraction of a step, far beyond its standard error).
-
-    On a flat surface a quadric's height at the center is only noisier than a plane's (its curvature
-    terms are fitted to noise: about 1.7 times the spread on the Table I ring), so it is used only where
-    the surface really curves.
-    """
-    scale = max(float(scale), 1e-300)
-    if len(local) <= 6:
-        return None
-    s, t, h = local[:, 0] / scale, local[:, 1] / scale, np.ascontiguousarray(local[:, 2])
-    # The normal equations over the six monomials' columns, not an SVD of a (k, 6) design matrix: a
-    # ring holds up to 10^6 points on a dense scan (the copy would cost memory, the SVD time), the
-    # coordinates are scaled to the hole (well conditioned), and the inverse is wanted anyway for the
-    # standard error. Rank as numpy's lstsq judges it, on the design's singular values.
-    columns = (np.ones_like(s), s, t, s * s, s * t, t * t)
-    gram = np.array([[float(a @ b) for b in columns] for a in columns])
-    eigenvalues = np.linalg.eigvalsh(gram)
-    if not eigenvalues[0] > (np.finfo(float).eps * len(h)) ** 2 * eigenvalues[-1]:
-        return None
-    inverse = np.linalg.inv(gram)
-    coefficients = inverse @ np.array([float(column @ h) for column in columns])
-    residuals = sum(c * column for c, column in zip(coefficients, columns)) - h
-    variance = float(residuals @ residuals) / (len(h) - 6)
-    standard_error = np.sqrt(variance * inverse[0, 0])
-    if abs(coefficients[0]) <= max(sigmas * standard_error, _SAG_ROUND_OFF * scale, resolution):
-        return None
-    return _Quadric(coefficients=coefficients, scale=scale)
-
-
-# A sag below this fraction of the hole's radius is round-off of exact data, not curvature (a curved
-# panel's sag at a hole is 1e-3 of its radius or more).
-_SAG_ROUND_OFF = 1e-7
 
 
 def _as_rejected(measured, check, value, limit):
