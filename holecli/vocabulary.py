@@ -90,8 +90,9 @@ WARNING_CODES = {
     "bore_not_cylindrical": "the points taken for the bore wall do not lie on one cylinder: no bore diameter",
 }
 
-#: Why a value of a hole is None (holecli.robust.hole_shape, and the edge loops'): the scan shows too little for a value (or
-#: the value asked for is not on the part). Nothing given is doubtful: a note is not a warning.
+#: Why a value of a hole is None (holecli.robust.hole_shape, and the edge loops'): the scan shows too
+#: little for a value (or the value asked for is not on the part). Nothing given is doubtful: a note is
+#: not a warning.
 NOTE_CODES = {
     "bore_not_seen": "too few points on the bore wall for a cylinder fit: no bore diameter",
     "bore_short_arc": "the bore wall is seen over too little of its circumference for a diameter",

@@ -19,98 +19,35 @@ Steps (each its own module):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
 from scipy import ndimage
 
 from holecli.errors import PointsError
-from holecli.geometry.frame import canonical_rotation, check_view_angle, from_plane_frame
-from holecli.geometry.kernels import CellIndex, box_indices, largest_angular_gap, orient_normal, robust_sigma
-from holecli.geometry.plane import ASSUMED_VIEW, PlaneFit, fit_plane_robust, fit_plane_scatter, hidden_points
+from holecli.geometry.frame import from_plane_frame
+from holecli.geometry.kernels import largest_angular_gap, orient_normal, robust_sigma
+from holecli.geometry.plane import PlaneFit, fit_plane_scatter
 from holecli.geometry.quadric import curved_quadric
 from holecli.results import Hole, Plane, Rejection, Scales, Uncertainty
 from holecli.robust.bias import RimScales, sampling_errors
 from holecli.robust.boundary import hole_rim, near_box_edge
-from holecli.robust.candidates import distance_to_outside, find_voids, occupancy_grid, scanned_hull
+from holecli.robust.candidate import Measured, Refusal
+from holecli.robust.candidates import find_voids
 from holecli.robust.countersink import Cone, fit_cone_edge, points_on_hinge
 from holecli.robust.doubts import Doubts, doubt_warnings, edge_bore_warning
 from holecli.robust.edge import fit_edge
-from holecli.robust.edge_loops import coordinate_step, edge_loops, faces_empty, looks_like_vertices, top_face
-from holecli.robust.facing import decide, fan_side, fan_spacing, MIN_POINTS as SEEN_MIN_POINTS, seen_through
+from holecli.robust.edge_loops import coordinate_step, edge_loops, faces_empty
 from holecli.robust.empty_circle import empty_circle_errors, largest_empty_circle
 from holecli.robust.hole_shape import measure_hole_shape
 from holecli.robust.lattice import lattice_errors, lattice_steps, separating_circle
-from holecli.robust.sampling import estimate_sampling
+from holecli.robust.scene import build_scene
 from holecli.robust.uncertainty import (edge_uncertainty, plane_uncertainty, resolution_uncertainty,
                                         synthetic_reflections)
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.stages import StageClock
 from holecli.vocabulary import NOTE_CODES, REJECTION_REASONS
-
-
-@dataclass(frozen=True, eq=False)
-class _Scene:
-    """What every candidate's measurement needs to know of the whole scan."""
-
-    xy: np.ndarray           # (n, 2) all points in the plane frame (projected, or the surface's slid)
-    surface_xy: np.ndarray   # (m, 2) the plane inliers' rows of xy
-    material_xy: np.ndarray  # surface_xy in material cells of the grid (specks inside holes removed)
-    above_xy: np.ndarray     # (k, 2) points standing above the surface band (a boss, outliers)
-    surface_density: float   # surface points per unit area of scanned material
-    height_noise: float      # robust sd of the surface points' heights, at least resolution / sqrt(12)
-    band: float              # largest |height| of a surface point: above it stand a boss or outliers
-    points: np.ndarray       # (n, 3) the cloud, world coordinates
-    surface_index: np.ndarray  # (m,) rows of the plane inliers in points
-    heights: np.ndarray      # (n,) signed distance from the plane
-    origin: np.ndarray
-    rotation: np.ndarray
-    direction: np.ndarray    # projection direction (unit, world)
-    sampling: object
-    alpha: float
-    cell: float
-    min_radius: float
-    gap_scatter: float       # rim scatter the sampling alone produces
-    envelope: float          # depth below its sector's outermost rim point at which a rim point is dropped
-    cell_indices: dict = None  # id(array) -> CellIndex of xy, surface_xy, material_xy (many candidates)
-    hulls: dict = None  # id(grid) -> candidates.scanned_hull(grid) (_scanned_fraction, computed when first asked)
-    grid: object = None        # the occupancy grid (for the border distance below)
-    border_distance: np.ndarray = None  # per grid cell, distance to the scan's outside (candidates.distance_to_outside)
-    resolution: float = 0.0    # of the heights: the plane's (PlaneFit.resolution: a level step, else round-off)
-    facing: object = None      # the sensor's side of the surface (holecli.robust.facing.Facing)
-
-
-@dataclass(frozen=True)
-class _Rejected:
-    """A candidate void that is not reported as a hole: the check that refused it, with its value and
-    limit (None where the check has no number), and where the void is (plane frame)."""
-
-    check: str
-    value: object
-    limit: object
-    center: np.ndarray
-    radius: float
-    shape: object = None  # (length, width, direction (2,)) of a cut-out that is not round
-
-
-@dataclass(frozen=True, eq=False)
-class _Measured:
-    center: np.ndarray       # (2,) plane frame
-    radius: float            # corrected
-    bias: float              # radial
-    fit: object
-    rim_xy: np.ndarray
-    partial: bool
-    arc_deg: float
-    surface_plane: object = None  # PlaneFit of the surface around the hole (None: the global plane)
-    cone_slope: object = None     # depth per radius of the countersink cone accepted at the edge
-    estimator: str = "rim_fit"    # how the edge was measured: rim_fit, lattice, empty_circle, cone
-    synthetic: object = None      # SyntheticErrors of that estimator on synthetic holes (None: none measured)
-    cone_covariance: object = None  # (3, 3) covariance of the cone edge's (cx, cy, R) (estimator cone)
-    fringe: tuple = (0.0, 0.0, 0.0)  # the edge's fringe of mixed points: (width, shift, hidden) (_edge_fringe)
-    radius_range: object = None   # (low, high): the radii every lattice bracket allows (estimator lattice)
-    surface_uncertainty: tuple = (None, None)  # of the local plane's height at the hole and of its normal (rad)
 
 
 def _rim_arc(rim_xy, center):
@@ -129,22 +66,9 @@ def _material_arc(grid, center, radius, samples=720):
     return 360.0 * float(np.mean(grid.lookup(grid.solid, ring)))
 
 
-def _box(scene, xy, low, high):
-    """Indices of the points of ``xy`` (one of the scene's arrays) in the box ``[low, high]``: from
-    its cell index when the scene has one for it, else by a pass over the points."""
-    index = scene.cell_indices.get(id(xy))
-    return box_indices(xy, low, high) if index is None else index.box(low, high)
-
-
 def _within(scene, xy, center, inner, outer):
-    """Indices of the points of ``xy`` (one of the scene's arrays) at a distance in [inner, outer)
-    from ``center``.
-
-    A box test first: on a million points it is several times cheaper than the distances.
-    """
-    index = _box(scene, xy, center - outer, center + outer)
-    distance = np.hypot(xy[index, 0] - center[0], xy[index, 1] - center[1])
-    return index[(distance >= inner) & (distance < outer)]
+    """:meth:`holecli.robust.scene.Scene.within` (the name the estimators' helpers below call it by)."""
+    return scene.within(xy, center, inner, outer)
 
 
 def _local_normal(scene, center, radius, settings):
@@ -237,7 +161,7 @@ def _material_inside(scene, center, radius, settings):
 
     Parameters
     ----------
-    scene : _Scene
+    scene : holecli.robust.scene.Scene
     center : (2,) float
         The fitted circle's center, plane frame.
     radius : float
@@ -251,9 +175,8 @@ def _material_inside(scene, center, radius, settings):
     allowed : float
         ``max_material_inside`` (setting) times the surface points that area would hold.
     """
-    inside = len(_within(scene, scene.material_xy, center, 0.0, 0.5 * radius))
-    allowed = settings.max_material_inside * scene.surface_density * np.pi * (0.5 * radius) ** 2
-    return inside, float(allowed)
+    inside = scene.count_in_disk(scene.material_xy, center, 0.5 * radius)
+    return inside, scene.disk_allowance(0.5 * radius, settings.max_material_inside)
 
 
 def _in_material_interior(grid, xy):
@@ -272,37 +195,19 @@ def _in_material_interior(grid, xy):
     return out
 
 
-def _material_allowed(scene, radius, fraction):
-    """``fraction`` of the surface points a disk of ``radius`` holds at the scan's density."""
-    return float(fraction * scene.surface_density * np.pi * max(radius, 0.0) ** 2)
-
-
-def _boss_points(scene, grid, center, radius, settings):
+def _boss_points(scene, center, radius, settings):
     """Points standing above the surface inside the void, and how many a hole may have: more is
     material (a pin or boss), not a hole.
 
-    Counted over the part of the disk inside the scan (:func:`_scanned_fraction`): a boss cut by
-    the scan's border stands over that part only, and against the whole disk its points were too
+    Counted over the part of the disk inside the scan
+    (:meth:`holecli.robust.scene.Scene.scanned_fraction`): a boss cut by the scan's border stands over that part only, and against the whole disk its points were too
     few (a boss a quarter inside the scan was a partial Ø4.2 hole, ``benchmarks/cutouts.py``).
     """
-    above = len(_within(scene, scene.above_xy, center, 0.0, 0.9 * radius))
-    allowed = settings.boss_fraction * scene.surface_density * np.pi * (0.9 * radius) ** 2
+    above = scene.count_in_disk(scene.above_xy, center, 0.9 * radius)
+    allowed = scene.disk_allowance(0.9 * radius, settings.boss_fraction)
     if above:
-        allowed *= _scanned_fraction(scene, grid, center, 0.9 * radius)
-    return above, float(allowed)
-
-
-def _scanned_fraction(scene, grid, center, radius, rings=48, spokes=96):
-    """The fraction of the disk's area inside the scan: in the convex hull of the scanned material
-    (:func:`holecli.robust.candidates.scanned_hull`, once per grid), on points spread evenly over
-    the disk. 1 for a void surrounded by material, less where the scan's border cuts the disk."""
-    hull = scene.hulls.get(id(grid))
-    if hull is None:
-        hull = scene.hulls[id(grid)] = scanned_hull(grid)
-    r = radius * np.sqrt((np.arange(rings) + 0.5) / rings)  # equal areas
-    t = 2.0 * np.pi * (np.arange(spokes) + 0.5) / spokes
-    disk = center + np.column_stack([np.outer(r, np.cos(t)).ravel(), np.outer(r, np.sin(t)).ravel()])
-    return float(np.mean(grid.lookup(hull, disk)))
+        allowed *= scene.scanned_fraction(center, 0.9 * radius)
+    return above, allowed
 
 
 def _countersink(scene, center, radius, settings):
@@ -474,7 +379,7 @@ def _largest_empty_radius(scene, void_xy, reach):
     from scipy.spatial import cKDTree
 
     low, high = void_xy.min(axis=0) - reach, void_xy.max(axis=0) + reach
-    near = scene.material_xy[_box(scene, scene.material_xy, low, high)]
+    near = scene.material_xy[scene.box(scene.material_xy, low, high)]
     if len(near) == 0:
         return np.inf, void_xy.mean(axis=0)
     distance, _ = cKDTree(near).query(void_xy, distance_upper_bound=reach)
@@ -505,14 +410,14 @@ def _void_neighbourhood(scene, grid, void, void_mask, margin, settings):
             return local, np.hypot(*(local - center).T) > outer - settings.cut_alphas * alpha
     low = centers.min(axis=0) - 0.5 * cell - margin
     high = centers.max(axis=0) + 0.5 * cell + margin
-    local = scene.material_xy[_box(scene, scene.material_xy, low, high)]
+    local = scene.material_xy[scene.box(scene.material_xy, low, high)]
     return local, near_box_edge(local, low, high, settings.cut_alphas * alpha)
 
 
-def _measure_void(scene, grid, void, settings):
+def _measure_void(scene, void, settings):
     """Measure one void: its rim, the edge circle, and the checks that make it a hole.
 
-    The checks, in order, each a :class:`_Rejected` with its value and limit when it fails (names in
+    The checks, in order, each a :class:`holecli.robust.candidate.Refusal` with its value and limit when it fails (names in
     :data:`holecli.vocabulary.REJECTION_REASONS`; every one is held by a counter-example in
     ``tests/robust/test_acceptance.py`` or ``tests/robust/test_rejections.py``): ``no_rim``,
     ``too_few_rim_points``, ``no_circle_fit``, ``below_min_diameter``, ``material_inside`` (the island
@@ -522,26 +427,24 @@ def _measure_void(scene, grid, void, settings):
 
     Parameters
     ----------
-    scene : _Scene
+    scene : holecli.robust.scene.Scene
         What the measurement needs to know of the whole scan.
-    grid : holecli.robust.candidates.Grid
-        The occupancy grid the void was found on.
     void : holecli.robust.candidates.Void
-        The candidate.
+        The candidate, a void of the scene's grid.
     settings : holecli.settings.RobustSettings
 
     Returns
     -------
-    _Measured or _Rejected
+    Measured or Refusal
         The hole, or the check that refused the void.
     """
-    cell, alpha = scene.cell, scene.alpha
+    cell, alpha, grid = scene.cell, scene.alpha, scene.grid
     void_xy = grid.center_of(void.cells)
     void_center = void_xy.mean(axis=0)
     void_radius = float(np.max(np.hypot(*(void_xy - void_center).T))) + 0.5 * cell
 
     def reject(check, value=None, limit=None, center=None, radius=None, shape=None):
-        return _Rejected(check=check, value=value, limit=limit,
+        return Refusal(check=check, value=value, limit=limit,
                          center=void_center if center is None else center,
                          radius=void_radius if radius is None else float(radius), shape=shape)
 
@@ -588,7 +491,7 @@ def _measure_void(scene, grid, void, settings):
         # What is dropped must be reflections: points deep inside the first circle in the interior of
         # the grid's material are the sides of a cut-out that circle spans (check below).
         dropped = (int(np.sum(_in_material_interior(grid, local[deep]))),
-                   _material_allowed(scene, fit.radius - scene.envelope, settings.max_material_dropped),
+                   scene.disk_allowance(fit.radius - scene.envelope, settings.max_material_dropped),
                    (fit.center, fit.radius, rim_xy))
         local = local[~deep]
         rim = hole_rim(local, in_void, alpha, cut=cut[~deep])
@@ -635,14 +538,14 @@ def _measure_void(scene, grid, void, settings):
             return reject("too_few_rim_points", int(used.sum()), settings.min_partial_rim_points, center, radius)
     else:
         arc = 360.0
-    above, allowed_above = _boss_points(scene, grid, center, radius, settings)
+    above, allowed_above = _boss_points(scene, center, radius, settings)
     if above > allowed_above:
         return reject("boss", above, allowed_above, center, radius)
     cone = _countersink(scene, center, radius, settings)
     if isinstance(cone, Cone):
         # A countersunk hole: its edge is where the cone meets the surface.
         cone_center, cone_radius, covariance = _cone_in_the_plane(scene, center, cone, settings)
-        return _Measured(center=cone_center, radius=cone_radius, bias=radius - cone_radius, fit=fit,
+        return Measured(center=cone_center, radius=cone_radius, bias=radius - cone_radius, fit=fit,
                          rim_xy=rim_xy[used], partial=partial, arc_deg=arc, cone_slope=cone.slope,
                          estimator="cone", cone_covariance=covariance)
     edge, estimator, synthetic, radii = None, "rim_fit", None, None
@@ -672,7 +575,7 @@ def _measure_void(scene, grid, void, settings):
     # moved to the fringe's middle, the true edge's place (_edge_fringe).
     fringe = _edge_fringe(scene, center, radius - bias, arc, settings)
     bias += fringe[1]
-    return _Measured(center=center, radius=radius - bias, bias=bias, fit=fit, rim_xy=rim_xy[used],
+    return Measured(center=center, radius=radius - bias, bias=bias, fit=fit, rim_xy=rim_xy[used],
                      partial=partial, arc_deg=arc, estimator=estimator, synthetic=synthetic, fringe=fringe,
                      radius_range=radii)
 
@@ -832,7 +735,7 @@ def _empty_circle(scene, local, center, radius, settings):
     return empty_center, empty_radius - errors.bias, errors.bias, errors
 
 
-def _measure_voids(scene, grid, voids, settings):
+def _measure_voids(scene, voids, settings):
     """:func:`_measure_void` of every void (a hole or a rejection), in order; on a large cloud two at
     a time in threads.
 
@@ -840,8 +743,8 @@ def _measure_voids(scene, grid, voids, settings):
     thread uses the second core of the machine; small clouds are not worth the threads.
     """
     def measure(void):
-        measured = _measure_void(scene, grid, void, settings)
-        if isinstance(measured, _Rejected):
+        measured = _measure_void(scene, void, settings)
+        if isinstance(measured, Refusal):
             return measured
         plane, surface_uncertainty = _local_normal(scene, measured.center, measured.radius, settings)
         return replace(measured, surface_plane=plane, surface_uncertainty=surface_uncertainty)
@@ -940,81 +843,6 @@ class RobustResult(NamedTuple):
     candidates: int
 
 
-class _Frame(NamedTuple):
-    """The scan in the frame of its plane, with the sampling and the occupancy grid of its surface."""
-
-    rotation: np.ndarray
-    xy: np.ndarray
-    heights: np.ndarray
-    band: float
-    direction: np.ndarray
-    sampling: object
-    min_radius: float
-    surface_xy: np.ndarray
-    grid: object
-
-
-def _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock):
-    """Steps 2-4 of the module docstring up to the grid, about ``plane`` with its normal's sign as
-    given: the rotation into its frame, the plane-frame xy (surface points slid along ``view_dir``
-    when given and nothing stands behind the surface, :func:`_nothing_behind`) and heights, the band,
-    the sampling and the occupancy grid of the surface (a ``view_dir`` grazing the plane is refused)."""
-    normal, origin = plane.normal, plane.point
-    # In-plane axes from the surface points themselves (centroid, principal axes), so that the grid
-    # and the windows below move with the cloud under any rigid motion.
-    clock.start("frame")
-    rotation = canonical_rotation(points, plane)
-    # One (n, 3) @ (3, 3) product with a C-ordered right factor (BLAS); the rows of the rotation are
-    # the in-plane axes and the normal, so the third coordinate is the height above the plane.
-    local = (points - origin) @ np.ascontiguousarray(rotation.T)
-    heights = np.ascontiguousarray(local[:, 2])
-    surface = plane.inliers
-    band = float(np.max(np.abs(heights[surface])))  # (a slide moves xy only)
-    direction = normal
-    if view_dir is not None:
-        view = rotation @ (np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir))
-        check_view_angle(view, min_sine=settings.view_min_sine)
-        if _nothing_behind(heights, surface, band, view):
-            # The surface's points slide along the view onto the plane: a triangulation sensor's range
-            # noise lies along its ray, and slid back along it a point lands where the ray met the
-            # surface (the paper's Table I protocol: the center's error a tenth of the orthogonal
-            # projection's). The center then moves onto its local plane along the view (_to_hole).
-            direction = view @ rotation
-            surface_local = local[surface]
-            surface_local[:, 0] -= surface_local[:, 2] * (view[0] / view[2])
-            surface_local[:, 1] -= surface_local[:, 2] * (view[1] / view[2])
-            local[surface] = surface_local
-    # Column-major: the box tests below read x and y as contiguous columns.
-    xy = np.asfortranarray(local[:, :2])
-    del local
-    clock.start("sampling")
-    surface_xy = np.asfortranarray(xy[surface])  # (one copy for the sampling and the grid)
-    sampling = estimate_sampling(surface_xy, windows=settings.sampling_windows,
-                                 window_points=settings.sampling_window_points, settings=settings)
-    gap = sampling.gap
-    min_radius = 0.5 * (min_diameter if min_diameter is not None else settings.min_diameter_gaps * gap)
-    clock.start("grid")
-    grid = occupancy_grid(surface_xy, settings.cell_gaps * gap, max_speck_cells=settings.max_speck_cells)
-    return _Frame(rotation=rotation, xy=xy, heights=heights, band=band, direction=direction, sampling=sampling,
-                  min_radius=min_radius, surface_xy=surface_xy, grid=grid)
-
-
-def _nothing_behind(heights, surface, band, view):
-    """Whether no more than ``facing.MIN_POINTS`` points stand behind the surface band (``band``, the
-    largest surface height) as the sensor sees it: then the band holds the surface alone and its points
-    may slide along the view.
-
-    Where the sensor sees behind the surface (a bore's far wall on a tilted scan, a floor, a cone),
-    the band also holds the top of what it sees there: slid, the far wall's top lands where its rays
-    crossed the hole's opening, up to ``band x tan(tilt)`` inside the hole, and pulls the far edge in
-    (on tilted profiler scans with 10 um of noise the centers came out 30 % worse than projected
-    orthogonally, and the validation suite's centers were covered in 87 % of cases against 100 %:
-    tests/robust/test_robust_view_dir.py). Every point is then projected orthogonally.
-    """
-    behind = np.count_nonzero(~surface & (heights * np.sign(view[2]) > band))
-    return behind <= SEEN_MIN_POINTS
-
-
 def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, full_only=False,
                   gauge_depth=None, settings=DEFAULT_SETTINGS, rng=0, flat_crop=False, progress=None):
     """The robust method; see the module docstring.
@@ -1036,80 +864,16 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     RobustResult
     """
     clock = StageClock(progress)
-    clock.start("plane")
-    plane = fit_plane_robust(points, rng=rng, sample=settings.ransac_sample,
-                             hypotheses=settings.ransac_hypotheses, quantile=settings.ransac_quantile,
-                             clip=settings.plane_clip, max_rounds=settings.plane_refine_rounds,
-                             refine_sample=settings.plane_refine_sample, max_faces=settings.plane_max_faces,
-                             view=view_dir)
-    frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
-    if plane.hidden and not faces_empty(float(frame.sampling.spacing), float(frame.sampling.gap)):
-        # A face hidden behind the surface along the view (a whole mesh sampled, its bottom under its
-        # top): a sensor never recorded it, and seen through a countersink it reads as a counterbore's
-        # floor. (Not in a CAD export's vertices, whose faces are empty: there the loops at one depth,
-        # a countersink's inner loops, make such a face, and they are what types the holes.)
-        seen = ~hidden_points(points, plane, ASSUMED_VIEW if view_dir is None else view_dir)
-        points, plane = points[seen], replace(plane, inliers=plane.inliers[seen], hidden=())
-        frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
-    # The heights are read along the normal toward the sensor (holecli.robust.facing): from
-    # --view-dir, else from the points seen through the surface, else the z-positive normal. A flat
-    # crop's frame has the sensor on +z (_on_curved_surface).
-    below, above = seen_through(frame.heights, frame.xy, plane.inliers, frame.grid, frame.band,
-                                frame.sampling.spacing)
-    fan = None
-    if view_dir is None and not flat_crop and max(below, above) < SEEN_MIN_POINTS:
-        # Not seen through: the second cue, a fan's spacing growing with the range.
-        fan = fan_side(fan_spacing(frame.xy, frame.heights, plane.inliers, frame.band, frame.sampling.spacing,
-                                   frame.grid.cell))
-    facing = decide(plane.normal, (0.0, 0.0, -1.0) if flat_crop else view_dir, below, above, fan=fan)
-    if facing.sign < 0:
-        # The frame again about the flipped normal (not a mirror of the first one), so that a scan
-        # and its rigid motions are measured in the same frame of the part.
-        plane = replace(plane, normal=-plane.normal)
-        frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
-    vertices = not flat_crop and looks_like_vertices(float(frame.sampling.spacing), float(frame.sampling.gap),
-                                                     int(np.count_nonzero(plane.inliers)))
-    if vertices and faces_empty(float(frame.sampling.spacing), float(frame.sampling.gap)):
-        # A CAD export's vertices: its faces hold their edges' vertices, not points in proportion to
-        # their area; the surface is the widest face nearest the sensor (edge_loops.top_face). Only
-        # when the faces are empty: a small surface sampling's walls join its faces' levels.
-        noise = max(robust_sigma(frame.heights[plane.inliers]), float(plane.resolution))
-        top = top_face(frame.xy, frame.heights, noise)
-        if top is not None and np.count_nonzero(top & plane.inliers) < 0.5 * np.count_nonzero(top):
-            fit = fit_plane_scatter(points[top])
-            plane = replace(plane, point=fit.point, normal=fit.normal if fit.normal @ plane.normal > 0 else -fit.normal,
-                            rms=fit.rms, inliers=top, major=fit.major)
-            frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
-    normal, origin = plane.normal, plane.point
-    rotation, xy, heights, band, direction = frame.rotation, frame.xy, frame.heights, frame.band, frame.direction
-    sampling, grid, surface, min_radius = frame.sampling, frame.grid, plane.inliers, frame.min_radius
-    gap = sampling.gap
-    cell = settings.cell_gaps * gap
-    surface_xy = frame.surface_xy
-    material_xy = np.asfortranarray(surface_xy[grid.lookup(grid.material, surface_xy)])
-    above_xy = np.asfortranarray(xy[(heights > band) & ~surface])
-    surface_density = len(surface_xy) / max(float(np.count_nonzero(grid.material)) * cell * cell, 1e-300)
-    # Never 0: noise-free data still holds its heights only to its resolution.
-    resolution = float(plane.resolution)
-    height_noise = max(robust_sigma(heights[surface]), resolution_uncertainty(resolution))
-    scene = _Scene(xy=xy, surface_xy=surface_xy, material_xy=material_xy, above_xy=above_xy,
-                   surface_density=surface_density, height_noise=height_noise, band=band, heights=heights,
-                   points=points, surface_index=np.flatnonzero(surface), origin=origin, rotation=rotation,
-                   direction=direction, sampling=sampling, alpha=settings.alpha_gaps * gap, cell=cell,
-                   min_radius=min_radius, gap_scatter=0.5 * gap, envelope=settings.envelope_gaps * gap,
-                   cell_indices={}, hulls={}, resolution=resolution, facing=facing)
-    if not flat_crop:  # (a flat crop's holes get no warnings: the caller's scene judges them)
-        scene = replace(scene, grid=grid, border_distance=distance_to_outside(grid))
-    voids = find_voids(grid)
+    scene = build_scene(points, view_dir=view_dir, min_diameter=min_diameter, settings=settings, rng=rng,
+                        clock=clock, flattened=flat_crop)
+    voids = find_voids(scene.grid)
     if len(voids) >= settings.cell_index_from_candidates:
-        # Many candidates (the natural gaps of random sampling grow with the points): one sort per
-        # array, then every neighbourhood query reads only its own cells instead of every point.
-        for array in (xy, surface_xy, material_xy):
-            scene.cell_indices[id(array)] = CellIndex(array, cell)
+        # Many candidates (the natural gaps of random sampling grow with the points).
+        scene = scene.with_cell_indices()
     clock.start("candidates")
     found, rejected = [], []
-    for measured in _measure_voids(scene, grid, voids, settings):
-        if isinstance(measured, _Rejected):
+    for measured in _measure_voids(scene, voids, settings):
+        if isinstance(measured, Refusal):
             rejected.append(measured)
             continue
         twin = next((i for i, other in enumerate(found) if _overlaps(measured, other)), None)
@@ -1138,13 +902,15 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         rejected.extend(_as_rejected(measured, "pocket", depth, settings.pocket_max_depth_ratio)
                         for measured, depth in zip(found, pockets) if depth is not None)
         holes = [hole for hole, depth in zip(holes, pockets) if depth is None]
-    if vertices:
+    sampling, plane = scene.sampling, scene.plane
+    if scene.vertices:
         # A CAD export's vertices: no point inside a face, the holes are the loops of its edges.
-        loops, loop_rejected = edge_loops(xy, heights, surface, height_noise, min_diameter=min_diameter,
-                                          resolution=resolution, step=coordinate_step(points))
-        if loops or faces_empty(float(sampling.spacing), float(gap)):
+        loops, loop_rejected = edge_loops(scene.xy, scene.heights, plane.inliers, scene.height_noise,
+                                          min_diameter=min_diameter, resolution=scene.resolution,
+                                          step=coordinate_step(scene.points))
+        if loops or faces_empty(float(sampling.spacing), float(sampling.gap)):
             # (a small scan's sampling makes loops too, of a grid's ties: they are not what it shows)
-            rejected.extend(_Rejected(check=r.check, value=r.value, limit=r.limit, center=r.center,
+            rejected.extend(Refusal(check=r.check, value=r.value, limit=r.limit, center=r.center,
                                       radius=r.radius) for r in loop_rejected)
         for loop in loops:
             if not any(np.hypot(*(loop.center - m.center)) < max(m.radius, 0.5 * loop.diameter) for m in found):
@@ -1152,18 +918,19 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         if max_holes is not None and len(holes) > max_holes:
             ranked = sorted(holes, key=lambda hole: -hole.diameter)
             holes = ranked[:max_holes]
-            rejected.extend(_Rejected(check="beyond_max_holes", value=h.diameter, limit=holes[-1].diameter,
-                                      center=(rotation @ (np.asarray(h.center) - origin))[:2], radius=h.radius)
+            rejected.extend(Refusal(check="beyond_max_holes", value=h.diameter, limit=holes[-1].diameter,
+                                      center=(scene.rotation @ (np.asarray(h.center) - scene.origin))[:2],
+                                      radius=h.radius)
                             for h in ranked[max_holes:])
     holes.sort(key=lambda hole: (hole.partial, hole.center))
     holes = tuple(Hole(**{**hole.__dict__, "index": i}) for i, hole in enumerate(holes))
-    plane_result = Plane(point=tuple(map(float, origin)), normal=tuple(map(float, orient_normal(normal))),
-                         rms=plane.rms, inliers=int(surface.sum()), facing=facing)
+    plane_result = Plane(point=tuple(map(float, plane.point)), normal=tuple(map(float, orient_normal(plane.normal))),
+                         rms=plane.rms, inliers=int(plane.inliers.sum()), facing=scene.facing)
     rejections = tuple(sorted((_to_rejection(scene, r) for r in rejected), key=lambda r: (-r.diameter, r.center)))
-    scales = Scales(point_spacing=float(sampling.spacing), gap_scale=float(gap),
+    scales = Scales(point_spacing=float(sampling.spacing), gap_scale=float(sampling.gap),
                     line_pitch=None if sampling.line_pitch is None else float(sampling.line_pitch),
                     period=None if sampling.period is None else float(sampling.period), lattice=bool(sampling.lattice),
-                    height_noise=float(height_noise), min_diameter=2.0 * float(min_radius))
+                    height_noise=float(scene.height_noise), min_diameter=2.0 * float(scene.min_radius))
     return RobustResult(plane=plane_result, holes=holes, rejected=rejections, scales=scales, stages=clock.stop(),
                         candidates=len(voids))
 
@@ -1366,7 +1133,7 @@ def _on_curved_surface(scene, measured, settings, view_dir, rng):
 
 
 def _as_rejected(measured, check, value, limit):
-    return _Rejected(check=check, value=value, limit=limit, center=measured.center, radius=float(measured.radius))
+    return Refusal(check=check, value=value, limit=limit, center=measured.center, radius=float(measured.radius))
 
 
 def _to_rejection(scene, rejected):
