@@ -33,7 +33,9 @@ from holecli.geometry.quadric import curved_quadric
 from holecli.results import Hole, Plane, Rejection, Scales, Uncertainty
 from holecli.robust.bias import RimScales, sampling_errors
 from holecli.robust.boundary import hole_rim, near_box_edge
-from holecli.robust.candidate import Measured, Refusal
+from holecli.robust.acceptance import (EDGE_CHECKS, FIT_CHECKS, RIM_CHECKS, VOID_CHECKS, edge_below_min_diameter,
+                                       first_refusal)
+from holecli.robust.candidate import Candidate, FirstCircle, Measured, Refusal
 from holecli.robust.candidates import find_voids
 from holecli.robust.countersink import Cone, fit_cone_edge, points_on_hinge
 from holecli.robust.doubts import Doubts, doubt_warnings, edge_bore_warning
@@ -48,11 +50,6 @@ from holecli.robust.uncertainty import (edge_uncertainty, plane_uncertainty, res
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.stages import StageClock
 from holecli.vocabulary import NOTE_CODES, REJECTION_REASONS
-
-
-def _rim_arc(rim_xy, center):
-    """Degrees of the circle not in the largest angular gap between rim points."""
-    return float(np.degrees(2 * np.pi - largest_angular_gap(rim_xy, center)))
 
 
 def _material_arc(grid, center, radius, samples=720):
@@ -148,37 +145,6 @@ def _scan_lines(scene, rim_xy, center, radius):
     return int(len(np.unique(np.round((across - across.min()) / sampling.line_pitch))))
 
 
-# Surface material inside the inner half of a fitted circle, as a fraction of the surface points its
-# area would hold, above which the circle is not a hole (check "material_inside").
-
-
-def _material_inside(scene, center, radius, settings):
-    """Surface material points within half the radius of a fitted circle, and how many it may hold.
-
-    A groove around a standing island (an O-ring groove, a C-shaped slot) is a void whose outer rim is
-    a good circle: the fit takes it and the island stands inside. A hole's inner half holds at most a
-    few reflections (specks, not material); an island fills it.
-
-    Parameters
-    ----------
-    scene : holecli.robust.scene.Scene
-    center : (2,) float
-        The fitted circle's center, plane frame.
-    radius : float
-    settings : RobustSettings
-        Its radius.
-
-    Returns
-    -------
-    inside : int
-        Material points of the surface within ``radius / 2`` of ``center``.
-    allowed : float
-        ``max_material_inside`` (setting) times the surface points that area would hold.
-    """
-    inside = scene.count_in_disk(scene.material_xy, center, 0.5 * radius)
-    return inside, scene.disk_allowance(0.5 * radius, settings.max_material_inside)
-
-
 def _in_material_interior(grid, xy):
     """Whether each point lies in a cell of the grid's material whose eight neighbours are material too.
 
@@ -193,21 +159,6 @@ def _in_material_interior(grid, xy):
         for dj in (-1, 0, 1):
             out[inside] &= grid.material[ij[inside, 0] + di, ij[inside, 1] + dj]
     return out
-
-
-def _boss_points(scene, center, radius, settings):
-    """Points standing above the surface inside the void, and how many a hole may have: more is
-    material (a pin or boss), not a hole.
-
-    Counted over the part of the disk inside the scan
-    (:meth:`holecli.robust.scene.Scene.scanned_fraction`): a boss cut by the scan's border stands over that part only, and against the whole disk its points were too
-    few (a boss a quarter inside the scan was a partial Ø4.2 hole, ``benchmarks/cutouts.py``).
-    """
-    above = scene.count_in_disk(scene.above_xy, center, 0.9 * radius)
-    allowed = scene.disk_allowance(0.9 * radius, settings.boss_fraction)
-    if above:
-        allowed *= scene.scanned_fraction(center, 0.9 * radius)
-    return above, allowed
 
 
 def _countersink(scene, center, radius, settings):
@@ -366,27 +317,6 @@ def _near_void(grid, void, cells):
     return near
 
 
-def _largest_empty_radius(scene, void_xy, reach):
-    """An upper bound of the radius of any disk empty of material points whose center lies in the void
-    (its cells' centers ``void_xy``).
-
-    The distance to the nearest material point is 1-Lipschitz, and every point of the void lies within
-    half a cell's diagonal of a cell center: the bound is the largest nearest-point distance at the
-    centers plus that half diagonal. Only the material within ``reach`` of the void's cells is looked
-    at (a farther point would give a larger distance: the bound stays an upper bound), and a bound
-    beyond ``reach`` is not refined. Returns the bound and the cell center it was found at.
-    """
-    from scipy.spatial import cKDTree
-
-    low, high = void_xy.min(axis=0) - reach, void_xy.max(axis=0) + reach
-    near = scene.material_xy[scene.box(scene.material_xy, low, high)]
-    if len(near) == 0:
-        return np.inf, void_xy.mean(axis=0)
-    distance, _ = cKDTree(near).query(void_xy, distance_upper_bound=reach)
-    best = int(np.argmax(distance))
-    return float(distance[best]) + scene.cell / np.sqrt(2.0), void_xy[best]
-
-
 def _void_neighbourhood(scene, grid, void, void_mask, margin, settings):
     """Material points around a void, and which of them lie near the line they were cut along.
 
@@ -414,16 +344,72 @@ def _void_neighbourhood(scene, grid, void, void_mask, margin, settings):
     return local, near_box_edge(local, low, high, settings.cut_alphas * alpha)
 
 
-def _measure_void(scene, void, settings):
-    """Measure one void: its rim, the edge circle, and the checks that make it a hole.
+def _with_rim(scene, candidate, in_void, void_mask, settings):
+    """The candidate with the material points around its void and the rim among them (``rim_xy``
+    None: no rim)."""
+    margin = settings.margin_alphas * scene.alpha + scene.cell
+    local, cut = _void_neighbourhood(scene, scene.grid, candidate.void, void_mask, margin, settings)
+    rim = hole_rim(local, in_void, scene.alpha, cut=cut)
+    return replace(candidate, local=local, cut=cut, rim_xy=None if rim is None else local[rim.index])
 
-    The checks, in order, each a :class:`holecli.robust.candidate.Refusal` with its value and limit when it fails (names in
-    :data:`holecli.vocabulary.REJECTION_REASONS`; every one is held by a counter-example in
-    ``tests/robust/test_acceptance.py`` or ``tests/robust/test_rejections.py``): ``no_rim``,
-    ``too_few_rim_points``, ``no_circle_fit``, ``below_min_diameter``, ``material_inside`` (the island
-    of a groove inside the circle), ``not_round``, ``material_in_first_circle`` (the first circle
-    spanned a long cut-out's sides), ``partial_rim_arc`` (with ``full_arc_deg`` deciding
-    what is partial), ``boss``, and ``below_min_diameter`` again after the bias correction.
+
+def _with_fit(scene, candidate, floor, settings):
+    """The candidate with the clipped circle fit of its rim (:func:`holecli.robust.edge.fit_edge`)."""
+    fit, used = fit_edge(candidate.rim_xy, scene.envelope, floor, settings.clip_sigmas)
+    return replace(candidate, fit=fit, used=used)
+
+
+def _without_deep_points(scene, candidate, deep, in_void, settings):
+    """The candidate without its ``deep`` points (inside its circle by more than the envelope), its rim
+    extracted again and kept within two cells of the void, and its first circle kept
+    (:class:`holecli.robust.candidate.FirstCircle`) with the material among the dropped points.
+
+    Points deep inside the fitted hole (reflections next to the edge) can shield the true rim from the
+    triangulation. What is dropped must be reflections: points deep inside the first circle in the
+    interior of the grid's material are the sides of a cut-out that circle spans (check
+    ``material_in_first_circle``).
+    """
+    fit, local = candidate.fit, candidate.local
+    first = FirstCircle(inside=int(np.sum(_in_material_interior(scene.grid, local[deep]))),
+                        allowed=scene.disk_allowance(fit.radius - scene.envelope, settings.max_material_dropped),
+                        center=fit.center, radius=fit.radius, rim_xy=candidate.rim_xy)
+    local, cut = local[~deep], candidate.cut[~deep]
+    rim = hole_rim(local, in_void, scene.alpha, cut=cut)
+    rim_xy = None
+    if rim is not None:
+        # Keep rim points within two cells of the void: without this a 2 x 6 mm slot's outline comes
+        # out 0.18 mm short (tests/robust/test_rejections.py). (The same filter before the first fit
+        # changed no test or surveyed scene, and was deleted in issue 10.)
+        rim_xy = local[rim.index]
+        rim_xy = rim_xy[_near_void(scene.grid, candidate.void, 2)(rim_xy)]
+    return replace(candidate, local=local, cut=cut, rim_xy=rim_xy, first=first)
+
+
+def _with_coverage(scene, candidate, settings):
+    """The candidate with its coverage: partial when its circle is not surrounded by scanned material
+    (cut by the scan's border, or its rim lost to missing data), and the degrees of the circle with
+    material just outside it (360 for a full hole). A partial hole is accepted on its rim points' own
+    (conservative) coverage and reported with the scanned coverage."""
+    arc = _material_arc(scene.grid, candidate.fit.center, candidate.fit.radius)
+    partial = arc < settings.full_arc_deg
+    return replace(candidate, partial=partial, arc_deg=arc if partial else 360.0)
+
+
+def _measure_void(scene, void, settings):
+    """Measure one void: its rim, the edge circle, the checks that make it a hole, and the edge.
+
+    The stages, each followed by its checks of :mod:`holecli.robust.acceptance` (each check a
+    :class:`holecli.robust.candidate.Refusal` with its value and limit when it fails; every one held by
+    a counter-example in ``tests/robust/test_acceptance.py`` or ``tests/robust/test_rejections.py``):
+
+    1. the void (``VOID_CHECKS``: an empty disk of the smallest reported radius fits in it);
+    2. its rim (:func:`_with_rim`; ``RIM_CHECKS``) and the circle fitted to it (:func:`_with_fit`;
+       ``FIT_CHECKS``); when points lie deep inside that circle (reflections next to the edge), they
+       are dropped and the rim and circle taken again (:func:`_without_deep_points`), with the same
+       checks;
+    3. the circle's coverage, full or partial (:func:`_with_coverage`), and ``EDGE_CHECKS``;
+    4. the edge: a countersink's cone, else the lattice's brackets, the largest empty circle, or the
+       rim fit corrected for the sampling's bias; ``below_min_diameter`` again on the corrected edge.
 
     Parameters
     ----------
@@ -438,109 +424,42 @@ def _measure_void(scene, void, settings):
     Measured or Refusal
         The hole, or the check that refused the void.
     """
-    cell, alpha, grid = scene.cell, scene.alpha, scene.grid
-    void_xy = grid.center_of(void.cells)
-    void_center = void_xy.mean(axis=0)
-    void_radius = float(np.max(np.hypot(*(void_xy - void_center).T))) + 0.5 * cell
-
-    def reject(check, value=None, limit=None, center=None, radius=None, shape=None):
-        return Refusal(check=check, value=value, limit=limit,
-                         center=void_center if center is None else center,
-                         radius=void_radius if radius is None else float(radius), shape=shape)
-
-    def refusal_of_fit(fit, used, fewest):
-        if fit is None:
-            return reject("no_circle_fit")
-        if used.sum() < fewest:
-            return reject("too_few_rim_points", int(used.sum()), fewest, fit.center, fit.radius)
-        if fit.radius < scene.min_radius:
-            return reject("below_min_diameter", 2.0 * fit.radius, 2.0 * scene.min_radius, fit.center, fit.radius)
-        return None
-    # Before any triangulation: no disk empty of material that is centred in the void may reach the
-    # smallest reported radius (the natural gaps of random sampling, which grow with the points).
-    largest, where = _largest_empty_radius(scene, void_xy, scene.min_radius + cell)
-    if largest < scene.min_radius:
-        return reject("below_min_diameter", 2.0 * largest, 2.0 * scene.min_radius, where, largest)
-    margin = settings.margin_alphas * alpha + cell
-    void_mask = np.zeros_like(grid.material)
+    candidate = Candidate.of(void, scene.grid, settings)
+    refused = first_refusal(VOID_CHECKS, scene, candidate, settings)
+    if refused is not None:
+        return refused
+    void_mask = np.zeros_like(scene.grid.material)
     void_mask[void.cells[:, 0], void.cells[:, 1]] = True
 
     def in_void(positions):
-        return grid.lookup(void_mask, positions)
+        return scene.grid.lookup(void_mask, positions)
 
-    local, cut = _void_neighbourhood(scene, grid, void, void_mask, margin, settings)
-    rim = hole_rim(local, in_void, alpha, cut=cut)
-    if rim is None:
-        return reject("no_rim")
-    rim_xy = local[rim.index]
-    # A void open to the scan's outside (a bay) needs the stronger evidence of a partial hole even
-    # when its rim closes: dents of a ragged border are bays too.
-    fewest = settings.min_partial_rim_points if not void.enclosed else settings.min_rim_points
-    if len(rim_xy) < fewest:
-        return reject("too_few_rim_points", len(rim_xy), fewest)
-    floor = settings.clip_floor_spacings * scene.sampling.spacing
-    fit, used = fit_edge(rim_xy, scene.envelope, floor, settings.clip_sigmas)
-    refused = refusal_of_fit(fit, used, fewest)
+    candidate = _with_rim(scene, candidate, in_void, void_mask, settings)
+    refused = first_refusal(RIM_CHECKS, scene, candidate, settings)
     if refused is not None:
         return refused
-    # Points deep inside the fitted hole (reflections next to the edge) can shield the true rim from
-    # the triangulation: drop them and extract the rim once more.
-    deep = np.hypot(*(local - fit.center).T) < fit.radius - scene.envelope
-    dropped = 0, 0.0, None
+    floor = settings.clip_floor_spacings * scene.sampling.spacing
+    candidate = _with_fit(scene, candidate, floor, settings)
+    refused = first_refusal(FIT_CHECKS, scene, candidate, settings)
+    if refused is not None:
+        return refused
+    deep = np.hypot(*(candidate.local - candidate.fit.center).T) < candidate.fit.radius - scene.envelope
     if np.any(deep):
-        # What is dropped must be reflections: points deep inside the first circle in the interior of
-        # the grid's material are the sides of a cut-out that circle spans (check below).
-        dropped = (int(np.sum(_in_material_interior(grid, local[deep]))),
-                   scene.disk_allowance(fit.radius - scene.envelope, settings.max_material_dropped),
-                   (fit.center, fit.radius, rim_xy))
-        local = local[~deep]
-        rim = hole_rim(local, in_void, alpha, cut=cut[~deep])
-        if rim is None:
-            return reject("no_rim", center=fit.center, radius=fit.radius)
-        rim_xy = local[rim.index]
-        # Keep rim points within two cells of the void: without this a 2 x 6 mm slot's outline comes
-        # out 0.18 mm short (tests/robust/test_rejections.py). (The same filter before the first fit
-        # changed no test or surveyed scene, and was deleted in issue 10.)
-        rim_xy = rim_xy[_near_void(grid, void, 2)(rim_xy)]
-        if len(rim_xy) < fewest:
-            return reject("too_few_rim_points", len(rim_xy), fewest, fit.center, fit.radius)
-        fit, used = fit_edge(rim_xy, scene.envelope, floor, settings.clip_sigmas)
-        refused = refusal_of_fit(fit, used, fewest)
+        candidate = _without_deep_points(scene, candidate, deep, in_void, settings)
+        refused = first_refusal(RIM_CHECKS, scene, candidate, settings)
         if refused is not None:
             return refused
+        candidate = _with_fit(scene, candidate, floor, settings)
+        refused = first_refusal(FIT_CHECKS, scene, candidate, settings)
+        if refused is not None:
+            return refused
+    candidate = _with_coverage(scene, candidate, settings)
+    refused = first_refusal(EDGE_CHECKS, scene, candidate, settings)
+    if refused is not None:
+        return refused
+    fit, used, rim_xy, local = candidate.fit, candidate.used, candidate.rim_xy, candidate.local
+    partial, arc = candidate.partial, candidate.arc_deg
     center, radius = fit.center, fit.radius
-    # The circle must be empty inside (a hole, not the island of a groove), and the rim must be round.
-    inside, allowed_inside = _material_inside(scene, center, radius, settings)
-    if inside > allowed_inside:
-        return reject("material_inside", inside, allowed_inside, center, radius)
-    scatter = robust_sigma(fit.residuals)
-    allowed = settings.max_relative_scatter * radius + scene.gap_scatter
-    if scatter > allowed:
-        return reject("not_round", scatter, float(allowed), center, radius, shape=_outline_shape(rim_xy))
-    # The refit is only as good as the points it dropped: a long cut-out (a slot, a rectangular
-    # window) first fits a circle across its own long sides, and without them its ends give a round
-    # rim. A hole's first circle holds reflections only (<= 1 % of the disk on the validation scans).
-    if dropped[0] > dropped[1]:
-        first_center, first_radius, first_rim = dropped[2]
-        return reject("material_in_first_circle", dropped[0], dropped[1], first_center, first_radius,
-                      shape=_outline_shape(first_rim))
-    # A closed region whose rim still misses a third of the circle lost its rim to missing data.
-    # Partial: the circle is not surrounded by scanned material (cut by the scan's border, or its
-    # rim lost to missing data). Such a hole is accepted on the rim points' own (conservative)
-    # coverage and reported with the scanned coverage.
-    arc = _material_arc(grid, center, radius)
-    partial = arc < settings.full_arc_deg
-    if partial:
-        rim_arc = _rim_arc(rim_xy[used], center)
-        if rim_arc < settings.min_partial_arc_deg:
-            return reject("partial_rim_arc", float(rim_arc), settings.min_partial_arc_deg, center, radius)
-        if used.sum() < settings.min_partial_rim_points:
-            return reject("too_few_rim_points", int(used.sum()), settings.min_partial_rim_points, center, radius)
-    else:
-        arc = 360.0
-    above, allowed_above = _boss_points(scene, center, radius, settings)
-    if above > allowed_above:
-        return reject("boss", above, allowed_above, center, radius)
     cone = _countersink(scene, center, radius, settings)
     if isinstance(cone, Cone):
         # A countersunk hole: its edge is where the cone meets the surface.
@@ -569,8 +488,9 @@ def _measure_void(scene, void, settings):
         bias = radius - corrected
     else:
         bias, synthetic = _sampling_bias(scene, center, radius, settings, floor, partial)
-    if radius - bias < scene.min_radius:
-        return reject("below_min_diameter", 2.0 * (radius - bias), 2.0 * scene.min_radius, center, radius - bias)
+    refused = edge_below_min_diameter(scene, center, radius - bias)
+    if refused is not None:
+        return refused
     # The band's edge lies inside the fringe of mixed points a wide laser line leaves at the rim:
     # moved to the fringe's middle, the true edge's place (_edge_fringe).
     fringe = _edge_fringe(scene, center, radius - bias, arc, settings)
@@ -618,35 +538,6 @@ def _edge_fringe(scene, center, radius, arc_deg, settings):
         return 0.0, 0.0, seen
     width = seen * top / (top - scene.band)
     return width, width * (0.5 - scene.band / top), 0.0
-
-
-def _outline_shape(rim_xy):
-    """Length, width and direction (plane frame) of a cut-out from its rim: its extent along its
-    principal axes (a slot's overall length and width).
-
-    The rim holds the material points within an alpha of the edge, a few rows deep: the width is
-    taken between the innermost rows of the two long sides (the 10th percentile of each side's
-    distance from the axis, over the middle half of the length), the length between the innermost
-    points of the two rounded ends, each corrected for where it sits on its end's semicircle.
-    """
-    centred = rim_xy - rim_xy.mean(axis=0)
-    _, vectors = np.linalg.eigh(centred.T @ centred)
-    major = vectors[:, 1]
-    along, across = centred @ major, centred @ vectors[:, 0]
-    middle = np.abs(along) < 0.25 * np.ptp(along)  # the long sides, away from the ends
-    left, right = -across[middle & (across < 0)], across[middle & (across > 0)]
-    if len(left) < 3 or len(right) < 3:
-        return float(np.ptp(along)), float(np.ptp(across)), major
-    width = float(np.percentile(left, 10) + np.percentile(right, 10))
-    # On a rounded end a rim point at distance a from the axis lies sqrt(w^2/4 - a^2) short of the
-    # end's tip: each end point gives the half length it implies; the innermost one counts.
-    near_axis = np.abs(across) < 0.4 * width
-    half = np.abs(along[near_axis]) + 0.5 * width - np.sqrt(np.maximum(0.25 * width ** 2 - across[near_axis] ** 2, 0.0))
-    ends = np.sign(along[near_axis])
-    if not (np.any(ends < 0) and np.any(ends > 0)):
-        return float(np.ptp(along)), width, major
-    length = float(half[ends < 0].min() + half[ends > 0].min())
-    return length, width, major
 
 
 def _lattice_errors(scene, center, radius, steps, settings, floor):
