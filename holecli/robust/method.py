@@ -28,13 +28,12 @@ from scipy import ndimage
 from holecli.errors import PointsError
 from holecli.geometry.frame import from_plane_frame
 from holecli.geometry.kernels import largest_angular_gap, orient_normal, robust_sigma
-from holecli.geometry.plane import PlaneFit, fit_plane_scatter
 from holecli.geometry.quadric import curved_quadric
 from holecli.results import Hole, Plane, Rejection, Scales, Uncertainty
-from holecli.robust.bias import RimScales, sampling_errors
-from holecli.robust.boundary import hole_rim, near_box_edge
 from holecli.robust.acceptance import (EDGE_CHECKS, FIT_CHECKS, RIM_CHECKS, VOID_CHECKS, edge_below_min_diameter,
                                        first_refusal)
+from holecli.robust.bias import RimScales, sampling_errors
+from holecli.robust.boundary import hole_rim, near_box_edge
 from holecli.robust.candidate import Candidate, FirstCircle, Measured, Refusal
 from holecli.robust.candidates import find_voids
 from holecli.robust.countersink import Cone, fit_cone_edge, points_on_hinge
@@ -45,91 +44,17 @@ from holecli.robust.empty_circle import empty_circle_errors, largest_empty_circl
 from holecli.robust.hole_shape import measure_hole_shape
 from holecli.robust.lattice import lattice_errors, lattice_steps, separating_circle
 from holecli.robust.scene import build_scene
-from holecli.robust.uncertainty import (edge_uncertainty, plane_uncertainty, resolution_uncertainty,
-                                        synthetic_reflections)
+# (surface_height as _surface_height: the name the estimators' helpers below call it by)
+from holecli.robust.surface import local_normal, plane_frame_at, ring_plane, surface_height as _surface_height
+from holecli.robust.uncertainty import edge_uncertainty, resolution_uncertainty, synthetic_reflections
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.stages import StageClock
 from holecli.vocabulary import NOTE_CODES, REJECTION_REASONS
 
 
-def _material_arc(grid, center, radius, samples=720):
-    """Degrees of the circle with scanned material just outside it (a cell beyond the edge).
-
-    Counted on the occupancy grid rather than from the rim points, whose spacing along a sparse rim
-    (or near the scan's edge) would understate the coverage.
-    """
-    angles = np.linspace(0.0, 2 * np.pi, samples, endpoint=False)
-    ring = center + (radius + grid.cell) * np.column_stack([np.cos(angles), np.sin(angles)])
-    return 360.0 * float(np.mean(grid.lookup(grid.solid, ring)))
-
-
 def _within(scene, xy, center, inner, outer):
     """:meth:`holecli.robust.scene.Scene.within` (the name the estimators' helpers below call it by)."""
     return scene.within(xy, center, inner, outer)
-
-
-def _local_normal(scene, center, radius, settings):
-    """The surface at one hole: its tangent plane where the hole's axis meets it, from a plane or,
-    on a curved surface, a quadric fitted to the plane inliers in the ring [r, 3r] (see
-    :func:`_tangent_of_quadric`), and the standard uncertainties of its height at the hole and of
-    its normal's direction (radians; :func:`holecli.robust.uncertainty.plane_uncertainty`), or
-    ``(None, (None, None))`` when the ring holds too few points."""
-    ring = _ring_plane(scene, center, radius, 3.0)
-    if ring is None:
-        return None, (None, None)
-    points, plane = ring
-    on_plane = from_plane_frame(np.array([center[0], center[1], 0.0]), scene.origin, scene.rotation)
-    tangent = _tangent_of_quadric(points, plane, on_plane, settings.curvature_sigmas, scene.resolution)
-    return tangent, plane_uncertainty(points, tangent, on_plane, resolution=scene.resolution)
-
-
-def _ring_plane(scene, center, radius, outer_radii):
-    """The surface points in the ring [r, outer_radii r] around a hole (world) and their plane, or
-    None when the ring holds too few points (under 30) for it."""
-    ring = _within(scene, scene.surface_xy, center, radius, outer_radii * radius)
-    if len(ring) < 30:
-        return None
-    points = scene.points[scene.surface_index[ring]]
-    try:
-        return points, fit_plane_scatter(points)
-    except PointsError:
-        return None
-
-
-def _plane_frame_at(plane, near):
-    """The foot of ``near`` on ``plane`` and the rows (first axis, second axis, normal) of the
-    plane's frame there, the first along the plane's major axis."""
-    normal = plane.normal
-    first = plane.major - (plane.major @ normal) * normal
-    first /= np.linalg.norm(first)
-    foot = near - ((near - plane.point) @ normal) * normal
-    return foot, np.vstack([first, np.cross(normal, first), normal])
-
-
-def _tangent_of_quadric(points, plane, near, sigmas, resolution=0.0):
-    """Tangent plane of ``h = a + b s + c t + d s^2 + e s t + f t^2`` fitted to ``points`` in the frame
-    of ``plane`` centred at ``near``'s foot on it, taken at that foot; ``plane`` itself when the
-    curvature is not significant.
-
-    A plane through the ring around a hole of a curved panel (cylindrical, R 500-2000 mm) lies below
-    or above the surface at the hole by the sag of the ring (10 um for a 5 mm hole at R 800): the
-    quadric follows the curvature and puts the center on the surface. The quadric is taken only where
-    the surface really curves (:func:`holecli.geometry.quadric.curved_quadric`, check
-    ``curvature_sigmas``). On a symmetric ring the linear terms (the normal) are those of the plane.
-    """
-    foot, basis = _plane_frame_at(plane, near)
-    first, second, normal = basis
-    local = (points - foot) @ basis.T
-    scale = float(np.sqrt(np.mean(local[:, 0] ** 2 + local[:, 1] ** 2)))  # conditioning: unit-size coordinates
-    quadric = curved_quadric(local, scale, sigmas, resolution)
-    if quadric is None:
-        return plane
-    origin = np.zeros((1, 2))
-    (b, c), = quadric.gradient(origin)
-    tangent_normal = orient_normal(normal - b * first - c * second)
-    rms = float(np.sqrt(np.mean((quadric.height(local[:, :2]) - local[:, 2]) ** 2)))
-    return PlaneFit(point=foot + float(quadric.height(origin)[0]) * normal, normal=tangent_normal, rms=rms,
-                    major=first)
 
 
 def _scan_lines(scene, rim_xy, center, radius):
@@ -143,22 +68,6 @@ def _scan_lines(scene, rim_xy, center, radius):
     if len(across) == 0:
         return 0
     return int(len(np.unique(np.round((across - across.min()) / sampling.line_pitch))))
-
-
-def _in_material_interior(grid, xy):
-    """Whether each point lies in a cell of the grid's material whose eight neighbours are material too.
-
-    The surface's own points do (away from its edges); reflections inside a hole do not, even where
-    a cluster of them joins the material at the rim: 100 reflections in the paper's 3 mm hole occupy
-    about a fifth of its cells, and eight occupied neighbours around one of them are rare (~0.2^8).
-    """
-    ij = grid.cell_of(xy)
-    inside = np.all((ij >= 1) & (ij < np.array(grid.material.shape) - 1), axis=1)
-    out = inside.copy()
-    for di in (-1, 0, 1):
-        for dj in (-1, 0, 1):
-            out[inside] &= grid.material[ij[inside, 0] + di, ij[inside, 1] + dj]
-    return out
 
 
 def _countersink(scene, center, radius, settings):
@@ -271,21 +180,6 @@ def _least_squares_covariance(result, scale):
     return inverse * variance
 
 
-def _surface_height(scene, center, radius, settings, xy):
-    """Height of the surface itself at ``xy`` (plane frame) near a hole: 0, the global plane, unless
-    the surface in the ring [r, 3r] curves away from it significantly (a curved panel, where the plane
-    of a large scan lies tens of um off the surface at a hole and a countersink's depth would be
-    measured from the wrong level); then a quadric fitted to that ring (check ``curvature_sigmas``)."""
-    ring = _within(scene, scene.surface_xy, center, radius, 3.0 * radius)
-    if len(ring) < 30:
-        return np.zeros(len(xy))
-    local = np.column_stack([scene.surface_xy[ring] - center, scene.heights[scene.surface_index[ring]]])
-    quadric = curved_quadric(local, radius, settings.curvature_sigmas, scene.resolution)
-    if quadric is None:
-        return np.zeros(len(xy))
-    return quadric.height(xy - center)
-
-
 def _near_void(grid, void, cells):
     """A test ``near(xy) -> bool``: within ``cells`` grid cells (8-connected) of the void.
 
@@ -370,7 +264,7 @@ def _without_deep_points(scene, candidate, deep, in_void, settings):
     ``material_in_first_circle``).
     """
     fit, local = candidate.fit, candidate.local
-    first = FirstCircle(inside=int(np.sum(_in_material_interior(scene.grid, local[deep]))),
+    first = FirstCircle(inside=int(np.sum(scene.in_material_interior(local[deep]))),
                         allowed=scene.disk_allowance(fit.radius - scene.envelope, settings.max_material_dropped),
                         center=fit.center, radius=fit.radius, rim_xy=candidate.rim_xy)
     local, cut = local[~deep], candidate.cut[~deep]
@@ -390,7 +284,7 @@ def _with_coverage(scene, candidate, settings):
     (cut by the scan's border, or its rim lost to missing data), and the degrees of the circle with
     material just outside it (360 for a full hole). A partial hole is accepted on its rim points' own
     (conservative) coverage and reported with the scanned coverage."""
-    arc = _material_arc(scene.grid, candidate.fit.center, candidate.fit.radius)
+    arc = scene.material_arc(candidate.fit.center, candidate.fit.radius)
     partial = arc < settings.full_arc_deg
     return replace(candidate, partial=partial, arc_deg=arc if partial else 360.0)
 
@@ -637,7 +531,7 @@ def _measure_voids(scene, voids, settings):
         measured = _measure_void(scene, void, settings)
         if isinstance(measured, Refusal):
             return measured
-        plane, surface_uncertainty = _local_normal(scene, measured.center, measured.radius, settings)
+        plane, surface_uncertainty = local_normal(scene, measured.center, measured.radius, settings)
         return replace(measured, surface_plane=plane, surface_uncertainty=surface_uncertainty)
 
     if len(voids) < 2 or len(scene.xy) < settings.threads_from_points:
@@ -986,12 +880,12 @@ def _on_curved_surface(scene, measured, settings, view_dir, rng):
     measured on that flat crop by the same method; its center and normal go back onto the quadric.
     """
     center, radius = measured.center, measured.radius
-    ring = _ring_plane(scene, center, radius, settings.crop_ring_radii)
+    ring = ring_plane(scene, center, radius, settings.crop_ring_radii)
     if ring is None:
         return None
     ring_points, plane = ring
     near = from_plane_frame(np.array([center[0], center[1], 0.0]), scene.origin, scene.rotation)
-    foot, basis = _plane_frame_at(plane, near)
+    foot, basis = plane_frame_at(plane, near)
     first, second, normal = basis
     if float(normal @ scene.rotation[2]) < 0:
         # The crop's frame with the sensor on +z, as the scene's (its detect_robust takes that side).

@@ -1,6 +1,6 @@
 """The scene: what the whole scan knows, built once (:func:`build_scene`), and the spatial questions every
 candidate asks of it (:class:`Scene`'s ``box``, ``within``, ``count_in_disk``, ``disk_allowance``,
-``scanned_fraction``).
+``scanned_fraction``, ``material_arc``, ``in_material_interior``).
 
 Steps 1-4 of :mod:`holecli.robust.method`: the plane of the dominant surface, the rotation into its
 frame (a slide of the surface's points along the view where nothing is seen behind it), the sensor's
@@ -126,6 +126,33 @@ class Scene:
         t = 2.0 * np.pi * (np.arange(spokes) + 0.5) / spokes
         disk = center + np.column_stack([np.outer(r, np.cos(t)).ravel(), np.outer(r, np.sin(t)).ravel()])
         return float(np.mean(self.grid.lookup(self.scanned_hull, disk)))
+
+    def material_arc(self, center, radius, samples=720):
+        """Degrees of the circle with scanned material just outside it (a cell beyond the edge).
+
+        Counted on the occupancy grid rather than from the rim points, whose spacing along a sparse rim
+        (or near the scan's edge) would understate the coverage.
+        """
+        grid = self.grid
+        angles = np.linspace(0.0, 2 * np.pi, samples, endpoint=False)
+        ring = center + (radius + grid.cell) * np.column_stack([np.cos(angles), np.sin(angles)])
+        return 360.0 * float(np.mean(grid.lookup(grid.solid, ring)))
+
+    def in_material_interior(self, xy):
+        """Whether each point lies in a cell of the grid's material whose eight neighbours are material too.
+
+        The surface's own points do (away from its edges); reflections inside a hole do not, even where
+        a cluster of them joins the material at the rim: 100 reflections in the paper's 3 mm hole occupy
+        about a fifth of its cells, and eight occupied neighbours around one of them are rare (~0.2^8).
+        """
+        grid = self.grid
+        ij = grid.cell_of(xy)
+        inside = np.all((ij >= 1) & (ij < np.array(grid.material.shape) - 1), axis=1)
+        out = inside.copy()
+        for di in (-1, 0, 1):
+            for dj in (-1, 0, 1):
+                out[inside] &= grid.material[ij[inside, 0] + di, ij[inside, 1] + dj]
+        return out
 
 
 def build_scene(points, *, view_dir=None, min_diameter=None, settings=DEFAULT_SETTINGS, rng=0, clock=None,

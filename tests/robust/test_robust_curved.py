@@ -8,7 +8,7 @@ import pytest
 
 from holecli.geometry.plane import fit_plane_scatter
 from holecli.pipeline import detect
-from holecli.robust.method import _tangent_of_quadric
+from holecli.robust.surface import tangent_of_quadric
 
 pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"
 
@@ -75,8 +75,8 @@ def test_the_curvature_check_keeps_the_plane_on_a_flat_noisy_ring():
         ring = np.column_stack([distance * np.cos(angle), distance * np.sin(angle), 0.01 * rng.normal(size=1500)])
         plane = fit_plane_scatter(ring)
         near = np.zeros(3)
-        kept += _tangent_of_quadric(ring, plane, near, 3.0) is plane
-        heights_quadric.append(_tangent_of_quadric(ring, plane, near, 0.0).point[2])
+        kept += tangent_of_quadric(ring, plane, near, 3.0) is plane
+        heights_quadric.append(tangent_of_quadric(ring, plane, near, 0.0).point[2])
         heights_plane.append(plane.point[2])
     assert kept >= 38  # a 3-sigma check passes noise about once in 370
     # and the check is worth having: the quadric's height at the center is noisier than the plane's
