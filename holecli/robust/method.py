@@ -520,6 +520,16 @@ def _empty_circle(scene, local, center, radius, settings):
     return empty_center, empty_radius - errors.bias, errors.bias, errors
 
 
+def _measure_with_surface(scene, void, settings):
+    """:func:`_measure_void`, and for a hole the surface's tangent plane at it
+    (:func:`holecli.robust.surface.local_normal`)."""
+    measured = _measure_void(scene, void, settings)
+    if isinstance(measured, Refusal):
+        return measured
+    plane, surface_uncertainty = local_normal(scene, measured.center, measured.radius, settings)
+    return replace(measured, surface_plane=plane, surface_uncertainty=surface_uncertainty)
+
+
 def _measure_voids(scene, voids, settings):
     """:func:`_measure_void` of every void (a hole or a rejection), in order; on a large cloud two at
     a time in threads.
@@ -528,11 +538,7 @@ def _measure_voids(scene, voids, settings):
     thread uses the second core of the machine; small clouds are not worth the threads.
     """
     def measure(void):
-        measured = _measure_void(scene, void, settings)
-        if isinstance(measured, Refusal):
-            return measured
-        plane, surface_uncertainty = local_normal(scene, measured.center, measured.radius, settings)
-        return replace(measured, surface_plane=plane, surface_uncertainty=surface_uncertainty)
+        return _measure_with_surface(scene, void, settings)
 
     if len(voids) < 2 or len(scene.xy) < settings.threads_from_points:
         return [measure(void) for void in voids]
@@ -629,7 +635,7 @@ class RobustResult(NamedTuple):
 
 
 def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, full_only=False,
-                  gauge_depth=None, settings=DEFAULT_SETTINGS, rng=0, flat_crop=False, progress=None):
+                  gauge_depth=None, settings=DEFAULT_SETTINGS, rng=0, progress=None):
     """The robust method; see the module docstring.
 
     Parameters
@@ -638,9 +644,6 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         Checked points (:func:`holecli.pipeline.validate_points`).
     view_dir, min_diameter, max_holes, full_only, gauge_depth, settings, rng
         See :func:`holecli.detect`.
-    flat_crop : bool
-        Marks the call that measures one hole of a curved surface again on its flattened
-        neighbourhood (see :func:`_on_curved_surface`): it does not recurse.
     progress : callable, optional
         Called with the name of each stage as it starts (see :class:`holecli.stages.StageClock`).
 
@@ -650,7 +653,7 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     """
     clock = StageClock(progress)
     scene = build_scene(points, view_dir=view_dir, min_diameter=min_diameter, settings=settings, rng=rng,
-                        clock=clock, flattened=flat_crop)
+                        clock=clock)
     voids = find_voids(scene.grid)
     if len(voids) >= settings.cell_index_from_candidates:
         # Many candidates (the natural gaps of random sampling grow with the points).
@@ -679,14 +682,13 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         rejected.extend(_as_rejected(m, "beyond_max_holes", 2.0 * m.radius, 2.0 * found[-1].radius)
                         for m in ranked[max_holes:])
     clock.start("shape")
-    holes = [(None if flat_crop else _on_curved_surface(scene, measured, settings, view_dir, rng))
-             or _to_hole(scene, measured, 0) for measured in found]
-    if not flat_crop:
-        holes = [_with_shape(scene, hole, measured, gauge_depth, settings) for hole, measured in zip(holes, found)]
-        pockets = [_pocket_depth(hole, settings) for hole in holes]
-        rejected.extend(_as_rejected(measured, "pocket", depth, settings.pocket_max_depth_ratio)
-                        for measured, depth in zip(found, pockets) if depth is not None)
-        holes = [hole for hole, depth in zip(holes, pockets) if depth is None]
+    holes = [_on_curved_surface(scene, measured, settings, view_dir, rng) or _to_hole(scene, measured, 0)
+             for measured in found]
+    holes = [_with_shape(scene, hole, measured, gauge_depth, settings) for hole, measured in zip(holes, found)]
+    pockets = [_pocket_depth(hole, settings) for hole in holes]
+    rejected.extend(_as_rejected(measured, "pocket", depth, settings.pocket_max_depth_ratio)
+                    for measured, depth in zip(found, pockets) if depth is not None)
+    holes = [hole for hole, depth in zip(holes, pockets) if depth is None]
     sampling, plane = scene.sampling, scene.plane
     if scene.vertices:
         # A CAD export's vertices: no point inside a face, the holes are the loops of its edges.
@@ -876,8 +878,11 @@ def _on_curved_surface(scene, measured, settings, view_dir, rng):
     the top of a countersink's cone counts as surface on one side of the hole more than on the other,
     and the rim, the edge and the center move (50 um). Here the points within ``crop_radii`` radii of
     the hole are taken into the frame of the ring's own plane, the quadric of the ring
-    (:func:`holecli.geometry.quadric.curved_quadric`) is subtracted from their heights, and the hole is
-    measured on that flat crop by the same method; its center and normal go back onto the quadric.
+    (:func:`holecli.geometry.quadric.curved_quadric`) is subtracted from their heights, and the void at
+    the hole's center in the scene of that flat crop (:func:`holecli.robust.scene.build_scene`) is
+    measured as every candidate is (:func:`_measure_with_surface`); its center and normal go back onto
+    the quadric. None too when the crop's void is refused, or its hole lies half a radius or more from
+    the hole's center.
     """
     center, radius = measured.center, measured.radius
     ring = ring_plane(scene, center, radius, settings.crop_ring_radii)
@@ -888,24 +893,28 @@ def _on_curved_surface(scene, measured, settings, view_dir, rng):
     foot, basis = plane_frame_at(plane, near)
     first, second, normal = basis
     if float(normal @ scene.rotation[2]) < 0:
-        # The crop's frame with the sensor on +z, as the scene's (its detect_robust takes that side).
+        # The crop's frame with the sensor on +z, as the scene's (build_scene's flattened takes that side).
         second, normal = -second, -normal
         basis = np.vstack([first, second, normal])
     quadric = curved_quadric((ring_points - foot) @ basis.T, radius, settings.curvature_sigmas, scene.resolution)
     if quadric is None:
         return None
-    crop = scene.points[_within(scene, scene.xy, center, 0.0, settings.crop_radii * radius)]
+    crop = scene.points[scene.within(scene.xy, center, 0.0, settings.crop_radii * radius)]
     local = (crop - foot) @ basis.T
     local[:, 2] -= quadric.height(local[:, :2])
     slide = None if view_dir is None else basis @ (np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir))
     try:
-        holes = detect_robust(local, view_dir=slide, min_diameter=radius, settings=settings, rng=rng,
-                                    flat_crop=True).holes
+        flat = build_scene(local, view_dir=slide, min_diameter=radius, settings=settings, rng=rng, flattened=True)
     except PointsError:
         return None
-    if not holes:
+    # The hole's center (the crop frame's origin) in the flat scene's plane frame.
+    void = _void_at(flat, find_voids(flat.grid), (flat.rotation @ -flat.origin)[:2], 0.5 * radius)
+    if void is None:
         return None
-    hole = min(holes, key=lambda h: np.hypot(h.center[0], h.center[1]))
+    found = _measure_with_surface(flat, void, settings)
+    if isinstance(found, Refusal):
+        return None
+    hole = _to_hole(flat, found, 0)
     if np.hypot(hole.center[0], hole.center[1]) > 0.5 * radius:
         return None
     at = np.array([[hole.center[0], hole.center[1]]])
@@ -913,8 +922,18 @@ def _on_curved_surface(scene, measured, settings, view_dir, rng):
     ds, dt = quadric.gradient(at)[0]
     world_center = foot + at[0, 0] * first + at[0, 1] * second + height * normal
     world_normal = orient_normal(normal - ds * first - dt * second)
-    return Hole(**{**hole.__dict__, "center": tuple(map(float, world_center)),
-                   "normal": tuple(map(float, world_normal))})
+    return replace(hole, center=tuple(map(float, world_center)), normal=tuple(map(float, world_normal)))
+
+
+def _void_at(scene, voids, xy, reach):
+    """The void of ``voids`` whose cells come nearest to ``xy`` (plane frame): the one that holds it,
+    else one within ``reach`` of it; None when every void lies farther."""
+    best, nearest = None, np.inf
+    for void in voids:
+        distance = float(np.min(np.hypot(*(scene.grid.center_of(void.cells) - xy).T)))
+        if distance < nearest:
+            best, nearest = void, distance
+    return best if nearest <= reach else None
 
 
 def _as_rejected(measured, check, value, limit):
