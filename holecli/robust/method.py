@@ -7,13 +7,16 @@ Steps (each its own module):
    seen behind the surface, a slide of the surface's points along it (:mod:`holecli.geometry.frame`);
 3. the sampling's spacing and gap scale (:mod:`holecli.robust.sampling`): every threshold below is a multiple;
 4. hole candidates as voids of an occupancy grid, linear in the point count (:mod:`holecli.robust.candidates`);
+   steps 1-4 build the scene (:func:`holecli.robust.scene.build_scene`);
 5. per candidate, a local Delaunay triangulation and its alpha-shape rim (:mod:`holecli.robust.boundary`);
 6. a robust geometric circle fit (:mod:`holecli.robust.edge`, :mod:`holecli.geometry.circle`), checks that the void is
-   a round hole and not a boss, a dent of the border or a natural gap, and its scanned coverage;
+   a round hole and not a boss, a dent of the border or a natural gap, and its scanned coverage
+   (:mod:`holecli.robust.acceptance`);
 7. the edge: where a countersink cone meets the surface (:mod:`holecli.robust.countersink`; the flat floor of
    a blind hole is no cone), else the rim fit corrected for the sampling bias, by lattice brackets on
    regular scans (:mod:`holecli.robust.lattice`) or by synthetic holes (:mod:`holecli.robust.bias`); a local plane
-   gives the normal and the 3D center.
+   gives the normal and the 3D center (:mod:`holecli.robust.surface`), and on a curved panel the hole is
+   measured again on its flattened neighbourhood (:func:`_on_curved_surface`).
 """
 
 from __future__ import annotations
@@ -50,6 +53,10 @@ from holecli.robust.uncertainty import edge_uncertainty, resolution_uncertainty,
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.stages import StageClock
 from holecli.vocabulary import NOTE_CODES, REJECTION_REASONS
+
+
+# The name the estimator choice in _measure_void builds its cone's hole by (until the estimators move).
+_Measured = Measured
 
 
 def _within(scene, xy, center, inner, outer):
@@ -229,7 +236,7 @@ def _void_neighbourhood(scene, grid, void, void_mask, margin, settings):
         inner = max(0.0, float(np.min(np.hypot(*(grid.center_of(border) - center).T))) - cell - settings.cut_alphas * alpha)
         outer = float(distance.max()) + cell + margin
         if np.all(np.hypot(*(centers - center).T) < outer - margin):
-            index = _within(scene, scene.material_xy, center, inner, outer)
+            index = scene.within(scene.material_xy, center, inner, outer)
             local = scene.material_xy[index]
             return local, np.hypot(*(local - center).T) > outer - settings.cut_alphas * alpha
     low = centers.min(axis=0) - 0.5 * cell - margin
@@ -358,7 +365,7 @@ def _measure_void(scene, void, settings):
     if isinstance(cone, Cone):
         # A countersunk hole: its edge is where the cone meets the surface.
         cone_center, cone_radius, covariance = _cone_in_the_plane(scene, center, cone, settings)
-        return Measured(center=cone_center, radius=cone_radius, bias=radius - cone_radius, fit=fit,
+        return _Measured(center=cone_center, radius=cone_radius, bias=radius - cone_radius, fit=fit,
                          rim_xy=rim_xy[used], partial=partial, arc_deg=arc, cone_slope=cone.slope,
                          estimator="cone", cone_covariance=covariance)
     edge, estimator, synthetic, radii = None, "rim_fit", None, None
@@ -417,7 +424,7 @@ def _edge_fringe(scene, center, radius, arc_deg, settings):
       outside its middle.
     """
     reach = settings.edge_fringe_gaps * scene.sampling.gap
-    index = _within(scene, scene.xy, center, max(radius - reach, 0.0), radius + reach)
+    index = scene.within(scene.xy, center, max(radius - reach, 0.0), radius + reach)
     height = scene.heights[index] - _surface_height(scene, center, radius, settings, scene.xy[index])
     near = np.abs(height) <= settings.edge_fringe_depth * reach
     above, below = near & (height > scene.band), near & (height < -scene.band)
@@ -780,7 +787,7 @@ def _with_shape(scene, hole, measured, gauge_depth, settings):
     # The plane frame's disk holds every point within the search radius of the hole's axis, deep
     # points of a hole drilled off the normal or seen on a tilted part included.
     reach = settings.shape_search_radii * hole.radius * (1.0 + settings.shape_depth_radii * 0.2)
-    index = _within(scene, scene.xy, center2d, 0.0, reach)
+    index = scene.within(scene.xy, center2d, 0.0, reach)
     shape = measure_hole_shape(scene.points[index], center, np.asarray(hole.normal), hole.radius,
                                noise=scene.height_noise, spacing=scene.sampling.spacing,
                                cone_slope=measured.cone_slope, gauge_depth=gauge_depth, settings=settings)
@@ -844,7 +851,7 @@ def _doubts(scene, hole, measured):
     center, radius = measured.center, measured.radius
     gap = scene.sampling.gap
     inner = max(min(radius, radius + measured.bias) - 2.0 * gap, 0.0)
-    inside = len(_within(scene, scene.surface_xy, center, 0.0, inner)) if inner > 0 else 0
+    inside = len(scene.within(scene.surface_xy, center, 0.0, inner)) if inner > 0 else 0
     cell = scene.grid.cell_of(center[None, :])[0]
     shape = scene.border_distance.shape
     if 0 <= cell[0] < shape[0] and 0 <= cell[1] < shape[1]:

@@ -163,3 +163,35 @@ def test_holes_away_from_the_middle_of_a_wide_scan_of_a_curved_panel():
             if center_error > 15e-3 or abs(diameter_error) > 10e-3:
                 failures.append((seed, truth["kind"], center_error, diameter_error))
     assert len(failures) <= 1, failures
+
+
+def test_a_curved_panel_hole_is_measured_on_its_flattened_crop_without_a_second_detection(monkeypatch):
+    """The hole is measured again on its flattened neighbourhood (a scene of the crop, the void at its
+    center measured as every candidate is), not by running the whole method on the crop, and the hole
+    reported is that measurement's."""
+    import holecli.robust.method as method
+
+    points, center, normal = curved_panel(800.0, 2.5, 30.0, convex=True)
+    detections, flattened, again = [], [], []
+    real_detect, real_build, real_curved = method.detect_robust, method.build_scene, method._on_curved_surface
+
+    def counting_detect(*args, **kwargs):
+        detections.append(1)
+        return real_detect(*args, **kwargs)
+
+    def counting_build(*args, **kwargs):
+        flattened.append(kwargs.get("flattened", False))
+        return real_build(*args, **kwargs)
+
+    def recording_curved(*args):
+        again.append(real_curved(*args))
+        return again[-1]
+
+    monkeypatch.setattr(method, "detect_robust", counting_detect)
+    monkeypatch.setattr(method, "build_scene", counting_build)
+    monkeypatch.setattr(method, "_on_curved_surface", recording_curved)
+    (hole,) = detect(points).holes
+    assert len(detections) == 1 and flattened == [False, True]
+    assert len(again) == 1 and again[0] is not None and hole.center == again[0].center
+    error = np.array(hole.center) - center
+    assert abs(float(error @ normal)) < 0.5e-3 and np.linalg.norm(error) < 2e-3
