@@ -29,10 +29,10 @@ out of the material: the side without the points below the surface):
    is its angle to ``n``.
 
 A value the points cannot support is None, and the hole's notes say why (codes in
-:data:`NOTE_CODES`): fewer than ``shape_min_points`` points, or a coverage around the axis under
-``shape_min_arc_deg`` degrees. Points that contradict the shape the hole was taken for (no cone, no
-cylinder, an implausible angle) make the value None too, but with a warning (:data:`WARNING_CODES`):
-the hole's type, and a countersink's edge, may be wrong.
+:data:`holecli.vocabulary.NOTE_CODES`): fewer than ``shape_min_points`` points, or a coverage around the
+axis under ``shape_min_arc_deg`` degrees. Points that contradict the shape the hole was taken for (no
+cone, no cylinder, an implausible angle) make the value None too, but with a warning
+(:data:`holecli.vocabulary.WARNING_CODES`): the hole's type, and a countersink's edge, may be wrong.
 """
 
 from __future__ import annotations
