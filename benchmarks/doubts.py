@@ -21,7 +21,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import holecli.robust.method as method  # noqa: E402
-from holecli.robust.doubts import DOUBT_CODES  # noqa: E402
+from holecli.vocabulary import DOUBT_CODES  # noqa: E402
 
 RECORDED = []
 _original = method.doubt_warnings

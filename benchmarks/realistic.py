@@ -34,10 +34,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._docs_table import VALIDATION, add_docs_options, docs_target, recording  # noqa: E402
 from holecli.pipeline import detect  # noqa: E402
-from holecli.robust.doubts import DOUBT_CODES  # noqa: E402
 from holecli.simulation.panel import FLOOR, TOP, WALL, FeatureSpec, PanelSpec, build_panel, panel_truth  # noqa: E402
 from holecli.simulation.profiler import ProfilerSpec  # noqa: E402
 from holecli.simulation.scan_part import scan_part  # noqa: E402
+from holecli.vocabulary import DOUBT_CODES  # noqa: E402
 
 CLASSES = ("through", "countersunk", "counterbored", "blind", "curved", "tilted", "robot_frame", "cad_sampled",
            "slot", "boss")

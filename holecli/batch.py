@@ -1187,10 +1187,10 @@ class FileSummary:
 
 
 def _warning_codes(codes):
-    """The warning codes among ``codes``, without the notes' (:data:`holecli.robust.hole_shape.NOTE_CODES`),
+    """The warning codes among ``codes``, without the notes' (:data:`holecli.vocabulary.NOTE_CODES`),
     which records before schema 2.2 (a resumed batch's earlier ones) gave as warnings: a note never counts
     as a doubt or fails ``--fail-on-warning``."""
-    from holecli.robust.hole_shape import NOTE_CODES
+    from holecli.vocabulary import NOTE_CODES
 
     return tuple(code for code in codes if code not in NOTE_CODES)
 

@@ -37,6 +37,8 @@ import math
 from dataclasses import dataclass
 from typing import Optional
 
+from holecli.vocabulary import UNIT_MISMATCH
+
 __all__ = ["LENGTH_CHECKS", "LENGTH_CONFORMANCE_CHECKS", "UNITS", "UNIT_MISMATCH", "UnitChoice", "convert_length",
            "convert_record", "declared_units", "label_record", "min_diameter_beyond_scan", "scale_factor",
            "table_decimals", "unit_factors", "unit_mistake"]
@@ -334,8 +336,8 @@ class UnitChoice:
 # Declared units of the files a run reads (spec, panel), and the mistakes of units a result betrays
 
 # The warning a hole gets when its measured diameter is a unit's factor off its nominal
-# (:func:`unit_mistake`): in ``holes[].warnings``, on stderr, and a code ``--fail-on-warning`` takes.
-UNIT_MISMATCH = "unit_mismatch"
+# (:func:`unit_mistake`): in ``holes[].warnings``, on stderr, and a code ``--fail-on-warning`` takes,
+# is holecli.vocabulary.UNIT_MISMATCH.
 
 # How close a ratio of a measured to a nominal length must come to a factor of units to be named a
 # likely unit mistake: 1 % (a hole is never 25 or 1000 times its nominal size by a drilling error, and a

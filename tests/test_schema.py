@@ -143,10 +143,8 @@ def test_the_record_says_how_the_file_was_read(run, tmp_path):
 
 def test_notes_are_apart_from_warnings_in_the_schema(panel_record):
     # schema 2.2: why a value is null is a note (a straight-down scan sees no bore wall), never a warning
-    from holecli.robust.doubts import DOUBT_CODES
-    from holecli.robust.hole_shape import NOTE_CODES, WARNING_CODES
     from holecli.tolerance import NOT_IN_SPEC_FRAME, UNCERTAINTY_NOTE
-    from holecli.units import UNIT_MISMATCH
+    from holecli.vocabulary import DOUBT_CODES, NOTE_CODES, UNIT_MISMATCH, WARNING_CODES
 
     defs = record_schema()["$defs"]
     # the shape's notes, and the check's (issue 25: a tied hole in another frame; a U wider than the
@@ -170,11 +168,10 @@ def test_notes_are_apart_from_warnings_in_the_schema(panel_record):
 def test_every_rejection_check_and_estimator_is_in_the_schema():
     """The schema lists every check that can refuse a candidate (pocket, the edge loops' ...) and every
     estimator of an edge (edge_loops): a record holecli writes is always valid."""
-    from holecli.robust.method import REJECTION_REASONS
-    from holecli.robust.estimators import METHOD_TERMS
+    from holecli.vocabulary import ESTIMATORS, REJECTION_REASONS
 
     defs = record_schema()["$defs"]
     assert set(defs["rejection"]["properties"]["check"]["enum"]) == set(REJECTION_REASONS)
     text = json.dumps(record_schema())
-    for estimator in [*METHOD_TERMS, "edge_loops"]:
+    for estimator in [*ESTIMATORS, "edge_loops"]:
         assert f'"{estimator}"' in text, estimator

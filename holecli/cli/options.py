@@ -28,7 +28,7 @@ from holecli.cli.exits import EXIT_INPUT, EXIT_USAGE, Failure
 from holecli.errors import SpecError
 # The formats of --input-format and the values of --decision-rule (standard library only: building
 # the options imports neither the readers nor numpy).
-from holecli.vocabulary import DECISION_RULES, INPUT_FORMATS
+from holecli.vocabulary import DECISION_RULES, DOUBT_CODES, INPUT_FORMATS, NOTE_CODES, UNIT_MISMATCH, WARNING_CODES
 
 
 class FloatTuple(click.ParamType):
@@ -315,10 +315,11 @@ def verbosity_option_decorators(function):
 
 class WarningCodes(click.ParamType):
     """``--fail-on-warning``'s value: ``any`` (every warning), or comma-separated warning codes
-    (docs/reference/warnings.md), ``doubts`` standing for every warning code (:mod:`holecli.robust.doubts`'s
-    and :data:`holecli.robust.hole_shape.WARNING_CODES`: since schema 2.2 every warning is a doubt).
+    (docs/reference/warnings.md), ``doubts`` standing for every warning code
+    (:data:`holecli.vocabulary.DOUBT_CODES` and :data:`holecli.vocabulary.WARNING_CODES`: since schema 2.2
+    every warning is a doubt).
 
-    A note code (:data:`holecli.robust.hole_shape.NOTE_CODES`: why a value is null) is refused: notes
+    A note code (:data:`holecli.vocabulary.NOTE_CODES`: why a value is null) is refused: notes
     never fail a run, and a code that would silently select nothing must not pass for a check. A value
     that must be measured is checked with a tolerance instead (a value not measured fails it)."""
 
@@ -327,10 +328,6 @@ class WarningCodes(click.ParamType):
     def convert(self, value, param, ctx):
         if isinstance(value, frozenset) or value is None:
             return value
-        from holecli.robust.doubts import DOUBT_CODES
-        from holecli.robust.hole_shape import NOTE_CODES, WARNING_CODES
-        from holecli.units import UNIT_MISMATCH
-
         known = [*WARNING_CODES, *DOUBT_CODES, UNIT_MISMATCH]
         codes = frozenset(part.strip() for part in str(value).split(",") if part.strip())
         if codes == {"any"}:

@@ -3,12 +3,13 @@
 The method (:mod:`holecli.robust.method`) gathers the numbers of one hole into a :class:`Doubts`;
 :func:`doubt_warnings` compares them with their thresholds (``doubt_*`` fields of
 :class:`holecli.settings.RobustSettings`, each with why its value) and returns the warnings, each a
-short stable code (:data:`DOUBT_CODES`) and a sentence with the numbers. Pure: no points, no scene.
+short stable code (:data:`holecli.vocabulary.DOUBT_CODES`) and a sentence with the numbers. Pure: no
+points, no scene.
 
 These warnings do not make a value null: the hole is measured, but its result deserves a look. The
-other warnings, :data:`holecli.robust.hole_shape.WARNING_CODES`, say that the points below the edge
+other warnings, :data:`holecli.vocabulary.WARNING_CODES`, say that the points below the edge
 contradict the hole's type; the reasons a value is null are notes, not warnings
-(:data:`holecli.robust.hole_shape.NOTE_CODES`).
+(:data:`holecli.vocabulary.NOTE_CODES`).
 """
 
 from __future__ import annotations
@@ -19,30 +20,7 @@ from typing import Optional
 
 from holecli.results import HoleWarning
 from holecli.settings import DEFAULT_SETTINGS
-
-#: The warning codes this module gives, with what each means.
-DOUBT_CODES = {
-    "few_rim_points": "few rim points for the edge circle: its center and diameter are loosely held",
-    "rim_gap": "the rim points leave an arc of the circle empty (occlusion or missing data)",
-    "points_inside": "surface points inside the fitted circle (reflections, debris or a film)",
-    "surface_not_flat": "the surface around the hole is not flat: its local plane leaves residuals well above "
-                        "the scan's noise",
-    "near_border": "the hole is at the scan's border: its surroundings are not all scanned",
-    "large_bias_correction": "a large sampling-bias correction of the diameter",
-    "high_fit_rms": "the rim points scatter about the circle well beyond what the sampling explains",
-    "blurred_edge": "the edge's points are mixed with what lies below it (a wide laser line) and the surface band "
-                    "hides most of the mix: the edge lies somewhere within it, the diameter's u does not hold that",
-    "bias_not_measured": "the sampling-bias correction of the diameter could not be measured (no synthetic hole "
-                         "cut around it gave a rim): the diameter is the rim fit's, uncorrected, and its "
-                         "uncertainty includes the correction's possible size",
-    "view_dir_contradicted": "the points seen through the surface lie on the sensor's side that --view-dir gives "
-                             "(--view-dir is the direction the sensor looks, from the sensor toward the part: "
-                             "is its sign reversed?)",
-    "edge_bore_mismatch": "the edge's diameter and the bore wall's disagree far beyond their uncertainties: an edge "
-                          "break (chamfer, burr) the scan does not resolve, or an edge its sampling does not "
-                          "show; the diameter may be off by that difference",
-}
-
+from holecli.vocabulary import DOUBT_CODES
 
 @dataclass(frozen=True)
 class Doubts:

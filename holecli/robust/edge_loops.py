@@ -12,7 +12,7 @@ This module measures such a cloud from the loops themselves (arrays in, results 
 1. the surface's points (the plane's inliers, in its frame) are linked to their two nearest
    neighbours; the links both ends agree on form the loops (closed chains, every vertex with two
    links): along a loop, neighbours are one chord apart;
-2. a loop is a hole's edge when it passes every check of :data:`LOOP_CHECKS` (enough vertices, on one
+2. a loop is a hole's edge when it passes every check of :data:`holecli.vocabulary.LOOP_CHECKS` (enough vertices, on one
    circle within the noise, alone on its circle, the face outside it, empty inside, no boss);
 3. its diameter is the least-squares circle of the polygon's *sides* (the mean distance of the
    sides' points from the centre, integrated along each side): the surface the mesh describes, the
@@ -33,6 +33,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from holecli.vocabulary import LOOP_CHECKS
+
 #: The sampling estimate's gap (the largest empty circles of the faces) over its spacing above which
 #: the surface is looked at for vertex loops. A sensor's sampling leaves gaps of 1-3 spacings (the
 #: validation suite: at most 2.6, with lines five points apart); a vertex export's faces are tens of
@@ -50,19 +52,6 @@ ISOLATION_CHORDS = 1.5
 #: Included angles (degrees) a countersink's cone may have between the edge loop and the smaller loop below.
 CONE_ANGLES_DEG = (30.0, 150.0)
 
-#: Why a loop of the surface is not a hole's edge (the name of each check, for the record).
-LOOP_CHECKS = {
-    "loop_not_round": "the vertices do not lie on one circle within the noise (a slot, a cut-out, the border)",
-    "loop_not_isolated": "other surface points lie near its circle: sampled points near an edge, not the edge's vertices",
-    "loop_no_face_outside": "no other point of the face lies outside its circle: nothing shows the face around it "
-                            "(a round part's outline)",
-    "loop_material_inside": "surface points lie inside its circle (the outline of a face around other loops)",
-    "loop_boss": "points stand above the surface inside it (the foot of a boss)",
-    "loop_wider_below": "a wider loop lies below it on its axis (the island of a ring groove: a hole's walls "
-                        "never widen below its edge as the vertices show them)",
-    "loop_pocket": "a loop of its own size lies below it on a floor of its own (no other vertex at that depth: not "
-                   "the part's bottom face), shallower than any drilled hole's: a pocket or spot face",
-}
 #: A floor less than this many diameters deep is a pocket's (RobustSettings.pocket_max_depth_ratio's value).
 POCKET_MAX_DEPTH_RATIO = 0.15
 #: The checks applied, in this order (each has a test that needs it: tests/robust/test_edge_loops.py).

@@ -29,10 +29,10 @@ out of the material: the side without the points below the surface):
    is its angle to ``n``.
 
 A value the points cannot support is None, and the hole's notes say why (codes in
-:data:`NOTE_CODES`): fewer than ``shape_min_points`` points, or a coverage around the axis under
-``shape_min_arc_deg`` degrees. Points that contradict the shape the hole was taken for (no cone, no
-cylinder, an implausible angle) make the value None too, but with a warning (:data:`WARNING_CODES`):
-the hole's type, and a countersink's edge, may be wrong.
+:data:`holecli.vocabulary.NOTE_CODES`): fewer than ``shape_min_points`` points, or a coverage around the
+axis under ``shape_min_arc_deg`` degrees. Points that contradict the shape the hole was taken for (no
+cone, no cylinder, an implausible angle) make the value None too, but with a warning
+(:data:`holecli.vocabulary.WARNING_CODES`): the hole's type, and a countersink's edge, may be wrong.
 """
 
 from __future__ import annotations
@@ -49,29 +49,7 @@ from holecli.robust.uncertainty import model_error_rms, with_model_error
 from holecli.results import (Bore, BoreUncertainty, Counterbore, CounterboreUncertainty, Countersink,
                              CountersinkUncertainty, HoleNote, HoleWarning)
 from holecli.settings import DEFAULT_SETTINGS
-
-#: The note codes this module gives, with what each means: the scan shows too little for a value (or
-#: the value asked for is not on the part), which is therefore None; nothing given is doubtful.
-NOTE_CODES = {
-    "bore_not_seen": "too few points on the bore wall for a cylinder fit: no bore diameter",
-    "bore_short_arc": "the bore wall is seen over too little of its circumference for a diameter",
-    "cone_few_points": "too few points on the countersink's cone for a fit: no countersink values",
-    "cone_short_arc": "the countersink's cone is seen over too little of its circumference",
-    "gauge_depth_outside_cone": "--gauge-depth is not within the countersink's depth: no diameter_at_depth",
-    "axis_not_measured": "no cone, bore wall or floor shows the hole's axis: no axis or perpendicularity",
-    # (given by holecli.robust.method for holecli.robust.edge_loops)
-    "edge_loops": "the edge is a loop of a CAD export's vertices, no point inside a face: the diameter is "
-                  "the least-squares circle of the polygon's sides",
-}
-
-#: The warning codes this module gives, with what each means: the points below the edge contradict the
-#: shape the hole was taken for, so its type (and a countersink's edge) may be wrong; the value is None.
-WARNING_CODES = {
-    "cone_angle_implausible": "the fitted cone's angle is outside the plausible range: no countersink values",
-    "cone_not_conical": "the points taken for the countersink do not lie on one cone: no countersink values",
-    "bore_not_cylindrical": "the points taken for the bore wall do not lie on one cylinder: no bore diameter",
-}
-
+from holecli.vocabulary import NOTE_CODES, WARNING_CODES
 
 @dataclass(frozen=True)
 class HoleShape:

@@ -7,224 +7,55 @@ Steps (each its own module):
    seen behind the surface, a slide of the surface's points along it (:mod:`holecli.geometry.frame`);
 3. the sampling's spacing and gap scale (:mod:`holecli.robust.sampling`): every threshold below is a multiple;
 4. hole candidates as voids of an occupancy grid, linear in the point count (:mod:`holecli.robust.candidates`);
+   steps 1-4 build the scene (:func:`holecli.robust.scene.build_scene`);
 5. per candidate, a local Delaunay triangulation and its alpha-shape rim (:mod:`holecli.robust.boundary`);
 6. a robust geometric circle fit (:mod:`holecli.robust.edge`, :mod:`holecli.geometry.circle`), checks that the void is
-   a round hole and not a boss, a dent of the border or a natural gap, and its scanned coverage;
+   a round hole and not a boss, a dent of the border or a natural gap, and its scanned coverage
+   (:mod:`holecli.robust.acceptance`);
 7. the edge: where a countersink cone meets the surface (:mod:`holecli.robust.estimators.cone`; the flat
    floor of a blind hole is no cone), else the rim fit corrected for the sampling bias, by lattice
    brackets on regular scans (:mod:`holecli.robust.estimators.lattice`) or by synthetic holes
    (:mod:`holecli.robust.estimators.rim_fit`); a local plane
-   gives the normal and the 3D center.
+   gives the normal and the 3D center (:mod:`holecli.robust.surface`), and on a curved panel the hole is
+   measured again on its flattened neighbourhood (:func:`_on_curved_surface`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
 from scipy import ndimage
 
 from holecli.errors import PointsError
-from holecli.geometry.frame import canonical_rotation, check_view_angle, from_plane_frame
-from holecli.geometry.kernels import CellIndex, box_indices, largest_angular_gap, orient_normal, robust_sigma
-from holecli.geometry.plane import ASSUMED_VIEW, PlaneFit, fit_plane_robust, fit_plane_scatter, hidden_points
+from holecli.geometry.frame import from_plane_frame
+from holecli.geometry.kernels import largest_angular_gap, orient_normal
+from holecli.geometry.quadric import curved_quadric
 from holecli.results import Hole, Plane, Rejection, Scales, Uncertainty
+from holecli.robust.acceptance import (EDGE_CHECKS, FIT_CHECKS, RIM_CHECKS, VOID_CHECKS, edge_below_min_diameter,
+                                       first_refusal)
 from holecli.robust.boundary import hole_rim, near_box_edge
-from holecli.robust.candidates import distance_to_outside, find_voids, occupancy_grid, scanned_hull
+from holecli.robust.candidate import Candidate, FirstCircle, Measured, Refusal
+from holecli.robust.candidates import find_voids
 from holecli.robust.doubts import Doubts, doubt_warnings, edge_bore_warning
 from holecli.robust.edge import fit_edge
-from holecli.robust.edge_loops import (LOOP_CHECKS, coordinate_step, edge_loops, faces_empty, looks_like_vertices,
-                                       top_face)
+from holecli.robust.edge_loops import coordinate_step, edge_loops, faces_empty
 from holecli.robust.estimators import CONE, ESTIMATOR_NAMED, SceneQueries, estimate_edge
-from holecli.robust.facing import decide, fan_side, fan_spacing, MIN_POINTS as SEEN_MIN_POINTS, seen_through
 from holecli.robust.hole_shape import measure_hole_shape
-from holecli.robust.sampling import estimate_sampling
-from holecli.robust.uncertainty import edge_uncertainty, plane_uncertainty, resolution_uncertainty
+from holecli.robust.scene import build_scene
+# (surface_height as _surface_height: the name the estimators' helpers below call it by)
+from holecli.robust.surface import local_normal, plane_frame_at, ring_plane, surface_height as _surface_height
+from holecli.robust.uncertainty import edge_uncertainty, resolution_uncertainty
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.stages import StageClock
-
-
-@dataclass(frozen=True, eq=False)
-class _Scene:
-    """What every candidate's measurement needs to know of the whole scan."""
-
-    xy: np.ndarray           # (n, 2) all points in the plane frame (projected, or the surface's slid)
-    surface_xy: np.ndarray   # (m, 2) the plane inliers' rows of xy
-    material_xy: np.ndarray  # surface_xy in material cells of the grid (specks inside holes removed)
-    above_xy: np.ndarray     # (k, 2) points standing above the surface band (a boss, outliers)
-    surface_density: float   # surface points per unit area of scanned material
-    height_noise: float      # robust sd of the surface points' heights, at least resolution / sqrt(12)
-    band: float              # largest |height| of a surface point: above it stand a boss or outliers
-    points: np.ndarray       # (n, 3) the cloud, world coordinates
-    surface_index: np.ndarray  # (m,) rows of the plane inliers in points
-    heights: np.ndarray      # (n,) signed distance from the plane
-    origin: np.ndarray
-    rotation: np.ndarray
-    direction: np.ndarray    # projection direction (unit, world)
-    sampling: object
-    alpha: float
-    cell: float
-    min_radius: float
-    gap_scatter: float       # rim scatter the sampling alone produces
-    envelope: float          # depth below its sector's outermost rim point at which a rim point is dropped
-    cell_indices: dict = None  # id(array) -> CellIndex of xy, surface_xy, material_xy (many candidates)
-    hulls: dict = None  # id(grid) -> candidates.scanned_hull(grid) (_scanned_fraction, computed when first asked)
-    grid: object = None        # the occupancy grid (for the border distance below)
-    border_distance: np.ndarray = None  # per grid cell, distance to the scan's outside (candidates.distance_to_outside)
-    resolution: float = 0.0    # of the heights: the plane's (PlaneFit.resolution: a level step, else round-off)
-    facing: object = None      # the sensor's side of the surface (holecli.robust.facing.Facing)
-
-
-@dataclass(frozen=True)
-class _Rejected:
-    """A candidate void that is not reported as a hole: the check that refused it, with its value and
-    limit (None where the check has no number), and where the void is (plane frame)."""
-
-    check: str
-    value: object
-    limit: object
-    center: np.ndarray
-    radius: float
-    shape: object = None  # (length, width, direction (2,)) of a cut-out that is not round
-
-
-# What each check means, for the record and for people (holecli detect --explain).
-REJECTION_REASONS = {
-    "no_rim": "no hole boundary around the void (a gap of the sampling)",
-    "too_few_rim_points": "too few rim points for a circle fit",
-    "no_circle_fit": "the rim points do not give a circle",
-    "below_min_diameter": "smaller than the minimum diameter",
-    "material_inside": "surface material fills the inside of the fitted circle (the island of a groove, not a hole)",
-    "not_round": "the rim is not round (robust scatter of the radial residuals above the limit)",
-    "material_in_first_circle": "surface material lies deep inside the circle first fitted to its rim "
-                                "(the long sides of a slot or cut-out, not reflections inside a hole)",
-    "partial_rim_arc": "a partial hole whose rim covers too little of its circle",
-    "boss": "material stands above the surface inside it (a pin or boss, not a hole)",
-    "pocket": "a flat floor shallower than any drilled hole's (a pocket or spot face, not a hole)",
-    "duplicate": "the same hole as another candidate with more rim points",
-    "partial_left_out": "a partial hole, left out by --full-only",
-    "beyond_max_holes": "smaller than the holes kept by --max-holes",
-    **LOOP_CHECKS,  # the loops of a CAD export's vertices (holecli.robust.edge_loops)
-}
-
-
-@dataclass(frozen=True, eq=False)
-class _Measured:
-    center: np.ndarray       # (2,) plane frame
-    radius: float            # corrected
-    bias: float              # radial
-    fit: object
-    rim_xy: np.ndarray
-    partial: bool
-    arc_deg: float
-    surface_plane: object = None  # PlaneFit of the surface around the hole (None: the global plane)
-    cone_slope: object = None     # depth per radius of the countersink cone accepted at the edge
-    estimator: str = "rim_fit"    # how the edge was measured: rim_fit, lattice, empty_circle, cone
-    synthetic: object = None      # SyntheticErrors of that estimator on synthetic holes (None: none measured)
-    cone_covariance: object = None  # (3, 3) covariance of the cone edge's (cx, cy, R) (estimator cone)
-    fringe: tuple = (0.0, 0.0, 0.0)  # the edge's fringe of mixed points: (width, shift, hidden) (_edge_fringe)
-    radius_range: object = None   # (low, high): the radii every lattice bracket allows (estimator lattice)
-    surface_uncertainty: tuple = (None, None)  # of the local plane's height at the hole and of its normal (rad)
-
-
-def _rim_arc(rim_xy, center):
-    """Degrees of the circle not in the largest angular gap between rim points."""
-    return float(np.degrees(2 * np.pi - largest_angular_gap(rim_xy, center)))
-
-
-def _material_arc(grid, center, radius, samples=720):
-    """Degrees of the circle with scanned material just outside it (a cell beyond the edge).
-
-    Counted on the occupancy grid rather than from the rim points, whose spacing along a sparse rim
-    (or near the scan's edge) would understate the coverage.
-    """
-    angles = np.linspace(0.0, 2 * np.pi, samples, endpoint=False)
-    ring = center + (radius + grid.cell) * np.column_stack([np.cos(angles), np.sin(angles)])
-    return 360.0 * float(np.mean(grid.lookup(grid.solid, ring)))
-
-
-def _box(scene, xy, low, high):
-    """Indices of the points of ``xy`` (one of the scene's arrays) in the box ``[low, high]``: from
-    its cell index when the scene has one for it, else by a pass over the points."""
-    index = scene.cell_indices.get(id(xy))
-    return box_indices(xy, low, high) if index is None else index.box(low, high)
+from holecli.vocabulary import NOTE_CODES, REJECTION_REASONS
 
 
 def _within(scene, xy, center, inner, outer):
-    """Indices of the points of ``xy`` (one of the scene's arrays) at a distance in [inner, outer)
-    from ``center``.
-
-    A box test first: on a million points it is several times cheaper than the distances.
-    """
-    index = _box(scene, xy, center - outer, center + outer)
-    distance = np.hypot(xy[index, 0] - center[0], xy[index, 1] - center[1])
-    return index[(distance >= inner) & (distance < outer)]
-
-
-def _local_normal(scene, center, radius, settings):
-    """The surface at one hole: its tangent plane where the hole's axis meets it, from a plane or,
-    on a curved surface, a quadric fitted to the plane inliers in the ring [r, 3r] (see
-    :func:`_tangent_of_quadric`), and the standard uncertainties of its height at the hole and of
-    its normal's direction (radians; :func:`holecli.robust.uncertainty.plane_uncertainty`), or
-    ``(None, (None, None))`` when the ring holds too few points."""
-    ring = _ring_plane(scene, center, radius, 3.0)
-    if ring is None:
-        return None, (None, None)
-    points, plane = ring
-    on_plane = from_plane_frame(np.array([center[0], center[1], 0.0]), scene.origin, scene.rotation)
-    tangent = _tangent_of_quadric(points, plane, on_plane, settings.curvature_sigmas, scene.resolution)
-    return tangent, plane_uncertainty(points, tangent, on_plane, resolution=scene.resolution)
-
-
-def _ring_plane(scene, center, radius, outer_radii):
-    """The surface points in the ring [r, outer_radii r] around a hole (world) and their plane, or
-    None when the ring holds too few points (under 30) for it."""
-    ring = _within(scene, scene.surface_xy, center, radius, outer_radii * radius)
-    if len(ring) < 30:
-        return None
-    points = scene.points[scene.surface_index[ring]]
-    try:
-        return points, fit_plane_scatter(points)
-    except PointsError:
-        return None
-
-
-def _plane_frame_at(plane, near):
-    """The foot of ``near`` on ``plane`` and the rows (first axis, second axis, normal) of the
-    plane's frame there, the first along the plane's major axis."""
-    normal = plane.normal
-    first = plane.major - (plane.major @ normal) * normal
-    first /= np.linalg.norm(first)
-    foot = near - ((near - plane.point) @ normal) * normal
-    return foot, np.vstack([first, np.cross(normal, first), normal])
-
-
-def _tangent_of_quadric(points, plane, near, sigmas, resolution=0.0):
-    """Tangent plane of ``h = a + b s + c t + d s^2 + e s t + f t^2`` fitted to ``points`` in the frame
-    of ``plane`` centred at ``near``'s foot on it, taken at that foot; ``plane`` itself when the
-    curvature is not significant.
-
-    A plane through the ring around a hole of a curved panel (cylindrical, R 500-2000 mm) lies below
-    or above the surface at the hole by the sag of the ring (10 um for a 5 mm hole at R 800): the
-    quadric follows the curvature and puts the center on the surface. The quadric is taken
-    only where the surface really curves (:func:`_curved_quadric`, check ``curvature_sigmas``). On a
-    symmetric ring the linear terms (the normal) are those of the plane.
-    """
-    foot, basis = _plane_frame_at(plane, near)
-    first, second, normal = basis
-    local = (points - foot) @ basis.T
-    scale = float(np.sqrt(np.mean(local[:, 0] ** 2 + local[:, 1] ** 2)))  # conditioning: unit-size coordinates
-    quadric = _curved_quadric(local, scale, sigmas, resolution)
-    if quadric is None:
-        return plane
-    origin = np.zeros((1, 2))
-    (b, c), = quadric.gradient(origin)
-    tangent_normal = orient_normal(normal - b * first - c * second)
-    rms = float(np.sqrt(np.mean((quadric.height(local[:, :2]) - local[:, 2]) ** 2)))
-    return PlaneFit(point=foot + float(quadric.height(origin)[0]) * normal, normal=tangent_normal, rms=rms,
-                    major=first)
+    """:meth:`holecli.robust.scene.Scene.within` (the name the estimators' helpers below call it by)."""
+    return scene.within(xy, center, inner, outer)
 
 
 def _scan_lines(scene, rim_xy, center, radius):
@@ -238,102 +69,6 @@ def _scan_lines(scene, rim_xy, center, radius):
     if len(across) == 0:
         return 0
     return int(len(np.unique(np.round((across - across.min()) / sampling.line_pitch))))
-
-
-# Surface material inside the inner half of a fitted circle, as a fraction of the surface points its
-# area would hold, above which the circle is not a hole (check "material_inside").
-
-
-def _material_inside(scene, center, radius, settings):
-    """Surface material points within half the radius of a fitted circle, and how many it may hold.
-
-    A groove around a standing island (an O-ring groove, a C-shaped slot) is a void whose outer rim is
-    a good circle: the fit takes it and the island stands inside. A hole's inner half holds at most a
-    few reflections (specks, not material); an island fills it.
-
-    Parameters
-    ----------
-    scene : _Scene
-    center : (2,) float
-        The fitted circle's center, plane frame.
-    radius : float
-    settings : RobustSettings
-        Its radius.
-
-    Returns
-    -------
-    inside : int
-        Material points of the surface within ``radius / 2`` of ``center``.
-    allowed : float
-        ``max_material_inside`` (setting) times the surface points that area would hold.
-    """
-    inside = len(_within(scene, scene.material_xy, center, 0.0, 0.5 * radius))
-    allowed = settings.max_material_inside * scene.surface_density * np.pi * (0.5 * radius) ** 2
-    return inside, float(allowed)
-
-
-def _in_material_interior(grid, xy):
-    """Whether each point lies in a cell of the grid's material whose eight neighbours are material too.
-
-    The surface's own points do (away from its edges); reflections inside a hole do not, even where
-    a cluster of them joins the material at the rim: 100 reflections in the paper's 3 mm hole occupy
-    about a fifth of its cells, and eight occupied neighbours around one of them are rare (~0.2^8).
-    """
-    ij = grid.cell_of(xy)
-    inside = np.all((ij >= 1) & (ij < np.array(grid.material.shape) - 1), axis=1)
-    out = inside.copy()
-    for di in (-1, 0, 1):
-        for dj in (-1, 0, 1):
-            out[inside] &= grid.material[ij[inside, 0] + di, ij[inside, 1] + dj]
-    return out
-
-
-def _material_allowed(scene, radius, fraction):
-    """``fraction`` of the surface points a disk of ``radius`` holds at the scan's density."""
-    return float(fraction * scene.surface_density * np.pi * max(radius, 0.0) ** 2)
-
-
-def _boss_points(scene, grid, center, radius, settings):
-    """Points standing above the surface inside the void, and how many a hole may have: more is
-    material (a pin or boss), not a hole.
-
-    Counted over the part of the disk inside the scan (:func:`_scanned_fraction`): a boss cut by
-    the scan's border stands over that part only, and against the whole disk its points were too
-    few (a boss a quarter inside the scan was a partial Ø4.2 hole, ``benchmarks/cutouts.py``).
-    """
-    above = len(_within(scene, scene.above_xy, center, 0.0, 0.9 * radius))
-    allowed = settings.boss_fraction * scene.surface_density * np.pi * (0.9 * radius) ** 2
-    if above:
-        allowed *= _scanned_fraction(scene, grid, center, 0.9 * radius)
-    return above, float(allowed)
-
-
-def _scanned_fraction(scene, grid, center, radius, rings=48, spokes=96):
-    """The fraction of the disk's area inside the scan: in the convex hull of the scanned material
-    (:func:`holecli.robust.candidates.scanned_hull`, once per grid), on points spread evenly over
-    the disk. 1 for a void surrounded by material, less where the scan's border cuts the disk."""
-    hull = scene.hulls.get(id(grid))
-    if hull is None:
-        hull = scene.hulls[id(grid)] = scanned_hull(grid)
-    r = radius * np.sqrt((np.arange(rings) + 0.5) / rings)  # equal areas
-    t = 2.0 * np.pi * (np.arange(spokes) + 0.5) / spokes
-    disk = center + np.column_stack([np.outer(r, np.cos(t)).ravel(), np.outer(r, np.sin(t)).ravel()])
-    return float(np.mean(grid.lookup(hull, disk)))
-
-
-def _surface_height(scene, center, radius, settings, xy):
-    """Height of the surface itself at ``xy`` (plane frame) near a hole: 0, the global plane, unless
-    the surface in the ring [r, 3r] curves away from it significantly (a curved panel, where the plane
-    of a large scan lies tens of um off the surface at a hole and a countersink's depth would be
-    measured from the wrong level); then a quadric fitted to that ring (check ``curvature_sigmas``)."""
-    ring = _within(scene, scene.surface_xy, center, radius, 3.0 * radius)
-    if len(ring) < 30:
-        return np.zeros(len(xy))
-    local = np.column_stack([scene.surface_xy[ring] - center, scene.heights[scene.surface_index[ring]]])
-    quadric = _curved_quadric(local, radius, settings.curvature_sigmas, scene.resolution)
-    if quadric is None:
-        return np.zeros(len(xy))
-    return quadric.height(xy - center)
 
 
 def _near_void(grid, void, cells):
@@ -367,27 +102,6 @@ def _near_void(grid, void, cells):
     return near
 
 
-def _largest_empty_radius(scene, void_xy, reach):
-    """An upper bound of the radius of any disk empty of material points whose center lies in the void
-    (its cells' centers ``void_xy``).
-
-    The distance to the nearest material point is 1-Lipschitz, and every point of the void lies within
-    half a cell's diagonal of a cell center: the bound is the largest nearest-point distance at the
-    centers plus that half diagonal. Only the material within ``reach`` of the void's cells is looked
-    at (a farther point would give a larger distance: the bound stays an upper bound), and a bound
-    beyond ``reach`` is not refined. Returns the bound and the cell center it was found at.
-    """
-    from scipy.spatial import cKDTree
-
-    low, high = void_xy.min(axis=0) - reach, void_xy.max(axis=0) + reach
-    near = scene.material_xy[_box(scene, scene.material_xy, low, high)]
-    if len(near) == 0:
-        return np.inf, void_xy.mean(axis=0)
-    distance, _ = cKDTree(near).query(void_xy, distance_upper_bound=reach)
-    best = int(np.argmax(distance))
-    return float(distance[best]) + scene.cell / np.sqrt(2.0), void_xy[best]
-
-
 def _void_neighbourhood(scene, grid, void, void_mask, margin, settings):
     """Material points around a void, and which of them lie near the line they were cut along.
 
@@ -406,12 +120,12 @@ def _void_neighbourhood(scene, grid, void, void_mask, margin, settings):
         inner = max(0.0, float(np.min(np.hypot(*(grid.center_of(border) - center).T))) - cell - settings.cut_alphas * alpha)
         outer = float(distance.max()) + cell + margin
         if np.all(np.hypot(*(centers - center).T) < outer - margin):
-            index = _within(scene, scene.material_xy, center, inner, outer)
+            index = scene.within(scene.material_xy, center, inner, outer)
             local = scene.material_xy[index]
             return local, np.hypot(*(local - center).T) > outer - settings.cut_alphas * alpha
     low = centers.min(axis=0) - 0.5 * cell - margin
     high = centers.max(axis=0) + 0.5 * cell + margin
-    local = scene.material_xy[_box(scene, scene.material_xy, low, high)]
+    local = scene.material_xy[scene.box(scene.material_xy, low, high)]
     return local, near_box_edge(local, low, high, settings.cut_alphas * alpha)
 
 
@@ -419,150 +133,138 @@ def _void_neighbourhood(scene, grid, void, void_mask, margin, settings):
 _QUERIES = SceneQueries(within=_within, surface_height=_surface_height)
 
 
-def _measure_void(scene, grid, void, settings):
-    """Measure one void: its rim, the edge circle, and the checks that make it a hole.
+def _with_rim(scene, candidate, in_void, void_mask, settings):
+    """The candidate with the material points around its void and the rim among them (``rim_xy``
+    None: no rim)."""
+    margin = settings.margin_alphas * scene.alpha + scene.cell
+    local, cut = _void_neighbourhood(scene, scene.grid, candidate.void, void_mask, margin, settings)
+    rim = hole_rim(local, in_void, scene.alpha, cut=cut)
+    return replace(candidate, local=local, cut=cut, rim_xy=None if rim is None else local[rim.index])
 
-    The checks, in order, each a :class:`_Rejected` with its value and limit when it fails (names in
-    :data:`REJECTION_REASONS`; every one is held by a counter-example in
-    ``tests/robust/test_acceptance.py`` or ``tests/robust/test_rejections.py``): ``no_rim``,
-    ``too_few_rim_points``, ``no_circle_fit``, ``below_min_diameter``, ``material_inside`` (the island
-    of a groove inside the circle), ``not_round``, ``material_in_first_circle`` (the first circle
-    spanned a long cut-out's sides), ``partial_rim_arc`` (with ``full_arc_deg`` deciding
-    what is partial), ``boss``, and ``below_min_diameter`` again after the bias correction.
+
+def _with_fit(scene, candidate, floor, settings):
+    """The candidate with the clipped circle fit of its rim (:func:`holecli.robust.edge.fit_edge`)."""
+    fit, used = fit_edge(candidate.rim_xy, scene.envelope, floor, settings.clip_sigmas)
+    return replace(candidate, fit=fit, used=used)
+
+
+def _without_deep_points(scene, candidate, deep, in_void, settings):
+    """The candidate without its ``deep`` points (inside its circle by more than the envelope), its rim
+    extracted again and kept within two cells of the void, and its first circle kept
+    (:class:`holecli.robust.candidate.FirstCircle`) with the material among the dropped points.
+
+    Points deep inside the fitted hole (reflections next to the edge) can shield the true rim from the
+    triangulation. What is dropped must be reflections: points deep inside the first circle in the
+    interior of the grid's material are the sides of a cut-out that circle spans (check
+    ``material_in_first_circle``).
+    """
+    fit, local = candidate.fit, candidate.local
+    first = FirstCircle(inside=int(np.sum(scene.in_material_interior(local[deep]))),
+                        allowed=scene.disk_allowance(fit.radius - scene.envelope, settings.max_material_dropped),
+                        center=fit.center, radius=fit.radius, rim_xy=candidate.rim_xy)
+    local, cut = local[~deep], candidate.cut[~deep]
+    rim = hole_rim(local, in_void, scene.alpha, cut=cut)
+    rim_xy = None
+    if rim is not None:
+        # Keep rim points within two cells of the void: without this a 2 x 6 mm slot's outline comes
+        # out 0.18 mm short (tests/robust/test_rejections.py). (The same filter before the first fit
+        # changed no test or surveyed scene, and was deleted in issue 10.)
+        rim_xy = local[rim.index]
+        rim_xy = rim_xy[_near_void(scene.grid, candidate.void, 2)(rim_xy)]
+    return replace(candidate, local=local, cut=cut, rim_xy=rim_xy, first=first)
+
+
+def _with_coverage(scene, candidate, settings):
+    """The candidate with its coverage: partial when its circle is not surrounded by scanned material
+    (cut by the scan's border, or its rim lost to missing data), and the degrees of the circle with
+    material just outside it (360 for a full hole). A partial hole is accepted on its rim points' own
+    (conservative) coverage and reported with the scanned coverage."""
+    arc = scene.material_arc(candidate.fit.center, candidate.fit.radius)
+    partial = arc < settings.full_arc_deg
+    return replace(candidate, partial=partial, arc_deg=arc if partial else 360.0)
+
+
+def _measure_void(scene, void, settings):
+    """Measure one void: its rim, the edge circle, the checks that make it a hole, and the edge.
+
+    The stages, each followed by its checks of :mod:`holecli.robust.acceptance` (each check a
+    :class:`holecli.robust.candidate.Refusal` with its value and limit when it fails; every one held by
+    a counter-example in ``tests/robust/test_acceptance.py`` or ``tests/robust/test_rejections.py``):
+
+    1. the void (``VOID_CHECKS``: an empty disk of the smallest reported radius fits in it);
+    2. its rim (:func:`_with_rim`; ``RIM_CHECKS``) and the circle fitted to it (:func:`_with_fit`;
+       ``FIT_CHECKS``); when points lie deep inside that circle (reflections next to the edge), they
+       are dropped and the rim and circle taken again (:func:`_without_deep_points`), with the same
+       checks;
+    3. the circle's coverage, full or partial (:func:`_with_coverage`), and ``EDGE_CHECKS``;
+    4. the edge: a countersink's cone, else the lattice's brackets, the largest empty circle, or the
+       rim fit corrected for the sampling's bias; ``below_min_diameter`` again on the corrected edge.
 
     Parameters
     ----------
-    scene : _Scene
+    scene : holecli.robust.scene.Scene
         What the measurement needs to know of the whole scan.
-    grid : holecli.robust.candidates.Grid
-        The occupancy grid the void was found on.
     void : holecli.robust.candidates.Void
-        The candidate.
+        The candidate, a void of the scene's grid.
     settings : holecli.settings.RobustSettings
 
     Returns
     -------
-    _Measured or _Rejected
+    Measured or Refusal
         The hole, or the check that refused the void.
     """
-    cell, alpha = scene.cell, scene.alpha
-    void_xy = grid.center_of(void.cells)
-    void_center = void_xy.mean(axis=0)
-    void_radius = float(np.max(np.hypot(*(void_xy - void_center).T))) + 0.5 * cell
-
-    def reject(check, value=None, limit=None, center=None, radius=None, shape=None):
-        return _Rejected(check=check, value=value, limit=limit,
-                         center=void_center if center is None else center,
-                         radius=void_radius if radius is None else float(radius), shape=shape)
-
-    def refusal_of_fit(fit, used, fewest):
-        if fit is None:
-            return reject("no_circle_fit")
-        if used.sum() < fewest:
-            return reject("too_few_rim_points", int(used.sum()), fewest, fit.center, fit.radius)
-        if fit.radius < scene.min_radius:
-            return reject("below_min_diameter", 2.0 * fit.radius, 2.0 * scene.min_radius, fit.center, fit.radius)
-        return None
-    # Before any triangulation: no disk empty of material that is centred in the void may reach the
-    # smallest reported radius (the natural gaps of random sampling, which grow with the points).
-    largest, where = _largest_empty_radius(scene, void_xy, scene.min_radius + cell)
-    if largest < scene.min_radius:
-        return reject("below_min_diameter", 2.0 * largest, 2.0 * scene.min_radius, where, largest)
-    margin = settings.margin_alphas * alpha + cell
-    void_mask = np.zeros_like(grid.material)
+    candidate = Candidate.of(void, scene.grid, settings)
+    refused = first_refusal(VOID_CHECKS, scene, candidate, settings)
+    if refused is not None:
+        return refused
+    void_mask = np.zeros_like(scene.grid.material)
     void_mask[void.cells[:, 0], void.cells[:, 1]] = True
 
     def in_void(positions):
-        return grid.lookup(void_mask, positions)
+        return scene.grid.lookup(void_mask, positions)
 
-    local, cut = _void_neighbourhood(scene, grid, void, void_mask, margin, settings)
-    rim = hole_rim(local, in_void, alpha, cut=cut)
-    if rim is None:
-        return reject("no_rim")
-    rim_xy = local[rim.index]
-    # A void open to the scan's outside (a bay) needs the stronger evidence of a partial hole even
-    # when its rim closes: dents of a ragged border are bays too.
-    fewest = settings.min_partial_rim_points if not void.enclosed else settings.min_rim_points
-    if len(rim_xy) < fewest:
-        return reject("too_few_rim_points", len(rim_xy), fewest)
-    floor = settings.clip_floor_spacings * scene.sampling.spacing
-    fit, used = fit_edge(rim_xy, scene.envelope, floor, settings.clip_sigmas)
-    refused = refusal_of_fit(fit, used, fewest)
+    candidate = _with_rim(scene, candidate, in_void, void_mask, settings)
+    refused = first_refusal(RIM_CHECKS, scene, candidate, settings)
     if refused is not None:
         return refused
-    # Points deep inside the fitted hole (reflections next to the edge) can shield the true rim from
-    # the triangulation: drop them and extract the rim once more.
-    deep = np.hypot(*(local - fit.center).T) < fit.radius - scene.envelope
-    dropped = 0, 0.0, None
+    floor = settings.clip_floor_spacings * scene.sampling.spacing
+    candidate = _with_fit(scene, candidate, floor, settings)
+    refused = first_refusal(FIT_CHECKS, scene, candidate, settings)
+    if refused is not None:
+        return refused
+    deep = np.hypot(*(candidate.local - candidate.fit.center).T) < candidate.fit.radius - scene.envelope
     if np.any(deep):
-        # What is dropped must be reflections: points deep inside the first circle in the interior of
-        # the grid's material are the sides of a cut-out that circle spans (check below).
-        dropped = (int(np.sum(_in_material_interior(grid, local[deep]))),
-                   _material_allowed(scene, fit.radius - scene.envelope, settings.max_material_dropped),
-                   (fit.center, fit.radius, rim_xy))
-        local = local[~deep]
-        rim = hole_rim(local, in_void, alpha, cut=cut[~deep])
-        if rim is None:
-            return reject("no_rim", center=fit.center, radius=fit.radius)
-        rim_xy = local[rim.index]
-        # Keep rim points within two cells of the void: without this a 2 x 6 mm slot's outline comes
-        # out 0.18 mm short (tests/robust/test_rejections.py). (The same filter before the first fit
-        # changed no test or surveyed scene, and was deleted in issue 10.)
-        rim_xy = rim_xy[_near_void(grid, void, 2)(rim_xy)]
-        if len(rim_xy) < fewest:
-            return reject("too_few_rim_points", len(rim_xy), fewest, fit.center, fit.radius)
-        fit, used = fit_edge(rim_xy, scene.envelope, floor, settings.clip_sigmas)
-        refused = refusal_of_fit(fit, used, fewest)
+        candidate = _without_deep_points(scene, candidate, deep, in_void, settings)
+        refused = first_refusal(RIM_CHECKS, scene, candidate, settings)
         if refused is not None:
             return refused
+        candidate = _with_fit(scene, candidate, floor, settings)
+        refused = first_refusal(FIT_CHECKS, scene, candidate, settings)
+        if refused is not None:
+            return refused
+    candidate = _with_coverage(scene, candidate, settings)
+    refused = first_refusal(EDGE_CHECKS, scene, candidate, settings)
+    if refused is not None:
+        return refused
+    fit, used, rim_xy, local = candidate.fit, candidate.used, candidate.rim_xy, candidate.local
+    partial, arc = candidate.partial, candidate.arc_deg
     center, radius = fit.center, fit.radius
-    # The circle must be empty inside (a hole, not the island of a groove), and the rim must be round.
-    inside, allowed_inside = _material_inside(scene, center, radius, settings)
-    if inside > allowed_inside:
-        return reject("material_inside", inside, allowed_inside, center, radius)
-    scatter = robust_sigma(fit.residuals)
-    allowed = settings.max_relative_scatter * radius + scene.gap_scatter
-    if scatter > allowed:
-        return reject("not_round", scatter, float(allowed), center, radius, shape=_outline_shape(rim_xy))
-    # The refit is only as good as the points it dropped: a long cut-out (a slot, a rectangular
-    # window) first fits a circle across its own long sides, and without them its ends give a round
-    # rim. A hole's first circle holds reflections only (<= 1 % of the disk on the validation scans).
-    if dropped[0] > dropped[1]:
-        first_center, first_radius, first_rim = dropped[2]
-        return reject("material_in_first_circle", dropped[0], dropped[1], first_center, first_radius,
-                      shape=_outline_shape(first_rim))
-    # A closed region whose rim still misses a third of the circle lost its rim to missing data.
-    # Partial: the circle is not surrounded by scanned material (cut by the scan's border, or its
-    # rim lost to missing data). Such a hole is accepted on the rim points' own (conservative)
-    # coverage and reported with the scanned coverage.
-    arc = _material_arc(grid, center, radius)
-    partial = arc < settings.full_arc_deg
-    if partial:
-        rim_arc = _rim_arc(rim_xy[used], center)
-        if rim_arc < settings.min_partial_arc_deg:
-            return reject("partial_rim_arc", float(rim_arc), settings.min_partial_arc_deg, center, radius)
-        if used.sum() < settings.min_partial_rim_points:
-            return reject("too_few_rim_points", int(used.sum()), settings.min_partial_rim_points, center, radius)
-    else:
-        arc = 360.0
-    above, allowed_above = _boss_points(scene, grid, center, radius, settings)
-    if above > allowed_above:
-        return reject("boss", above, allowed_above, center, radius)
     edge = estimate_edge(scene, _QUERIES, local, rim_xy[used], center, radius, partial, floor, settings)
     if edge.estimator is CONE:
         # A countersunk hole: its edge is where the cone meets the surface.
-        return _Measured(center=edge.center, radius=edge.radius, bias=edge.bias, fit=fit, rim_xy=rim_xy[used],
-                         partial=partial, arc_deg=arc, cone_slope=edge.cone_slope, estimator=CONE.name,
-                         cone_covariance=edge.cone_covariance)
+        return Measured(center=edge.center, radius=edge.radius, bias=edge.bias, fit=fit, rim_xy=rim_xy[used],
+                        partial=partial, arc_deg=arc, cone_slope=edge.cone_slope, estimator=CONE.name,
+                        cone_covariance=edge.cone_covariance)
     center, bias, estimator = edge.center, edge.bias, edge.estimator.name
     synthetic, radii = edge.synthetic, edge.radius_range
-    if radius - bias < scene.min_radius:
-        return reject("below_min_diameter", 2.0 * (radius - bias), 2.0 * scene.min_radius, center, radius - bias)
+    refused = edge_below_min_diameter(scene, center, radius - bias)
+    if refused is not None:
+        return refused
     # The band's edge lies inside the fringe of mixed points a wide laser line leaves at the rim:
     # moved to the fringe's middle, the true edge's place (_edge_fringe).
     fringe = _edge_fringe(scene, center, radius - bias, arc, settings)
     bias += fringe[1]
-    return _Measured(center=center, radius=radius - bias, bias=bias, fit=fit, rim_xy=rim_xy[used],
+    return Measured(center=center, radius=radius - bias, bias=bias, fit=fit, rim_xy=rim_xy[used],
                      partial=partial, arc_deg=arc, estimator=estimator, synthetic=synthetic, fringe=fringe,
                      radius_range=radii)
 
@@ -590,7 +292,7 @@ def _edge_fringe(scene, center, radius, arc_deg, settings):
       outside its middle.
     """
     reach = settings.edge_fringe_gaps * scene.sampling.gap
-    index = _within(scene, scene.xy, center, max(radius - reach, 0.0), radius + reach)
+    index = scene.within(scene.xy, center, max(radius - reach, 0.0), radius + reach)
     height = scene.heights[index] - _surface_height(scene, center, radius, settings, scene.xy[index])
     near = np.abs(height) <= settings.edge_fringe_depth * reach
     above, below = near & (height > scene.band), near & (height < -scene.band)
@@ -607,36 +309,17 @@ def _edge_fringe(scene, center, radius, arc_deg, settings):
     return width, width * (0.5 - scene.band / top), 0.0
 
 
-def _outline_shape(rim_xy):
-    """Length, width and direction (plane frame) of a cut-out from its rim: its extent along its
-    principal axes (a slot's overall length and width).
-
-    The rim holds the material points within an alpha of the edge, a few rows deep: the width is
-    taken between the innermost rows of the two long sides (the 10th percentile of each side's
-    distance from the axis, over the middle half of the length), the length between the innermost
-    points of the two rounded ends, each corrected for where it sits on its end's semicircle.
-    """
-    centred = rim_xy - rim_xy.mean(axis=0)
-    _, vectors = np.linalg.eigh(centred.T @ centred)
-    major = vectors[:, 1]
-    along, across = centred @ major, centred @ vectors[:, 0]
-    middle = np.abs(along) < 0.25 * np.ptp(along)  # the long sides, away from the ends
-    left, right = -across[middle & (across < 0)], across[middle & (across > 0)]
-    if len(left) < 3 or len(right) < 3:
-        return float(np.ptp(along)), float(np.ptp(across)), major
-    width = float(np.percentile(left, 10) + np.percentile(right, 10))
-    # On a rounded end a rim point at distance a from the axis lies sqrt(w^2/4 - a^2) short of the
-    # end's tip: each end point gives the half length it implies; the innermost one counts.
-    near_axis = np.abs(across) < 0.4 * width
-    half = np.abs(along[near_axis]) + 0.5 * width - np.sqrt(np.maximum(0.25 * width ** 2 - across[near_axis] ** 2, 0.0))
-    ends = np.sign(along[near_axis])
-    if not (np.any(ends < 0) and np.any(ends > 0)):
-        return float(np.ptp(along)), width, major
-    length = float(half[ends < 0].min() + half[ends > 0].min())
-    return length, width, major
+def _measure_with_surface(scene, void, settings):
+    """:func:`_measure_void`, and for a hole the surface's tangent plane at it
+    (:func:`holecli.robust.surface.local_normal`)."""
+    measured = _measure_void(scene, void, settings)
+    if isinstance(measured, Refusal):
+        return measured
+    plane, surface_uncertainty = local_normal(scene, measured.center, measured.radius, settings)
+    return replace(measured, surface_plane=plane, surface_uncertainty=surface_uncertainty)
 
 
-def _measure_voids(scene, grid, voids, settings):
+def _measure_voids(scene, voids, settings):
     """:func:`_measure_void` of every void (a hole or a rejection), in order; on a large cloud two at
     a time in threads.
 
@@ -644,11 +327,7 @@ def _measure_voids(scene, grid, voids, settings):
     thread uses the second core of the machine; small clouds are not worth the threads.
     """
     def measure(void):
-        measured = _measure_void(scene, grid, void, settings)
-        if isinstance(measured, _Rejected):
-            return measured
-        plane, surface_uncertainty = _local_normal(scene, measured.center, measured.radius, settings)
-        return replace(measured, surface_plane=plane, surface_uncertainty=surface_uncertainty)
+        return _measure_with_surface(scene, void, settings)
 
     if len(voids) < 2 or len(scene.xy) < settings.threads_from_points:
         return [measure(void) for void in voids]
@@ -695,10 +374,9 @@ def _uncertainty(scene, measured):
     """The :class:`holecli.results.Uncertainty` of a measured hole's edge and surface (the values below
     the edge are added with its shape, :func:`_with_shape`)."""
     fit = measured.fit
-    u_center, u_diameter = edge_uncertainty(ESTIMATOR_NAMED[measured.estimator], measured.synthetic, measured.rim_xy,
-                                            fit.center, fit.radius, float(scene.sampling.spacing),
-                                            float(scene.height_noise), measured.cone_covariance,
-                                            diameter_correction=2.0 * measured.bias,
+    u_center, u_diameter = edge_uncertainty(ESTIMATOR_NAMED[measured.estimator], measured.synthetic,
+                                            measured.rim_xy, fit.center, fit.radius, float(scene.sampling.spacing), float(scene.height_noise),
+                                            measured.cone_covariance, diameter_correction=2.0 * measured.bias,
                                             edge_fringe=measured.fringe[0],
                                             resolution=scene.resolution, radius_range=measured.radius_range,
                                             density=float(scene.surface_density))
@@ -745,83 +423,8 @@ class RobustResult(NamedTuple):
     candidates: int
 
 
-class _Frame(NamedTuple):
-    """The scan in the frame of its plane, with the sampling and the occupancy grid of its surface."""
-
-    rotation: np.ndarray
-    xy: np.ndarray
-    heights: np.ndarray
-    band: float
-    direction: np.ndarray
-    sampling: object
-    min_radius: float
-    surface_xy: np.ndarray
-    grid: object
-
-
-def _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock):
-    """Steps 2-4 of the module docstring up to the grid, about ``plane`` with its normal's sign as
-    given: the rotation into its frame, the plane-frame xy (surface points slid along ``view_dir``
-    when given and nothing stands behind the surface, :func:`_nothing_behind`) and heights, the band,
-    the sampling and the occupancy grid of the surface (a ``view_dir`` grazing the plane is refused)."""
-    normal, origin = plane.normal, plane.point
-    # In-plane axes from the surface points themselves (centroid, principal axes), so that the grid
-    # and the windows below move with the cloud under any rigid motion.
-    clock.start("frame")
-    rotation = canonical_rotation(points, plane)
-    # One (n, 3) @ (3, 3) product with a C-ordered right factor (BLAS); the rows of the rotation are
-    # the in-plane axes and the normal, so the third coordinate is the height above the plane.
-    local = (points - origin) @ np.ascontiguousarray(rotation.T)
-    heights = np.ascontiguousarray(local[:, 2])
-    surface = plane.inliers
-    band = float(np.max(np.abs(heights[surface])))  # (a slide moves xy only)
-    direction = normal
-    if view_dir is not None:
-        view = rotation @ (np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir))
-        check_view_angle(view, min_sine=settings.view_min_sine)
-        if _nothing_behind(heights, surface, band, view):
-            # The surface's points slide along the view onto the plane: a triangulation sensor's range
-            # noise lies along its ray, and slid back along it a point lands where the ray met the
-            # surface (the paper's Table I protocol: the center's error a tenth of the orthogonal
-            # projection's). The center then moves onto its local plane along the view (_to_hole).
-            direction = view @ rotation
-            surface_local = local[surface]
-            surface_local[:, 0] -= surface_local[:, 2] * (view[0] / view[2])
-            surface_local[:, 1] -= surface_local[:, 2] * (view[1] / view[2])
-            local[surface] = surface_local
-    # Column-major: the box tests below read x and y as contiguous columns.
-    xy = np.asfortranarray(local[:, :2])
-    del local
-    clock.start("sampling")
-    surface_xy = np.asfortranarray(xy[surface])  # (one copy for the sampling and the grid)
-    sampling = estimate_sampling(surface_xy, windows=settings.sampling_windows,
-                                 window_points=settings.sampling_window_points, settings=settings)
-    gap = sampling.gap
-    min_radius = 0.5 * (min_diameter if min_diameter is not None else settings.min_diameter_gaps * gap)
-    clock.start("grid")
-    grid = occupancy_grid(surface_xy, settings.cell_gaps * gap, max_speck_cells=settings.max_speck_cells)
-    return _Frame(rotation=rotation, xy=xy, heights=heights, band=band, direction=direction, sampling=sampling,
-                  min_radius=min_radius, surface_xy=surface_xy, grid=grid)
-
-
-def _nothing_behind(heights, surface, band, view):
-    """Whether no more than ``facing.MIN_POINTS`` points stand behind the surface band (``band``, the
-    largest surface height) as the sensor sees it: then the band holds the surface alone and its points
-    may slide along the view.
-
-    Where the sensor sees behind the surface (a bore's far wall on a tilted scan, a floor, a cone),
-    the band also holds the top of what it sees there: slid, the far wall's top lands where its rays
-    crossed the hole's opening, up to ``band x tan(tilt)`` inside the hole, and pulls the far edge in
-    (on tilted profiler scans with 10 um of noise the centers came out 30 % worse than projected
-    orthogonally, and the validation suite's centers were covered in 87 % of cases against 100 %:
-    tests/robust/test_robust_view_dir.py). Every point is then projected orthogonally.
-    """
-    behind = np.count_nonzero(~surface & (heights * np.sign(view[2]) > band))
-    return behind <= SEEN_MIN_POINTS
-
-
 def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, full_only=False,
-                  gauge_depth=None, settings=DEFAULT_SETTINGS, rng=0, flat_crop=False, progress=None):
+                  gauge_depth=None, settings=DEFAULT_SETTINGS, rng=0, progress=None):
     """The robust method; see the module docstring.
 
     Parameters
@@ -830,9 +433,6 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         Checked points (:func:`holecli.pipeline.validate_points`).
     view_dir, min_diameter, max_holes, full_only, gauge_depth, settings, rng
         See :func:`holecli.detect`.
-    flat_crop : bool
-        Marks the call that measures one hole of a curved surface again on its flattened
-        neighbourhood (see :func:`_on_curved_surface`): it does not recurse.
     progress : callable, optional
         Called with the name of each stage as it starts (see :class:`holecli.stages.StageClock`).
 
@@ -841,80 +441,16 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
     RobustResult
     """
     clock = StageClock(progress)
-    clock.start("plane")
-    plane = fit_plane_robust(points, rng=rng, sample=settings.ransac_sample,
-                             hypotheses=settings.ransac_hypotheses, quantile=settings.ransac_quantile,
-                             clip=settings.plane_clip, max_rounds=settings.plane_refine_rounds,
-                             refine_sample=settings.plane_refine_sample, max_faces=settings.plane_max_faces,
-                             view=view_dir)
-    frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
-    if plane.hidden and not faces_empty(float(frame.sampling.spacing), float(frame.sampling.gap)):
-        # A face hidden behind the surface along the view (a whole mesh sampled, its bottom under its
-        # top): a sensor never recorded it, and seen through a countersink it reads as a counterbore's
-        # floor. (Not in a CAD export's vertices, whose faces are empty: there the loops at one depth,
-        # a countersink's inner loops, make such a face, and they are what types the holes.)
-        seen = ~hidden_points(points, plane, ASSUMED_VIEW if view_dir is None else view_dir)
-        points, plane = points[seen], replace(plane, inliers=plane.inliers[seen], hidden=())
-        frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
-    # The heights are read along the normal toward the sensor (holecli.robust.facing): from
-    # --view-dir, else from the points seen through the surface, else the z-positive normal. A flat
-    # crop's frame has the sensor on +z (_on_curved_surface).
-    below, above = seen_through(frame.heights, frame.xy, plane.inliers, frame.grid, frame.band,
-                                frame.sampling.spacing)
-    fan = None
-    if view_dir is None and not flat_crop and max(below, above) < SEEN_MIN_POINTS:
-        # Not seen through: the second cue, a fan's spacing growing with the range.
-        fan = fan_side(fan_spacing(frame.xy, frame.heights, plane.inliers, frame.band, frame.sampling.spacing,
-                                   frame.grid.cell))
-    facing = decide(plane.normal, (0.0, 0.0, -1.0) if flat_crop else view_dir, below, above, fan=fan)
-    if facing.sign < 0:
-        # The frame again about the flipped normal (not a mirror of the first one), so that a scan
-        # and its rigid motions are measured in the same frame of the part.
-        plane = replace(plane, normal=-plane.normal)
-        frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
-    vertices = not flat_crop and looks_like_vertices(float(frame.sampling.spacing), float(frame.sampling.gap),
-                                                     int(np.count_nonzero(plane.inliers)))
-    if vertices and faces_empty(float(frame.sampling.spacing), float(frame.sampling.gap)):
-        # A CAD export's vertices: its faces hold their edges' vertices, not points in proportion to
-        # their area; the surface is the widest face nearest the sensor (edge_loops.top_face). Only
-        # when the faces are empty: a small surface sampling's walls join its faces' levels.
-        noise = max(robust_sigma(frame.heights[plane.inliers]), float(plane.resolution))
-        top = top_face(frame.xy, frame.heights, noise)
-        if top is not None and np.count_nonzero(top & plane.inliers) < 0.5 * np.count_nonzero(top):
-            fit = fit_plane_scatter(points[top])
-            plane = replace(plane, point=fit.point, normal=fit.normal if fit.normal @ plane.normal > 0 else -fit.normal,
-                            rms=fit.rms, inliers=top, major=fit.major)
-            frame = _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock)
-    normal, origin = plane.normal, plane.point
-    rotation, xy, heights, band, direction = frame.rotation, frame.xy, frame.heights, frame.band, frame.direction
-    sampling, grid, surface, min_radius = frame.sampling, frame.grid, plane.inliers, frame.min_radius
-    gap = sampling.gap
-    cell = settings.cell_gaps * gap
-    surface_xy = frame.surface_xy
-    material_xy = np.asfortranarray(surface_xy[grid.lookup(grid.material, surface_xy)])
-    above_xy = np.asfortranarray(xy[(heights > band) & ~surface])
-    surface_density = len(surface_xy) / max(float(np.count_nonzero(grid.material)) * cell * cell, 1e-300)
-    # Never 0: noise-free data still holds its heights only to its resolution.
-    resolution = float(plane.resolution)
-    height_noise = max(robust_sigma(heights[surface]), resolution_uncertainty(resolution))
-    scene = _Scene(xy=xy, surface_xy=surface_xy, material_xy=material_xy, above_xy=above_xy,
-                   surface_density=surface_density, height_noise=height_noise, band=band, heights=heights,
-                   points=points, surface_index=np.flatnonzero(surface), origin=origin, rotation=rotation,
-                   direction=direction, sampling=sampling, alpha=settings.alpha_gaps * gap, cell=cell,
-                   min_radius=min_radius, gap_scatter=0.5 * gap, envelope=settings.envelope_gaps * gap,
-                   cell_indices={}, hulls={}, resolution=resolution, facing=facing)
-    if not flat_crop:  # (a flat crop's holes get no warnings: the caller's scene judges them)
-        scene = replace(scene, grid=grid, border_distance=distance_to_outside(grid))
-    voids = find_voids(grid)
+    scene = build_scene(points, view_dir=view_dir, min_diameter=min_diameter, settings=settings, rng=rng,
+                        clock=clock)
+    voids = find_voids(scene.grid)
     if len(voids) >= settings.cell_index_from_candidates:
-        # Many candidates (the natural gaps of random sampling grow with the points): one sort per
-        # array, then every neighbourhood query reads only its own cells instead of every point.
-        for array in (xy, surface_xy, material_xy):
-            scene.cell_indices[id(array)] = CellIndex(array, cell)
+        # Many candidates (the natural gaps of random sampling grow with the points).
+        scene = scene.with_cell_indices()
     clock.start("candidates")
     found, rejected = [], []
-    for measured in _measure_voids(scene, grid, voids, settings):
-        if isinstance(measured, _Rejected):
+    for measured in _measure_voids(scene, voids, settings):
+        if isinstance(measured, Refusal):
             rejected.append(measured)
             continue
         twin = next((i for i, other in enumerate(found) if _overlaps(measured, other)), None)
@@ -935,21 +471,22 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         rejected.extend(_as_rejected(m, "beyond_max_holes", 2.0 * m.radius, 2.0 * found[-1].radius)
                         for m in ranked[max_holes:])
     clock.start("shape")
-    holes = [(None if flat_crop else _on_curved_surface(scene, measured, settings, view_dir, rng))
-             or _to_hole(scene, measured, 0) for measured in found]
-    if not flat_crop:
-        holes = [_with_shape(scene, hole, measured, gauge_depth, settings) for hole, measured in zip(holes, found)]
-        pockets = [_pocket_depth(hole, settings) for hole in holes]
-        rejected.extend(_as_rejected(measured, "pocket", depth, settings.pocket_max_depth_ratio)
-                        for measured, depth in zip(found, pockets) if depth is not None)
-        holes = [hole for hole, depth in zip(holes, pockets) if depth is None]
-    if vertices:
+    holes = [_on_curved_surface(scene, measured, settings, view_dir, rng) or _to_hole(scene, measured, 0)
+             for measured in found]
+    holes = [_with_shape(scene, hole, measured, gauge_depth, settings) for hole, measured in zip(holes, found)]
+    pockets = [_pocket_depth(hole, settings) for hole in holes]
+    rejected.extend(_as_rejected(measured, "pocket", depth, settings.pocket_max_depth_ratio)
+                    for measured, depth in zip(found, pockets) if depth is not None)
+    holes = [hole for hole, depth in zip(holes, pockets) if depth is None]
+    sampling, plane = scene.sampling, scene.plane
+    if scene.vertices:
         # A CAD export's vertices: no point inside a face, the holes are the loops of its edges.
-        loops, loop_rejected = edge_loops(xy, heights, surface, height_noise, min_diameter=min_diameter,
-                                          resolution=resolution, step=coordinate_step(points))
-        if loops or faces_empty(float(sampling.spacing), float(gap)):
+        loops, loop_rejected = edge_loops(scene.xy, scene.heights, plane.inliers, scene.height_noise,
+                                          min_diameter=min_diameter, resolution=scene.resolution,
+                                          step=coordinate_step(scene.points))
+        if loops or faces_empty(float(sampling.spacing), float(sampling.gap)):
             # (a small scan's sampling makes loops too, of a grid's ties: they are not what it shows)
-            rejected.extend(_Rejected(check=r.check, value=r.value, limit=r.limit, center=r.center,
+            rejected.extend(Refusal(check=r.check, value=r.value, limit=r.limit, center=r.center,
                                       radius=r.radius) for r in loop_rejected)
         for loop in loops:
             if not any(np.hypot(*(loop.center - m.center)) < max(m.radius, 0.5 * loop.diameter) for m in found):
@@ -957,18 +494,19 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         if max_holes is not None and len(holes) > max_holes:
             ranked = sorted(holes, key=lambda hole: -hole.diameter)
             holes = ranked[:max_holes]
-            rejected.extend(_Rejected(check="beyond_max_holes", value=h.diameter, limit=holes[-1].diameter,
-                                      center=(rotation @ (np.asarray(h.center) - origin))[:2], radius=h.radius)
+            rejected.extend(Refusal(check="beyond_max_holes", value=h.diameter, limit=holes[-1].diameter,
+                                      center=(scene.rotation @ (np.asarray(h.center) - scene.origin))[:2],
+                                      radius=h.radius)
                             for h in ranked[max_holes:])
     holes.sort(key=lambda hole: (hole.partial, hole.center))
     holes = tuple(Hole(**{**hole.__dict__, "index": i}) for i, hole in enumerate(holes))
-    plane_result = Plane(point=tuple(map(float, origin)), normal=tuple(map(float, orient_normal(normal))),
-                         rms=plane.rms, inliers=int(surface.sum()), facing=facing)
+    plane_result = Plane(point=tuple(map(float, plane.point)), normal=tuple(map(float, orient_normal(plane.normal))),
+                         rms=plane.rms, inliers=int(plane.inliers.sum()), facing=scene.facing)
     rejections = tuple(sorted((_to_rejection(scene, r) for r in rejected), key=lambda r: (-r.diameter, r.center)))
-    scales = Scales(point_spacing=float(sampling.spacing), gap_scale=float(gap),
+    scales = Scales(point_spacing=float(sampling.spacing), gap_scale=float(sampling.gap),
                     line_pitch=None if sampling.line_pitch is None else float(sampling.line_pitch),
                     period=None if sampling.period is None else float(sampling.period), lattice=bool(sampling.lattice),
-                    height_noise=float(height_noise), min_diameter=2.0 * float(min_radius))
+                    height_noise=float(scene.height_noise), min_diameter=2.0 * float(scene.min_radius))
     return RobustResult(plane=plane_result, holes=holes, rejected=rejections, scales=scales, stages=clock.stop(),
                         candidates=len(voids))
 
@@ -985,7 +523,6 @@ def _pocket_depth(hole, settings):
 def _loop_hole(scene, loop):
     """The :class:`Hole` of an edge loop of a CAD export's vertices (:mod:`holecli.robust.edge_loops`)."""
     from holecli.results import Bore, Counterbore, Countersink, HoleNote
-    from holecli.robust.hole_shape import NOTE_CODES
 
     def world(center2d, height):
         return from_plane_frame(np.array([center2d[0], center2d[1], height]), scene.origin, scene.rotation)
@@ -1032,7 +569,7 @@ def _with_shape(scene, hole, measured, gauge_depth, settings):
     # The plane frame's disk holds every point within the search radius of the hole's axis, deep
     # points of a hole drilled off the normal or seen on a tilted part included.
     reach = settings.shape_search_radii * hole.radius * (1.0 + settings.shape_depth_radii * 0.2)
-    index = _within(scene, scene.xy, center2d, 0.0, reach)
+    index = scene.within(scene.xy, center2d, 0.0, reach)
     shape = measure_hole_shape(scene.points[index], center, np.asarray(hole.normal), hole.radius,
                                noise=scene.height_noise, spacing=scene.sampling.spacing,
                                cone_slope=measured.cone_slope, gauge_depth=gauge_depth, settings=settings)
@@ -1096,7 +633,7 @@ def _doubts(scene, hole, measured):
     center, radius = measured.center, measured.radius
     gap = scene.sampling.gap
     inner = max(min(radius, radius + measured.bias) - 2.0 * gap, 0.0)
-    inside = len(_within(scene, scene.surface_xy, center, 0.0, inner)) if inner > 0 else 0
+    inside = len(scene.within(scene.surface_xy, center, 0.0, inner)) if inner > 0 else 0
     cell = scene.grid.cell_of(center[None, :])[0]
     shape = scene.border_distance.shape
     if 0 <= cell[0] < shape[0] and 0 <= cell[1] < shape[1]:
@@ -1117,7 +654,7 @@ def _doubts(scene, hole, measured):
 
 def _bias_not_measured(measured):
     """A rim fit whose sampling-bias correction was wanted and could not be measured: no synthetic
-    hole cut into the material around it gave a rim (:func:`_sampling_bias`)."""
+    hole cut into the material around it gave a rim (``holecli.robust.estimators.rim_fit._sampling_bias``)."""
     return measured.estimator == "rim_fit" and measured.synthetic is None
 
 
@@ -1130,36 +667,43 @@ def _on_curved_surface(scene, measured, settings, view_dir, rng):
     the top of a countersink's cone counts as surface on one side of the hole more than on the other,
     and the rim, the edge and the center move (50 um). Here the points within ``crop_radii`` radii of
     the hole are taken into the frame of the ring's own plane, the quadric of the ring
-    (:func:`_curved_quadric`) is subtracted from their heights, and the hole is measured on that flat
-    crop by the same method; its center and normal go back onto the quadric.
+    (:func:`holecli.geometry.quadric.curved_quadric`) is subtracted from their heights, and the void at
+    the hole's center in the scene of that flat crop (:func:`holecli.robust.scene.build_scene`) is
+    measured as every candidate is (:func:`_measure_with_surface`); its center and normal go back onto
+    the quadric. None too when the crop's void is refused, or its hole lies half a radius or more from
+    the hole's center.
     """
     center, radius = measured.center, measured.radius
-    ring = _ring_plane(scene, center, radius, settings.crop_ring_radii)
+    ring = ring_plane(scene, center, radius, settings.crop_ring_radii)
     if ring is None:
         return None
     ring_points, plane = ring
     near = from_plane_frame(np.array([center[0], center[1], 0.0]), scene.origin, scene.rotation)
-    foot, basis = _plane_frame_at(plane, near)
+    foot, basis = plane_frame_at(plane, near)
     first, second, normal = basis
     if float(normal @ scene.rotation[2]) < 0:
-        # The crop's frame with the sensor on +z, as the scene's (its detect_robust takes that side).
+        # The crop's frame with the sensor on +z, as the scene's (build_scene's flattened takes that side).
         second, normal = -second, -normal
         basis = np.vstack([first, second, normal])
-    quadric = _curved_quadric((ring_points - foot) @ basis.T, radius, settings.curvature_sigmas, scene.resolution)
+    quadric = curved_quadric((ring_points - foot) @ basis.T, radius, settings.curvature_sigmas, scene.resolution)
     if quadric is None:
         return None
-    crop = scene.points[_within(scene, scene.xy, center, 0.0, settings.crop_radii * radius)]
+    crop = scene.points[scene.within(scene.xy, center, 0.0, settings.crop_radii * radius)]
     local = (crop - foot) @ basis.T
     local[:, 2] -= quadric.height(local[:, :2])
     slide = None if view_dir is None else basis @ (np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir))
     try:
-        holes = detect_robust(local, view_dir=slide, min_diameter=radius, settings=settings, rng=rng,
-                                    flat_crop=True).holes
+        flat = build_scene(local, view_dir=slide, min_diameter=radius, settings=settings, rng=rng, flattened=True)
     except PointsError:
         return None
-    if not holes:
+    # The hole's center (the crop frame's origin) in the flat scene's plane frame.
+    void = _void_at(flat, find_voids(flat.grid), (flat.rotation @ -flat.origin)[:2], 0.5 * radius)
+    if void is None:
         return None
-    hole = min(holes, key=lambda h: np.hypot(h.center[0], h.center[1]))
+    found = _measure_with_surface(flat, void, settings)
+    if isinstance(found, Refusal):
+        return None
+    hole = _to_hole(flat, found, 0)
     if np.hypot(hole.center[0], hole.center[1]) > 0.5 * radius:
         return None
     at = np.array([[hole.center[0], hole.center[1]]])
@@ -1167,69 +711,22 @@ def _on_curved_surface(scene, measured, settings, view_dir, rng):
     ds, dt = quadric.gradient(at)[0]
     world_center = foot + at[0, 0] * first + at[0, 1] * second + height * normal
     world_normal = orient_normal(normal - ds * first - dt * second)
-    return Hole(**{**hole.__dict__, "center": tuple(map(float, world_center)),
-                   "normal": tuple(map(float, world_normal))})
+    return replace(hole, center=tuple(map(float, world_center)), normal=tuple(map(float, world_normal)))
 
 
-@dataclass(frozen=True, eq=False)
-class _Quadric:
-    """``h(s, t) = a + b u + c v + d u^2 + e u v + f v^2`` with ``u, v = s / scale, t / scale``."""
-
-    coefficients: np.ndarray
-    scale: float
-
-    def height(self, st):
-        u, v = st[:, 0] / self.scale, st[:, 1] / self.scale
-        return np.column_stack([np.ones_like(u), u, v, u * u, u * v, v * v]) @ self.coefficients
-
-    def gradient(self, st):
-        """(dh/ds, dh/dt) at each of ``st`` (k, 2)."""
-        a, b, c, d, e, f = self.coefficients
-        u, v = st[:, 0] / self.scale, st[:, 1] / self.scale
-        return np.column_stack([b + 2 * d * u + e * v, c + e * u + 2 * f * v]) / self.scale
-
-
-def _curved_quadric(local, scale, sigmas, resolution=0.0):
-    """The quadric of ``local`` ((k, 3): s, t and the height, in a frame centred on a hole), or None
-    when the surface is not significantly curved there: its sag at the origin within ``sigmas``
-    standard errors (check ``curvature_sigmas``), within the round-off of the coordinates, or within
-    the heights' ``resolution`` (a noise-free quantised face's levels lie in bands across it, which
-    a quadric bends to by a fraction of a step, far beyond its standard error).
-
-    On a flat surface a quadric's height at the center is only noisier than a plane's (its curvature
-    terms are fitted to noise: about 1.7 times the spread on the Table I ring), so it is used only where
-    the surface really curves.
-    """
-    scale = max(float(scale), 1e-300)
-    if len(local) <= 6:
-        return None
-    s, t, h = local[:, 0] / scale, local[:, 1] / scale, np.ascontiguousarray(local[:, 2])
-    # The normal equations over the six monomials' columns, not an SVD of a (k, 6) design matrix: a
-    # ring holds up to 10^6 points on a dense scan (the copy would cost memory, the SVD time), the
-    # coordinates are scaled to the hole (well conditioned), and the inverse is wanted anyway for the
-    # standard error. Rank as numpy's lstsq judges it, on the design's singular values.
-    columns = (np.ones_like(s), s, t, s * s, s * t, t * t)
-    gram = np.array([[float(a @ b) for b in columns] for a in columns])
-    eigenvalues = np.linalg.eigvalsh(gram)
-    if not eigenvalues[0] > (np.finfo(float).eps * len(h)) ** 2 * eigenvalues[-1]:
-        return None
-    inverse = np.linalg.inv(gram)
-    coefficients = inverse @ np.array([float(column @ h) for column in columns])
-    residuals = sum(c * column for c, column in zip(coefficients, columns)) - h
-    variance = float(residuals @ residuals) / (len(h) - 6)
-    standard_error = np.sqrt(variance * inverse[0, 0])
-    if abs(coefficients[0]) <= max(sigmas * standard_error, _SAG_ROUND_OFF * scale, resolution):
-        return None
-    return _Quadric(coefficients=coefficients, scale=scale)
-
-
-# A sag below this fraction of the hole's radius is round-off of exact data, not curvature (a curved
-# panel's sag at a hole is 1e-3 of its radius or more).
-_SAG_ROUND_OFF = 1e-7
+def _void_at(scene, voids, xy, reach):
+    """The void of ``voids`` whose cells come nearest to ``xy`` (plane frame): the one that holds it,
+    else one within ``reach`` of it; None when every void lies farther."""
+    best, nearest = None, np.inf
+    for void in voids:
+        distance = float(np.min(np.hypot(*(scene.grid.center_of(void.cells) - xy).T)))
+        if distance < nearest:
+            best, nearest = void, distance
+    return best if nearest <= reach else None
 
 
 def _as_rejected(measured, check, value, limit):
-    return _Rejected(check=check, value=value, limit=limit, center=measured.center, radius=float(measured.radius))
+    return Refusal(check=check, value=value, limit=limit, center=measured.center, radius=float(measured.radius))
 
 
 def _to_rejection(scene, rejected):

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 from holecli.pipeline import detect
-from holecli.robust.doubts import DOUBT_CODES, Doubts, doubt_warnings
+from holecli.robust.doubts import Doubts, doubt_warnings
 from holecli.settings import DEFAULT_SETTINGS, RobustSettings
 from holecli.simulation import synth
+from holecli.vocabulary import DOUBT_CODES
 
 # The Table I scene in its own frame (no rotation), so that the tests can cut and bend it.
 BASE = synth.SceneSpec(rotation_deg=(0.0, 0.0, 0.0), translation=(0.0, 0.0, 0.0))

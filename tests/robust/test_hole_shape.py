@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 from holecli.geometry.revolution import frame_about
-from holecli.robust.hole_shape import NOTE_CODES, WARNING_CODES, measure_hole_shape
+from holecli.robust.hole_shape import measure_hole_shape
 from holecli.settings import RobustSettings
+from holecli.vocabulary import NOTE_CODES, WARNING_CODES
 
 PITCH = 0.05
 

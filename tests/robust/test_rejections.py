@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from holecli.pipeline import detect
-from holecli.robust.method import REJECTION_REASONS
+from holecli.vocabulary import REJECTION_REASONS
 from holecli.simulation import synth
 
 

@@ -8,7 +8,7 @@ import pytest
 
 from holecli.geometry.plane import fit_plane_scatter
 from holecli.pipeline import detect
-from holecli.robust.method import _tangent_of_quadric
+from holecli.robust.surface import tangent_of_quadric
 
 pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"
 
@@ -75,8 +75,8 @@ def test_the_curvature_check_keeps_the_plane_on_a_flat_noisy_ring():
         ring = np.column_stack([distance * np.cos(angle), distance * np.sin(angle), 0.01 * rng.normal(size=1500)])
         plane = fit_plane_scatter(ring)
         near = np.zeros(3)
-        kept += _tangent_of_quadric(ring, plane, near, 3.0) is plane
-        heights_quadric.append(_tangent_of_quadric(ring, plane, near, 0.0).point[2])
+        kept += tangent_of_quadric(ring, plane, near, 3.0) is plane
+        heights_quadric.append(tangent_of_quadric(ring, plane, near, 0.0).point[2])
         heights_plane.append(plane.point[2])
     assert kept >= 38  # a 3-sigma check passes noise about once in 370
     # and the check is worth having: the quadric's height at the center is noisier than the plane's
@@ -163,3 +163,35 @@ def test_holes_away_from_the_middle_of_a_wide_scan_of_a_curved_panel():
             if center_error > 15e-3 or abs(diameter_error) > 10e-3:
                 failures.append((seed, truth["kind"], center_error, diameter_error))
     assert len(failures) <= 1, failures
+
+
+def test_a_curved_panel_hole_is_measured_on_its_flattened_crop_without_a_second_detection(monkeypatch):
+    """The hole is measured again on its flattened neighbourhood (a scene of the crop, the void at its
+    center measured as every candidate is), not by running the whole method on the crop, and the hole
+    reported is that measurement's."""
+    import holecli.robust.method as method
+
+    points, center, normal = curved_panel(800.0, 2.5, 30.0, convex=True)
+    detections, flattened, again = [], [], []
+    real_detect, real_build, real_curved = method.detect_robust, method.build_scene, method._on_curved_surface
+
+    def counting_detect(*args, **kwargs):
+        detections.append(1)
+        return real_detect(*args, **kwargs)
+
+    def counting_build(*args, **kwargs):
+        flattened.append(kwargs.get("flattened", False))
+        return real_build(*args, **kwargs)
+
+    def recording_curved(*args):
+        again.append(real_curved(*args))
+        return again[-1]
+
+    monkeypatch.setattr(method, "detect_robust", counting_detect)
+    monkeypatch.setattr(method, "build_scene", counting_build)
+    monkeypatch.setattr(method, "_on_curved_surface", recording_curved)
+    (hole,) = detect(points).holes
+    assert len(detections) == 1 and flattened == [False, True]
+    assert len(again) == 1 and again[0] is not None and hole.center == again[0].center
+    error = np.array(hole.center) - center
+    assert abs(float(error @ normal)) < 0.5e-3 and np.linalg.norm(error) < 2e-3

@@ -1,0 +1,122 @@
+"""The acceptance checks (holecli.robust.acceptance) one at a time, on a small scene and hand-made
+candidates: a candidate every check passes, and for each check a change that makes it refuse, with
+its code, value, limit and place (the counter-example scenes of test_acceptance.py and
+test_rejections.py hold the same checks through the whole method)."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from holecli.geometry.circle import CircleFit
+from holecli.robust import acceptance
+from holecli.robust.candidate import Candidate, FirstCircle, Refusal
+from holecli.robust.candidates import Void
+from holecli.robust.scene import build_scene
+from holecli.settings import DEFAULT_SETTINGS
+from holecli.vocabulary import REJECTION_REASONS
+
+SPACING = 0.1
+MATERIAL = np.array([-2.5, -2.5])  # a point of plain material, 2.5 mm from the hole's axis on both axes
+
+
+@pytest.fixture(scope="module")
+def scene():
+    """A flat 8 x 8 mm plate on a 0.1 mm grid, a 2 mm hole at the origin with a 1.2 mm pin standing 1 mm
+    high in it; seen from +z. The minimum diameter is 0.5 mm."""
+    ticks = np.arange(-4.0, 4.0 + 1e-9, SPACING)
+    x, y = (axis.ravel() for axis in np.meshgrid(ticks, ticks))
+    plate = np.column_stack([x, y, np.zeros_like(x)])
+    plate = plate[np.hypot(x, y) >= 1.0]
+    pin = np.column_stack([x, y, np.ones_like(x)])[np.hypot(x, y) < 0.6]
+    return build_scene(np.vstack([plate, pin]), view_dir=(0.0, 0.0, -1.0), min_diameter=0.5)
+
+
+def _circle(center, radius, count=60, arc_deg=360.0):
+    angles = np.radians(np.linspace(0.0, arc_deg, count, endpoint=False))
+    return np.asarray(center) + radius * np.column_stack([np.cos(angles), np.sin(angles)])
+
+
+def _fit(center=(0.0, 0.0), radius=1.0, residuals=None, count=60):
+    residuals = np.zeros(count) if residuals is None else residuals
+    return CircleFit(center=np.asarray(center, dtype=float), radius=radius, residuals=residuals,
+                     kept=np.ones(count, dtype=bool))
+
+
+# The hole at the origin: a void of its cells, a round rim of 60 points, a circle through them, full.
+_VOID_XY = np.array([[i, j] for i in np.arange(-0.85, 0.9, 0.1) for j in np.arange(-0.85, 0.9, 0.1)
+                     if np.hypot(i, j) < 0.9])
+GOOD = Candidate(void=Void(cells=np.zeros((1, 2), dtype=np.int64), enclosed=True), void_xy=_VOID_XY,
+                 void_center=np.zeros(2), void_radius=0.95, fewest=DEFAULT_SETTINGS.min_rim_points,
+                 rim_xy=_circle((0.0, 0.0), 1.0), fit=_fit(), used=np.ones(60, dtype=bool), partial=False,
+                 arc_deg=360.0)
+WAVY = 0.2 * np.where(np.arange(60) % 2 == 0, 1.0, -1.0)
+
+
+@pytest.mark.parametrize("check, change, code, value, limit, center, radius", [
+    # no empty disk of the minimum radius fits in a void of material (the natural gaps of sampling)
+    (acceptance.void_below_min_diameter, dict(void_xy=MATERIAL[None, :]), "below_min_diameter",
+     None, 0.5, MATERIAL, None),
+    (acceptance.no_rim, dict(rim_xy=None, fit=None), "no_rim", None, None, (0.0, 0.0), 0.95),
+    (acceptance.too_few_rim_points, dict(rim_xy=_circle((0.0, 0.0), 1.0, count=5)), "too_few_rim_points",
+     5, DEFAULT_SETTINGS.min_rim_points, (0.0, 0.0), 1.0),
+    (acceptance.no_circle_fit, dict(fit=None), "no_circle_fit", None, None, (0.0, 0.0), 0.95),
+    (acceptance.too_few_fitted_points, dict(used=np.arange(60) < 4), "too_few_rim_points",
+     4, DEFAULT_SETTINGS.min_rim_points, (0.0, 0.0), 1.0),
+    (acceptance.below_min_diameter, dict(fit=_fit(radius=0.2)), "below_min_diameter", 0.4, 0.5, (0.0, 0.0), 0.2),
+    (acceptance.material_inside, dict(fit=_fit(center=MATERIAL)), "material_inside", None, None, MATERIAL, 1.0),
+    (acceptance.not_round, dict(fit=_fit(residuals=WAVY)), "not_round", None, None, (0.0, 0.0), 1.0),
+    (acceptance.material_in_first_circle,
+     dict(first=FirstCircle(inside=40, allowed=3.5, center=np.array([0.1, 0.0]), radius=1.2,
+                            rim_xy=_circle((0.1, 0.0), 1.2))),
+     "material_in_first_circle", 40, 3.5, (0.1, 0.0), 1.2),
+    (acceptance.partial_rim_arc, dict(partial=True, arc_deg=200.0, rim_xy=_circle((0.0, 0.0), 1.0, arc_deg=90.0)),
+     "partial_rim_arc", None, DEFAULT_SETTINGS.min_partial_arc_deg, (0.0, 0.0), 1.0),
+    (acceptance.too_few_partial_rim_points, dict(partial=True, arc_deg=200.0, used=np.arange(60) < 10),
+     "too_few_rim_points", 10, DEFAULT_SETTINGS.min_partial_rim_points, (0.0, 0.0), 1.0),
+    (acceptance.boss, {}, "boss", None, None, (0.0, 0.0), 1.0),
+])
+def test_each_check_refuses_its_counter_example_and_passes_a_hole(scene, check, change, code, value, limit, center,
+                                                                   radius):
+    if check is acceptance.boss:
+        # the pin stands in the hole; the same circle in plain material has no pin (and no boss)
+        passing, refusing = replace(GOOD, fit=_fit(center=MATERIAL)), GOOD
+    else:
+        passing, refusing = GOOD, replace(GOOD, **change)
+    assert check(scene, passing, DEFAULT_SETTINGS) is None
+    refused = check(scene, refusing, DEFAULT_SETTINGS)
+    assert isinstance(refused, Refusal) and refused.check == code and code in REJECTION_REASONS
+    if value is not None:
+        assert refused.value == pytest.approx(value)
+    if limit is not None:
+        assert refused.limit == pytest.approx(limit)
+    if refused.value is not None and refused.limit is not None:
+        # every check with numbers refuses beyond its limit: above it for a count of what must not be
+        # there, below it for one of what must
+        above = code in ("material_inside", "not_round", "material_in_first_circle", "boss")
+        assert refused.value > refused.limit if above else refused.value < refused.limit
+    np.testing.assert_allclose(refused.center, center, atol=1e-12)
+    if radius is not None:
+        assert refused.radius == pytest.approx(radius)
+
+
+def test_a_hole_passes_every_check_but_the_boss_of_its_pin(scene):
+    for checks in (acceptance.VOID_CHECKS, acceptance.RIM_CHECKS, acceptance.FIT_CHECKS, acceptance.EDGE_CHECKS[:-1]):
+        assert acceptance.first_refusal(checks, scene, GOOD, DEFAULT_SETTINGS) is None
+    assert acceptance.EDGE_CHECKS[-1] is acceptance.boss
+    assert acceptance.first_refusal(acceptance.EDGE_CHECKS, scene, GOOD, DEFAULT_SETTINGS).check == "boss"
+
+
+def test_the_order_is_the_tuple(scene):
+    # material inside and a rim that is not round: the first check of the tuple speaks
+    both = replace(GOOD, fit=_fit(center=MATERIAL, residuals=WAVY))
+    assert acceptance.first_refusal(acceptance.EDGE_CHECKS, scene, both, DEFAULT_SETTINGS).check == "material_inside"
+    assert acceptance.EDGE_CHECKS.index(acceptance.material_inside) < acceptance.EDGE_CHECKS.index(acceptance.not_round)
+    swapped = (acceptance.not_round, acceptance.material_inside)
+    assert acceptance.first_refusal(swapped, scene, both, DEFAULT_SETTINGS).check == "not_round"
+
+
+def test_a_refusal_of_the_corrected_edge(scene):
+    assert acceptance.edge_below_min_diameter(scene, np.zeros(2), 0.3) is None
+    refused = acceptance.edge_below_min_diameter(scene, np.zeros(2), 0.2)
+    assert (refused.check, refused.value, refused.limit, refused.radius) == ("below_min_diameter", 0.4, 0.5, 0.2)
