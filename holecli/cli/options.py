@@ -8,7 +8,7 @@
   :func:`nominal_from_options` and :func:`read_spec`;
 * ``--input-format``: :func:`input_format_option`; ``--columns``: :func:`columns_option`.
 * ``--quiet`` and ``--verbose`` of every command: :func:`verbosity_option_decorators`.
-* ``--fail-on-warning`` of ``detect`` and ``batch``: :func:`fail_on_warning_option`, :func:`warned`.
+* ``--fail-on-warning`` of ``detect`` and ``batch``: :func:`fail_on_warning_option` (:func:`holecli.cli.exits.warned` tests it).
 * ``--decision-rule`` and ``--coverage-factor`` (with the tolerance options): :func:`decision_from_options`,
   :func:`with_decision`.
 * the output options of every command (``--output``, ``--plot``, ``--targets-output``):
@@ -369,25 +369,6 @@ def fail_on_warning_option(function):
              "codes (e.g. rim_gap,points_inside), or any (every warning; doubts is the same); the output is "
              "still written. Notes (bore_not_seen, axis_not_measured, ...: why a value is null) never fail a run "
              "and are refused here. Codes: README, Output, warnings table.")(function)
-
-
-def warned(codes, selected):
-    """Whether warning ``codes`` (an iterable of strings) include one that ``--fail-on-warning`` selects.
-
-    Parameters
-    ----------
-    codes : iterable of str
-    selected : frozenset or None
-        ``--fail-on-warning``'s value.
-
-    Returns
-    -------
-    bool
-    """
-    if not selected:
-        return False
-    codes = set(codes)
-    return bool(codes) if "any" in selected else bool(codes & selected)
 
 
 def check_verbosity(quiet, verbose):
