@@ -6,6 +6,9 @@ Public API::
     detection = detect_file("scan.ply")  # or detect(load_points("scan.ply"))
     for hole in detection.holes:
         print(hole.center, hole.diameter, hole.normal)
+
+    from holecli import measure_scan  # the record holecli detect prints, checked against a spec
+    record = measure_scan("scan.ply", spec=spec, units=units).record
 """
 
 from holecli.errors import HoleCliError, LoadError, PointsError, SpecError
@@ -17,6 +20,8 @@ __all__ = [
     "Hole",
     "HoleCliError",
     "LoadError",
+    "MeasureError",
+    "Measurement",
     "Plane",
     "PointsError",
     "SpecError",
@@ -24,6 +29,7 @@ __all__ = [
     "detect",
     "detect_file",
     "load_points",
+    "measure_scan",
     "read_cloud",
 ]
 
@@ -44,4 +50,8 @@ def __getattr__(name):
         from holecli import pipeline
 
         return getattr(pipeline, name)
+    if name in ("measure_scan", "Measurement", "MeasureError"):
+        from holecli import measure
+
+        return getattr(measure, name)
     raise AttributeError(f"module 'holecli' has no attribute {name!r}")

@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from holecli import batch
+from holecli.batch import output, pool
 from holecli.batch import FileSummary, RecordWriter, ResumeError, Tally
 from holecli.errors import LoadError
 from holecli.io import save_points
@@ -210,7 +211,7 @@ def test_workers_ignore_sigint_and_have_the_pipeline_imported(scans, monkeypatch
     # The workers are forked from this process, so they see the replaced function. The parent has
     # SIGINT's default handler, as an interactive run does (a suite started in the background by a
     # shell without job control inherits SIGINT ignored, which would make the check vacuous).
-    monkeypatch.setattr(batch, "measure_record", _report_worker_signals)
+    monkeypatch.setattr(pool, "measure_record", _report_worker_signals)
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         records = list(batch.measure_all(scans * 3, OPTIONS, jobs=2))
@@ -232,7 +233,7 @@ def test_a_file_that_kills_its_worker_gets_an_error_record(scans, tmp_path, monk
             os._exit(9)
         return measure(path, options, spec, explain)
 
-    monkeypatch.setattr(batch, "measure_record", dying)
+    monkeypatch.setattr(pool, "measure_record", dying)
     records = list(batch.measure_all([scans[0], crash, scans[1], scans[2]], OPTIONS, jobs=2))
     by_file = {record["file"]: record for record in records}
     assert sorted(by_file) == sorted([*scans, crash])
@@ -245,10 +246,10 @@ def test_compressed_pcd_is_recognized_from_its_header(tmp_path):
     header = "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\nHEIGHT 1\n"
     compressed = _touch(tmp_path / "c.pcd", header + "POINTS 1\nDATA binary_compressed\n")
     plain = _touch(tmp_path / "p.pcd", header + "POINTS 1\nDATA binary\n")
-    assert batch._is_compressed_pcd(str(compressed))
-    assert not batch._is_compressed_pcd(str(plain))
-    assert not batch._is_compressed_pcd(str(tmp_path / "missing.pcd"))
-    assert not batch._is_compressed_pcd(str(_touch(tmp_path / "c.ply", "DATA binary_compressed\n")))
+    assert pool._is_compressed_pcd(str(compressed))
+    assert not pool._is_compressed_pcd(str(plain))
+    assert not pool._is_compressed_pcd(str(tmp_path / "missing.pcd"))
+    assert not pool._is_compressed_pcd(str(_touch(tmp_path / "c.ply", "DATA binary_compressed\n")))
 
 
 # --- writing and resuming ----------------------------------------------------------------------------
@@ -356,8 +357,8 @@ def test_resume_csv(tmp_path):
         ("jsonl", '[1, 2]\n', "line 1 is not a holecli batch record"),
         ("jsonl", '{"points": 3}\n', "line 1 is not a holecli batch record"),
         ("csv", "file,hole,center_x\na.ply,0,1\n", "its header is not the header of holecli batch"),
-        ("csv", ",".join(batch._SCHEMA_1_COLUMNS[:-1]) + "\na.ply,0\n", "written by holecli 0.1, without the path"),
-        ("csv", ",".join(batch._SCHEMA_1_COLUMNS) + "\na.ply,0\n", "before schema 2.0, without the provenance"),
+        ("csv", ",".join(output._SCHEMA_1_COLUMNS[:-1]) + "\na.ply,0\n", "written by holecli 0.1, without the path"),
+        ("csv", ",".join(output._SCHEMA_1_COLUMNS) + "\na.ply,0\n", "before schema 2.0, without the provenance"),
         ("csv", ",".join(BATCH_CSV_COLUMNS) + "\na.ply,0\n", "a row has 2 columns"),
         ("jsonl", b"\xff\xfe\n", "not a UTF-8 text file"),
     ],
@@ -405,8 +406,11 @@ def test_csv_summary_of_a_record_written_by_the_writer_matches_the_record():
 
 
 def test_module_does_not_import_click():
-    source = Path(batch.__file__).read_text()
-    assert "import click" not in source and "from click" not in source
+    modules = sorted(Path(batch.__file__).parent.glob("*.py"))
+    assert len(modules) > 1  # the package and its modules
+    for module in modules:
+        source = module.read_text()
+        assert "import click" not in source and "from click" not in source, module
 
 
 def test_open3d_is_imported_by_the_pool_initializer_when_a_compressed_pcd_is_in_the_batch(scans, tmp_path,
@@ -414,14 +418,14 @@ def test_open3d_is_imported_by_the_pool_initializer_when_a_compressed_pcd_is_in_
     header = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 30\nHEIGHT 1\nPOINTS 30\n"
     compressed = str(_touch(tmp_path / "c.pcd", header + "DATA binary_compressed\n"))
     log = tmp_path / "initializer.log"
-    start = batch._start_worker
+    start = pool._start_worker
 
     def logged(options, spec, preload, parent, *rest):
         start(options, spec, preload, parent, *rest)
         with open(log, "a") as stream:
             stream.write(f"{','.join(preload)}\n")
 
-    monkeypatch.setattr(batch, "_start_worker", logged)
+    monkeypatch.setattr(pool, "_start_worker", logged)
     records = list(batch.measure_all([*scans, compressed] * 2, OPTIONS, jobs=2))
     assert len(records) == 8
     assert log.read_text().splitlines() == ["open3d", "open3d"]  # once per worker, not per file
@@ -465,7 +469,7 @@ def test_a_worker_killed_with_the_only_file_in_flight_is_retried_alone(scans, tm
             os.kill(os.getpid(), signal.SIGKILL)  # as the out-of-memory killer would
         return measure(path, options, spec, explain)
 
-    monkeypatch.setattr(batch, "measure_record", killed_the_first_time)
+    monkeypatch.setattr(pool, "measure_record", killed_the_first_time)
     (record,) = batch.measure_all([scans[0]], OPTIONS, jobs=1)
     assert "error" not in record and record["holes"]
 
@@ -478,7 +482,7 @@ def test_a_file_that_kills_its_worker_alone_too_gets_an_error_record(scans, monk
             os.kill(os.getpid(), signal.SIGKILL)
         return measure(path, options, spec, explain)
 
-    monkeypatch.setattr(batch, "measure_record", always_killed)
+    monkeypatch.setattr(pool, "measure_record", always_killed)
     records = {record["file"]: record for record in batch.measure_all(scans, OPTIONS, jobs=2)}
     assert sorted(records) == sorted(scans)
     assert "died twice" in records[scans[1]]["error"]
@@ -494,9 +498,10 @@ def test_workers_end_when_the_batch_process_is_killed(repo_root, scans, tmp_path
     code = (
         "import sys, time\n"
         "from holecli import batch\n"
+        "from holecli.batch import pool\n"
         "def slow(path, options, spec=None, explain=False):\n"
         "    time.sleep(300)\n"
-        "batch.measure_record = slow\n"
+        "pool.measure_record = slow\n"
         "for record in batch.measure_all(sys.argv[1:], {'method': 'robust'}, jobs=2):\n"
         "    pass\n"
     )
@@ -695,7 +700,7 @@ def _native_loop(path, options, spec=None, explain=False):
 @pytest.mark.slow
 def test_a_loop_in_native_code_is_ended_by_the_cpu_limit(scans, tmp_path, monkeypatch):
     native = str(_touch(tmp_path / "native.ply"))
-    monkeypatch.setattr(batch, "measure_record", _native_loop)
+    monkeypatch.setattr(pool, "measure_record", _native_loop)
     records = list(batch.measure_all([native, *scans], OPTIONS, jobs=1, file_timeout=1))
     by_file = {record["file"]: record for record in records}
     assert sorted(by_file) == sorted([native, *scans])

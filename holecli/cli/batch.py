@@ -13,16 +13,15 @@ import time
 
 import click
 
-from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_BROKEN_PIPE, EXIT_FILE_FAILED, EXIT_INPUT,
-                               EXIT_INTERRUPTED, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_UNDECIDED, EXIT_USAGE,
-                               EXIT_WARNING, Failure, broken_pipe, run_guarded, write_stdout)
+from holecli.cli.exits import (BATCH_EXIT_CODES_HELP, EXIT_BROKEN_PIPE, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_USAGE, Failure,
+                               broken_pipe, exit_code, run_guarded, write_stdout)
 from holecli.cli.options import (Decimal, check_verbosity, decision_from_options, detection_option_decorators, detection_options,
                                  columns_option, fail_on_warning_option, input_format_option,
                                  inspection_from_options, nominal_from_options, read_spec,
                                  require_gauge_depth,
                                  reading_option_decorators, refuse_same_files, registration_option_decorators,
                                  tolerance_option_decorators,
-                                 unit_choice, verbosity_option_decorators, warned, with_decision)
+                                 unit_choice, verbosity_option_decorators, with_decision)
 from holecli.cli.options import check_fields, fields_option
 from holecli.cli.progress import BatchDisplay, batch_summary, verbose_text
 from holecli.errors import LoadError
@@ -80,37 +79,6 @@ class StopRequests:
             interrupts.record(number)
             raise KeyboardInterrupt
         self.signal = number
-
-
-def batch_exit_code(tally, fail_on_warning=None):
-    """The exit code of a batch from its counts, by the documented precedence.
-
-    Parameters
-    ----------
-    tally : holecli.batch.Tally
-        The counts of every file of the batch.
-    fail_on_warning : frozenset, optional
-        ``--fail-on-warning``.
-
-    Returns
-    -------
-    int
-        :data:`EXIT_OUT_OF_TOLERANCE`, else :data:`EXIT_UNDECIDED` (a hole with an undecided check and
-        none failed, ``--decision-rule guarded``), else :data:`EXIT_FILE_FAILED`, else
-        :data:`EXIT_WARNING` (a hole has a warning that ``fail_on_warning`` selects), else
-        :data:`EXIT_NO_HOLE`, else :data:`EXIT_OK` (an interrupt, 130, is decided by :func:`run_batch`).
-    """
-    if tally.out_of_tolerance or tally.missing:
-        return EXIT_OUT_OF_TOLERANCE
-    if tally.undecided:
-        return EXIT_UNDECIDED
-    if tally.failed:
-        return EXIT_FILE_FAILED
-    if warned(tally.warning_codes, fail_on_warning):
-        return EXIT_WARNING
-    if tally.without_hole:
-        return EXIT_NO_HOLE
-    return EXIT_OK
 
 
 def unit_lines(record):
@@ -391,7 +359,7 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
     verbose : bool
         ``--verbose``: the scales and stage times of every file (:func:`verbose_text`).
     fail_on_warning : frozenset, optional
-        ``--fail-on-warning`` (see :func:`batch_exit_code`).
+        ``--fail-on-warning`` (see :func:`holecli.cli.exits.exit_code`).
     plots : dict, optional
         ``--plot``: ``{file: PNG}`` of the files to draw (:func:`holecli.batch.plot_files`), drawn
         where each is measured.
@@ -408,7 +376,7 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         The exit code: :data:`EXIT_INTERRUPTED` when a signal stopped the run before its end,
         :data:`EXIT_BROKEN_PIPE` when the reader of the output went away (the run stops as when
         interrupted: the workers are ended, the records written so far are whole), else
-        :func:`batch_exit_code`.
+        :func:`holecli.cli.exits.exit_code`.
 
     Raises
     ------
@@ -498,4 +466,4 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
                            if output else ""), error=True)
         return EXIT_INTERRUPTED
     display.message(f"holecli batch: {summary}")
-    return batch_exit_code(tally, fail_on_warning)
+    return exit_code(tally, fail_on_warning)

@@ -2,140 +2,23 @@
 
 from __future__ import annotations
 
-import errno
 import io as _stringio
-import os
 import sys
 
 import click
 
-from holecli.cli.exits import (EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_UNDECIDED,
-                               EXIT_WARNING, Failure, run_guarded, write_stdout)
-from holecli.cli.options import (INPUT_FORMATS, check_verbosity, columns_option, decision_from_options,
+from holecli.cli.exits import EXIT_CODES_HELP, EXIT_OUT_OF_TOLERANCE, EXIT_UNDECIDED, exit_code, run_guarded
+from holecli.cli.options import (check_verbosity, columns_option, decision_from_options,
                                  detection_option_decorators,
                                  detection_options, fail_on_warning_option, input_format_option, nominal_from_options,
                                  inspection_from_options, read_spec, reading_option_decorators,
                                  refuse_same_files, registration_option_decorators, require_gauge_depth,
                                  tolerance_option_decorators,
                                  unit_choice,
-                                 verbosity_option_decorators, warned, with_decision)
+                                 verbosity_option_decorators, with_decision)
 from holecli.cli.options import check_fields, fields_option
-from holecli.errors import HoleCliError
-
-
-# The SCAN that means standard input.
-STDIN = "-"
-
-
-def measure_file(path, options, scan=None):
-    """:func:`holecli.detect_file` for the command line: its errors phrased for the user.
-
-    Parameters
-    ----------
-    path : str
-        The point-cloud file; ``-`` is standard input (:func:`read_stdin`).
-    options : dict
-        Keyword arguments of :func:`holecli.detect_file`: those of :func:`holecli.detect` (see
-        :func:`detection_options`) and, with ``--input-format``, ``input_format`` (needed for
-        standard input), with ``--columns``, ``columns``.
-    scan : int, optional
-        ``--scan``: the scan of an E57 file (default: every scan).
-
-    Returns
-    -------
-    Detection
-        The detection, with ``file`` and ``dropped_points`` filled in.
-
-    Raises
-    ------
-    Failure
-        With the input-error code, when the file cannot be read or its points cannot be measured
-        (the message of :func:`holecli.batch.failure_message`, as ``holecli batch`` records it).
-    """
-    from holecli.batch import failure_message
-    from holecli.io import STDIN_NAME
-    from holecli.pipeline import detect_file
-
-    try:
-        if path == STDIN:
-            return measure_stdin(options, scan)[0]
-        return detect_file(path, **({} if scan is None else {"scan": scan}), **options)
-    except HoleCliError as error:
-        raise Failure(failure_message(STDIN_NAME if path == STDIN else path, error), EXIT_INPUT) from None
-
-
-def measure_stdin(options, scan=None):
-    """Read the cloud on standard input (:func:`read_stdin`, with ``options["input_format"]``) and find
-    its holes: :func:`holecli.pipeline.read_and_detect`, as :func:`holecli.detect_file` does a file's.
-
-    Returns
-    -------
-    detection : Detection
-    cloud : holecli.io.Cloud
-
-    Raises
-    ------
-    HoleCliError
-        When it cannot be read or measured.
-    """
-    from holecli.pipeline import read_and_detect
-
-    options = dict(options)
-    input_format = options.pop("input_format")
-    columns = options.pop("columns", None)
-    return read_and_detect(lambda: read_stdin(input_format, scan, columns), scan=scan, input_format=input_format,
-                           columns=columns, **options)
-
-
-def check_stdin_format(scan, input_format):
-    """Refuse SCAN ``-`` (standard input) without ``--input-format``: a stream has no extension.
-
-    Raises
-    ------
-    click.UsageError
-    """
-    if scan == STDIN and input_format is None:
-        raise click.UsageError(f"SCAN - (stdin) needs --input-format {'|'.join(INPUT_FORMATS)}: "
-                               "a stream has no extension to tell its format")
-
-
-def read_stdin(input_format, scan=None, columns=None):
-    """The cloud on standard input (``holecli detect -``), read by :func:`holecli.io.read_stream`.
-
-    Parameters
-    ----------
-    input_format : str
-        ``--input-format``.
-    scan : int, optional
-        ``--scan`` (an E57 stream's scan).
-    columns : tuple, optional
-        ``--columns`` (a text table's x, y, z columns).
-
-    Returns
-    -------
-    holecli.io.Cloud
-        Named ``<stdin>``.
-
-    Raises
-    ------
-    LoadError
-        When stdin is a terminal (nothing is piped in: reading would wait for typing), is too long
-        (:data:`holecli.io.MAX_STREAM_BYTES`) or holds no valid cloud of the format.
-    """
-    from holecli.errors import LoadError
-    from holecli.io import STDIN_NAME, read_stream
-
-    stream = getattr(sys.stdin, "buffer", sys.stdin)  # the bytes: binary PLY and PCD
-    if stream is None:  # started with stdin closed (<&-)
-        raise LoadError(STDIN_NAME, "closed: there is no standard input to read")
-    try:
-        terminal = os.isatty(stream.fileno())
-    except (OSError, ValueError):  # no descriptor (a test's stream): not a terminal
-        terminal = False
-    if terminal:
-        raise LoadError(STDIN_NAME, f"is a terminal: pipe or redirect a cloud into it "
-                                    f"(holecli detect - --input-format {input_format} < scan.{input_format})")
-    return read_stream(stream, input_format, scan=scan, columns=columns)
+from holecli.cli.outputs import write_outputs
+from holecli.cli.source import check_stdin_format, measure
 
 
 def render(records, fmt, fields=None):
@@ -715,86 +598,6 @@ def undecided_line(record):
             f"({rule}: conformance not proved) in {record['file']}")
 
 
-def record_warned(record, selected):
-    """Whether a hole of ``record`` has a warning that ``--fail-on-warning`` (``selected``) names."""
-    return any(warned((w["code"] for w in hole.get("warnings", ())), selected) for hole in record.get("holes", ()))
-
-
-def emit(text, output, what="output"):
-    """Write ``text`` to stdout, or to the ``--output`` file: :func:`write_outputs` with one output.
-
-    Parameters
-    ----------
-    text : str
-        The whole output.
-    output : str or None
-        None or ``-`` for stdout; else a file (see :func:`write_outputs`).
-    what : str
-        What it is, for the error message (``cannot write output``).
-
-    Returns
-    -------
-    None
-
-    Raises
-    ------
-    Failure
-        With the input/output code, when the output cannot be written.
-    """
-    write_outputs([(output, text, what)])
-
-
-def write_outputs(outputs):
-    """Write every output of a run, all or none (:class:`holecli.io.outfile.Outputs`).
-
-    Every file is first written whole into a temporary next to it; only when all of them are, and
-    every device or FIFO is open (one without a reader is refused), do the streams get their data
-    (stdout first, as given) and the temporaries replace their files. A failure anywhere replaces no
-    file and prints nothing: an earlier result stays as it was.
-
-    Parameters
-    ----------
-    outputs : list of (str or None, str or bytes, str)
-        ``(path, content, what)``: the path (None or ``-``: stdout; a regular file, new path,
-        symbolic link, device or FIFO as :func:`holecli.io.outfile.write_bytes` takes it); the
-        content (text is written as UTF-8); what it is, for the error message (``"output"``,
-        ``"the plot"``, ``"the corrected targets"``).
-
-    Returns
-    -------
-    None
-
-    Raises
-    ------
-    Failure
-        With the input/output code, ``PATH: cannot write WHAT: <why>``, when an output cannot be
-        written (stdout: see :func:`holecli.cli.exits.write_stdout`).
-    BrokenPipeError
-        When the reader of stdout or of a FIFO went away (handled by :func:`run_guarded`: 141).
-    """
-    from holecli.io.outfile import STDOUT, Outputs
-
-    def to_stdout(payload):
-        write_stdout(payload.decode("utf-8", "surrogateescape"))
-
-    what_of = {}
-    with Outputs(write_stdout=to_stdout) as transaction:
-        try:
-            for path, content, what in outputs:
-                path = STDOUT if path is None else path
-                what_of.setdefault(path, what)
-                payload = content.encode("utf-8", "surrogateescape") if isinstance(content, str) else content
-                transaction.add(path, payload)
-            transaction.commit()
-        except BrokenPipeError as error:  # a FIFO whose reader went away (see run_guarded)
-            raise BrokenPipeError(errno.EPIPE, os.strerror(errno.EPIPE), error.filename) from None
-        except OSError as error:
-            path = error.filename if error.filename in what_of else None
-            shown = path if path is not None else (error.filename or "output")
-            raise Failure(f"{shown}: cannot write {what_of.get(path, 'output')}: {error.strerror or error}",
-                          EXIT_INPUT) from None
-
-
 @click.command(epilog=EXIT_CODES_HELP)
 @click.argument("scan", type=click.Path(allow_dash=True, path_type=str))
 @input_format_option("Read SCAN in this format, whatever its extension (scan.asc as xyz); needed for - (stdin).")
@@ -897,37 +700,26 @@ def detect(scan, input_format, columns, fmt, fields, output, plot_file, explain,
         require_gauge_depth(spec, gauge_depth, spec_file)
         inspection = inspection_from_options(spec, spec_file, registration_file, name_pairs, [scan])
         if plot_file is not None:
-            from holecli.cli.plot import measure_with_points, plot_destination, require_matplotlib
+            from holecli.cli.plot import plot_destination, require_matplotlib
 
             require_matplotlib()  # before the detection: a missing extra is said at once
             plot_path = plot_destination(plot_file, scan)  # and a folder that cannot be made
         with DetectStatus(scan, quiet=quiet) as status:
             run_options = {**options, "progress": status.stage} if status.shown else options
-            if plot_file is None:
-                detection = measure_file(scan, run_options, scan_index)
-            else:
-                detection, points = measure_with_points(scan, run_options, scan_index)
-        refused.extend(rejection.check for rejection in detection.rejected)
-        # in the output unit before the check: tolerances are in it too
-        record = choice.express(detection.to_dict(explain=explain), detection.units)
+            measurement = measure(scan, run_options, scan_index, units=choice, spec=inspection, explain=explain,
+                                  plot=plot_file is not None)
+        record = measurement.record
+        refused.extend(rejection.check for rejection in measurement.detection.rejected)
         if spec is not None:
-            from holecli.inspection import Inspection, check_record
             from holecli.tolerance import far_from_spec, unit_scale_match
 
-            try:
-                record = check_record(record, inspection, scan)
-            except HoleCliError as error:  # a scan tied to a hole (--name) that holds several
-                raise Failure(str(error), EXIT_INPUT) from None
-            mapped = inspection.spec_for(record.get("units")) if isinstance(inspection, Inspection) else spec
-            far.append(far_from_spec(record, mapped))
-            scaled.append(unit_scale_match(record, mapped))
+            far.append(far_from_spec(record, measurement.spec))
+            scaled.append(unit_scale_match(record, measurement.spec))
         outputs = [(output, render([record], fmt, fields), "output")]
         if plot_file is not None:
             from holecli.cli.plot import PLOT_WHAT, plot_png
 
-            outputs.append((plot_path, plot_png(detection, points, unit=choice.file,
-                                                checked=record["holes"] if spec is not None else None,
-                                                checked_unit=record.get("units")), PLOT_WHAT))
+            outputs.append((plot_path, plot_png(measurement), PLOT_WHAT))
         # the record and the picture together: when either cannot be written, neither is
         write_outputs(outputs)
         return record
@@ -950,10 +742,11 @@ def detect(scan, input_format, columns, fmt, fields, output, plot_file, explain,
         why = refused_summary(refused, explain) if method == "robust" else ""  # (the paper's has no candidates)
         click.echo(f"holecli: no hole found in {record['file']}{why}{min_diameter_hint(record, min_diameter)}",
                    err=True)
+    from holecli.batch import Tally
+
+    code = exit_code(Tally.of([record]), fail_on_warning)
     verdict = record.get("verdict")
-    if verdict is not None and (verdict["out_of_tolerance"] or verdict["missing"]):
-        if quiet:
-            sys.exit(EXIT_OUT_OF_TOLERANCE)
+    if code == EXIT_OUT_OF_TOLERANCE and not quiet:
         missing = f", missing: {', '.join(str(name) for name in verdict['missing'])}" if verdict["missing"] else ""
         not_measured = sum(any(check.endswith("_not_measured") for check in hole.get("failed_checks") or ())
                            for hole in record["holes"])
@@ -970,11 +763,6 @@ def detect(scan, input_format, columns, fmt, fields, output, plot_file, explain,
         click.echo(f"holecli: out of tolerance: {verdict['out_of_tolerance']} of {verdict['checked']} checked "
                    f"holes{unmeasured}{undecided}{missing} in {record['file']}{hint}{unit_mismatch_hint(record)}",
                    err=True)
-        sys.exit(EXIT_OUT_OF_TOLERANCE)
-    if verdict is not None and verdict["undecided"]:
-        if not quiet:
-            click.echo(undecided_line(record), err=True)
-        sys.exit(EXIT_UNDECIDED)
-    if record_warned(record, fail_on_warning):
-        sys.exit(EXIT_WARNING)
-    sys.exit(EXIT_OK if record["holes"] else EXIT_NO_HOLE)
+    if code == EXIT_UNDECIDED and not quiet:
+        click.echo(undecided_line(record), err=True)
+    sys.exit(code)

@@ -71,6 +71,59 @@ BATCH_EXIT_CODES_HELP = (
 )
 
 
+def warned(codes, selected):
+    """Whether warning ``codes`` (an iterable of strings) include one that ``--fail-on-warning`` selects.
+
+    Parameters
+    ----------
+    codes : iterable of str
+    selected : frozenset or None
+        ``--fail-on-warning``'s value.
+
+    Returns
+    -------
+    bool
+    """
+    if not selected:
+        return False
+    codes = set(codes)
+    return bool(codes) if "any" in selected else bool(codes & selected)
+
+
+def exit_code(tally, fail_on_warning=None):
+    """The exit code of a command from the counts of its records, by the documented precedence: the one
+    place that derives it, for ``detect``, ``batch``, ``plot`` and ``register``.
+
+    Parameters
+    ----------
+    tally : holecli.batch.Tally
+        The counts of every record of the command (one record for ``detect`` and ``plot``; for
+        ``register`` a failed verdict counts as out of tolerance, an outlier or inconsistent holes as
+        undecided).
+    fail_on_warning : frozenset, optional
+        ``--fail-on-warning``.
+
+    Returns
+    -------
+    int
+        :data:`EXIT_OUT_OF_TOLERANCE`, else :data:`EXIT_UNDECIDED` (a hole with an undecided check and
+        none failed, ``--decision-rule guarded``), else :data:`EXIT_FILE_FAILED`, else
+        :data:`EXIT_WARNING` (a hole has a warning that ``fail_on_warning`` selects), else
+        :data:`EXIT_NO_HOLE`, else :data:`EXIT_OK` (an interrupt, 130, is decided by the command).
+    """
+    if tally.out_of_tolerance or tally.missing:
+        return EXIT_OUT_OF_TOLERANCE
+    if tally.undecided:
+        return EXIT_UNDECIDED
+    if tally.failed:
+        return EXIT_FILE_FAILED
+    if warned(tally.warning_codes, fail_on_warning):
+        return EXIT_WARNING
+    if tally.without_hole:
+        return EXIT_NO_HOLE
+    return EXIT_OK
+
+
 class Failure(Exception):
     """A failure already phrased for the user: ``Error: <message>`` and an exit code."""
 

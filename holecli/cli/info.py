@@ -91,7 +91,7 @@ def info(scan, input_format, columns, units, fmt, quiet, verbose):
       holecli info scan.csv --columns x_mm,y_mm,z_mm
       holecli info scan.asc --input-format xyz
     """
-    from holecli.cli.detect import STDIN, check_stdin_format
+    from holecli.cli.source import STDIN, check_stdin_format
 
     check_verbosity(quiet, verbose)
     check_stdin_format(scan, input_format)
@@ -99,13 +99,13 @@ def info(scan, input_format, columns, units, fmt, quiet, verbose):
     def body():
         import os
 
-        from holecli.batch import failure_message
+        from holecli.measure import failure_message
         from holecli.io import STDIN_NAME, read_cloud
         from holecli.io.info import describe_cloud, file_fields
 
         try:
             if scan == STDIN:
-                from holecli.cli.detect import read_stdin
+                from holecli.cli.source import read_stdin
 
                 cloud = read_stdin(input_format, columns=columns)
                 fields = None if cloud.columns is None or cloud.columns.header is None else list(cloud.columns.header)

@@ -1,102 +1,37 @@
-"""Parameter types and the options that ``holecli detect`` and ``holecli batch`` share.
+"""The options that ``holecli detect`` and ``holecli batch`` share (their parameter types are in
+:mod:`holecli.cli.types`, the spec and registration files they read in :mod:`holecli.cli.files`; both
+are imported here, so that a command takes its options from one place).
 
-* :class:`FloatTuple`, :class:`Decimal` and :class:`ToleranceBand`: the strict number types of every
-  command's options;
 * the detection options (``--method``, ``--view-dir``, ...): :func:`detection_option_decorators` and
   their ``detect`` keyword arguments, :func:`detection_options`;
 * the tolerance options (``--nominal-diameter``, ``--spec``, ...): :func:`tolerance_option_decorators`,
-  :func:`nominal_from_options` and :func:`read_spec`;
+  :func:`nominal_from_options` (and :func:`holecli.cli.files.read_spec`);
 * ``--input-format``: :func:`input_format_option`; ``--columns``: :func:`columns_option`.
 * ``--quiet`` and ``--verbose`` of every command: :func:`verbosity_option_decorators`.
-* ``--fail-on-warning`` of ``detect`` and ``batch``: :func:`fail_on_warning_option`, :func:`warned`.
+* ``--fail-on-warning`` of ``detect`` and ``batch``: :func:`fail_on_warning_option` (:func:`holecli.cli.exits.warned` tests it).
 * ``--decision-rule`` and ``--coverage-factor`` (with the tolerance options): :func:`decision_from_options`,
   :func:`with_decision`.
 * the output options of every command (``--output``, ``--plot``, ``--targets-output``):
-  :func:`refuse_same_files`, which keeps an output from replacing an input or another output.
+  :func:`holecli.cli.files.refuse_same_files`, which keeps an output from replacing an input or another output.
 
 Nothing heavy is imported at module level: ``holecli --help`` builds these options.
 """
 
 from __future__ import annotations
 
-import math
 import os
 
 import click
 
-from holecli.cli.exits import EXIT_INPUT, EXIT_USAGE, Failure
+from holecli.cli.exits import EXIT_USAGE, Failure
+# (the commands take their option pieces from here: the types and files are imported for them too)
+from holecli.cli.files import (MAX_SPEC_BYTES, read_registration, read_small_bytes, read_small_text,  # noqa: F401
+                               read_spec, refuse_same_files)
+from holecli.cli.types import Columns, CsvFields, Decimal, FloatTuple, HoleTie, ToleranceBand, WarningCodes  # noqa: F401
 from holecli.errors import SpecError
 # The formats of --input-format and the values of --decision-rule (standard library only: building
 # the options imports neither the readers nor numpy).
-from holecli.vocabulary import DECISION_RULES, DOUBT_CODES, INPUT_FORMATS, NOTE_CODES, UNIT_MISMATCH, WARNING_CODES
-
-
-class FloatTuple(click.ParamType):
-    """Comma-separated numbers, e.g. ``0,0,1`` (spaces allowed)."""
-
-    def __init__(self, count, names):
-        self.count = count
-        self.name = names
-
-    def convert(self, value, param, ctx):
-        if isinstance(value, tuple):
-            return value
-        from holecli.io.decimal_text import parse_decimal
-
-        parts = [part.strip() for part in str(value).split(",")]
-        try:
-            numbers = tuple(parse_decimal(part) for part in parts)
-        except ValueError:
-            self.fail(f"expected {self.count} comma-separated numbers ({self.name}), got {value!r}", param, ctx)
-        if len(numbers) != self.count:  # (parse_decimal refuses infinities)
-            self.fail(f"expected {self.count} comma-separated finite numbers ({self.name}), got {value!r}",
-                      param, ctx)
-        return numbers
-
-
-class Decimal(click.FloatRange):
-    """A plain ASCII decimal number, optionally within a range (click's FloatRange, without the
-    leniency of ``float``: no ``1_0``, no non-ASCII digits, no ``inf`` or ``nan``).
-
-    ``hint``, when given, is added to the message for text that is not a number (``"give its
-    tolerance with --countersink-angle-tolerance"`` for ``--countersink-angle "100 +/- 1"``)."""
-
-    name = "decimal"
-
-    def __init__(self, *args, hint=None, **kwargs):
-        super().__init__(*args, **kwargs)
-        self.hint = hint
-
-    def convert(self, value, param, ctx):
-        from holecli.io.decimal_text import is_decimal
-
-        if isinstance(value, str) and not is_decimal(value.strip()):
-            self.fail(f"{value!r} is not a plain decimal number" + (f" ({self.hint})" if self.hint else ""),
-                      param, ctx)
-        number = super().convert(value.strip() if isinstance(value, str) else value, param, ctx)
-        if isinstance(number, float) and not math.isfinite(number):  # "1e400": a decimal, but no float holds it
-            self.fail(f"{value!r} is too large", param, ctx)
-        return number
-
-
-class ToleranceBand(click.ParamType):
-    """A tolerance: ``T`` (symmetric) or ``+U/-L`` (signed upper/lower deviation), see
-    :func:`holecli.tolerance.parse_band`."""
-
-    name = "T|+U/-L"
-
-    def convert(self, value, param, ctx):
-        from holecli.errors import SpecError
-        from holecli.tolerance import Band, parse_band
-
-        if isinstance(value, Band):
-            return value
-        try:
-            return parse_band(value)
-        except SpecError as error:
-            self.fail(str(error), param, ctx)
-
-
+from holecli.vocabulary import DECISION_RULES, INPUT_FORMATS
 
 
 def input_format_option(help_text):
@@ -115,22 +50,6 @@ def input_format_option(help_text):
     """
     return click.option("--input-format", type=click.Choice(INPUT_FORMATS, case_sensitive=False), default=None,
                         help=help_text)
-
-
-class Columns(click.ParamType):
-    """``--columns X,Y,Z``: three header names or 0-based indices (:func:`holecli.io.text.parse_columns`)."""
-
-    name = "X,Y,Z"
-
-    def convert(self, value, param, ctx):
-        if isinstance(value, tuple):
-            return value
-        from holecli.io.text import parse_columns
-
-        try:
-            return parse_columns(value)
-        except ValueError as error:
-            self.fail(str(error), param, ctx)
 
 
 # What --columns says in every command's help.
@@ -313,39 +232,6 @@ def verbosity_option_decorators(function):
     return _applied(options, function)
 
 
-class WarningCodes(click.ParamType):
-    """``--fail-on-warning``'s value: ``any`` (every warning), or comma-separated warning codes
-    (docs/reference/warnings.md), ``doubts`` standing for every warning code
-    (:data:`holecli.vocabulary.DOUBT_CODES` and :data:`holecli.vocabulary.WARNING_CODES`: since schema 2.2
-    every warning is a doubt).
-
-    A note code (:data:`holecli.vocabulary.NOTE_CODES`: why a value is null) is refused: notes
-    never fail a run, and a code that would silently select nothing must not pass for a check. A value
-    that must be measured is checked with a tolerance instead (a value not measured fails it)."""
-
-    name = "CODE[,CODE...]|doubts|any"
-
-    def convert(self, value, param, ctx):
-        if isinstance(value, frozenset) or value is None:
-            return value
-        known = [*WARNING_CODES, *DOUBT_CODES, UNIT_MISMATCH]
-        codes = frozenset(part.strip() for part in str(value).split(",") if part.strip())
-        if codes == {"any"}:
-            return codes
-        if "doubts" in codes:
-            codes = (codes - {"doubts"}) | frozenset(known)
-        notes = sorted(codes & set(NOTE_CODES))
-        if notes:
-            self.fail(f"{', '.join(notes)}: a note (why a value is null), not a warning: --fail-on-warning acts "
-                      f"on warnings only (a result that may be wrong). To require the value, check it with a "
-                      f"tolerance option or --spec: a check of a value not measured fails (exit 5)", param, ctx)
-        unknown = sorted(codes - set(known))
-        if not codes or unknown:
-            self.fail(f"{', '.join(unknown) or repr(value)}: not a warning code (known: any, doubts, "
-                      f"{', '.join(known)})", param, ctx)
-        return codes
-
-
 def fail_on_warning_option(function):
     """``--fail-on-warning CODE[,CODE...]|doubts|any``: a hole with one of these warnings makes the run end
     with :data:`holecli.cli.exits.EXIT_WARNING` (the output is still written).
@@ -366,25 +252,6 @@ def fail_on_warning_option(function):
              "codes (e.g. rim_gap,points_inside), or any (every warning; doubts is the same); the output is "
              "still written. Notes (bore_not_seen, axis_not_measured, ...: why a value is null) never fail a run "
              "and are refused here. Codes: docs/reference/warnings.md.")(function)
-
-
-def warned(codes, selected):
-    """Whether warning ``codes`` (an iterable of strings) include one that ``--fail-on-warning`` selects.
-
-    Parameters
-    ----------
-    codes : iterable of str
-    selected : frozenset or None
-        ``--fail-on-warning``'s value.
-
-    Returns
-    -------
-    bool
-    """
-    if not selected:
-        return False
-    codes = set(codes)
-    return bool(codes) if "any" in selected else bool(codes & selected)
 
 
 def check_verbosity(quiet, verbose):
@@ -623,204 +490,6 @@ def nominal_from_options(spec_file=None, **options):
         raise click.UsageError(str(error)) from None
 
 
-# A spec file lists a part's holes, a panel spec a part's features: a few kB. Anything much larger is
-# not one of them.
-MAX_SPEC_BYTES = 16 << 20
-
-
-def read_spec(path):
-    """The :class:`holecli.tolerance.Spec` of a spec file.
-
-    Parameters
-    ----------
-    path : str
-        The ``--spec`` TOML file.
-
-    Returns
-    -------
-    holecli.tolerance.Spec
-        With ``sha256``, the SHA-256 of the file's bytes as read.
-
-    Raises
-    ------
-    Failure
-        With the input-error code, when the file cannot be read (see :func:`read_small_text`) or is
-        not a valid spec.
-    """
-    import dataclasses
-    import hashlib
-
-    from holecli.tolerance import parse_spec
-
-    data = read_small_bytes(path, "a spec")
-    text = _utf8(path, data)
-    try:
-        spec = parse_spec(text, source=path)
-    except SpecError as error:
-        raise Failure(f"{path}: {error}", EXIT_INPUT) from None
-    # the provenance of the record: the SHA-256 of the very bytes that were parsed
-    return dataclasses.replace(spec, sha256=hashlib.sha256(data).hexdigest())
-
-
-def read_small_text(path, what):
-    """The UTF-8 text of ``path``, a small TOML file (:func:`read_small_bytes`, decoded).
-
-    Parameters
-    ----------
-    path : str
-        The file.
-    what : str
-        What it should be, for messages: ``"a spec"``, ``"a panel spec"``.
-
-    Returns
-    -------
-    str
-
-    Raises
-    ------
-    Failure
-        With the input-error code, when the file is not a regular file, is too large, cannot be
-        read or is not UTF-8.
-    """
-    return _utf8(path, read_small_bytes(path, what))
-
-
-def _utf8(path, data):
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError:
-        raise Failure(f"{path}: not a UTF-8 text file", EXIT_INPUT) from None
-
-
-def read_small_bytes(path, what):
-    """The bytes of ``path``, a small TOML file.
-
-    Only a regular file of at most :data:`MAX_SPEC_BYTES` is read (never a device such as
-    ``/dev/zero``, a FIFO, which would block, or a folder).
-
-    Parameters
-    ----------
-    path : str
-        The file.
-    what : str
-        What it should be, for messages: ``"a spec"``, ``"a panel spec"``.
-
-    Returns
-    -------
-    bytes
-
-    Raises
-    ------
-    Failure
-        With the input-error code, when the file is not a regular file, is too large or cannot be
-        read.
-    """
-    import stat
-
-    from holecli.io import file_kind
-
-    try:
-        status = os.stat(path)
-        if not stat.S_ISREG(status.st_mode):
-            raise Failure(f"{path}: not a regular file ({file_kind(status.st_mode)}): {what} must be a TOML file",
-                          EXIT_INPUT)
-        if status.st_size > MAX_SPEC_BYTES:
-            raise Failure(f"{path}: {status.st_size} bytes is too large for {what} file "
-                          f"(at most {MAX_SPEC_BYTES} bytes)", EXIT_INPUT)
-        with open(path, "rb") as stream:
-            data = stream.read(MAX_SPEC_BYTES + 1)
-    except OSError as error:
-        raise Failure(f"{path}: cannot read: {error.strerror or error}", EXIT_INPUT) from None
-    if len(data) > MAX_SPEC_BYTES:
-        raise Failure(f"{path}: too large for {what} file (more than {MAX_SPEC_BYTES} bytes)", EXIT_INPUT)
-    return data
-
-
-def refuse_same_files(inputs, outputs):
-    """Refuse a run whose output is the same file as one of its inputs or as another output.
-
-    Writing it would replace the input the run is reading (``--targets-output`` over ``--targets``,
-    ``-o`` over ``--spec``, ``--plot`` over the scan), or write two outputs into one file, the second
-    over the first. Same file means the same resolved path (symbolic links followed, also one that
-    does not exist yet), or, when both exist, the same device and inode (hard links). A character
-    device (``/dev/null``) is no file that can be replaced: it may take any number of outputs.
-
-    Parameters
-    ----------
-    inputs : iterable of (str, str or None)
-        ``(what, path)`` of the files the run reads, ``what`` as the user named it (``"SCAN"``,
-        ``"--spec"``); None and ``-`` (stdin) are skipped.
-    outputs : iterable of (str, str or None)
-        ``(what, path)`` of the files it writes (``"-o/--output"``, ``"--plot"``); None and ``-``
-        (stdout) are skipped.
-
-    Returns
-    -------
-    None
-
-    Raises
-    ------
-    Failure
-        With the usage code (2), naming both: ``--plot scan.ply is the same file as SCAN scan.ply
-        (an output never replaces an input)``.
-    """
-    inputs = [(what, path) for what, path in inputs if path not in (None, "-")]
-    outputs = [(what, path) for what, path in outputs if path not in (None, "-") and not _is_device(path)]
-    for index, (what, path) in enumerate(outputs):
-        for input_what, input_path in inputs:
-            if _same_file(path, input_path):
-                raise Failure(f"{what} {path} is the same file as {input_what} {input_path} "
-                              "(an output never replaces an input)", EXIT_USAGE)
-        for other_what, other_path in outputs[:index]:
-            if _same_file(path, other_path):
-                raise Failure(f"{other_what} {other_path} and {what} {path} are the same file "
-                              "(each output needs a file of its own)", EXIT_USAGE)
-
-
-def _same_file(first, second):
-    """Whether two paths name one file: the same device and inode when both exist, else the same
-    resolved path."""
-    try:
-        return os.path.samestat(os.stat(first), os.stat(second))
-    except (OSError, ValueError):
-        pass
-    try:
-        return os.path.realpath(first) == os.path.realpath(second)
-    except (OSError, ValueError):
-        return False
-
-
-def _is_device(path):
-    import stat
-
-    try:
-        return stat.S_ISCHR(os.stat(path).st_mode)
-    except (OSError, ValueError):
-        return False
-
-
-class HoleTie(click.ParamType):
-    """``--name SCAN=HOLE`` of ``detect`` and ``batch`` (``(SCAN, HOLE)``); a plain ``HOLE`` (``(None,
-    HOLE)``: detect's one scan) when ``plain`` is allowed."""
-
-    name = "SCAN=HOLE"
-
-    def __init__(self, plain=False):
-        self.plain = plain
-
-    def convert(self, value, param, ctx):
-        if isinstance(value, tuple):
-            return value
-        scan, sep, hole = str(value).rpartition("=")
-        if sep and scan and hole:
-            return scan, hole
-        if not sep and hole and self.plain:
-            return None, hole
-        expected = "SCAN=HOLE or HOLE" if self.plain else "SCAN=HOLE"
-        self.fail(f"{value!r}: expected {expected} (a scan as given, its file name or stem; a hole name of "
-                  "the spec)", param, ctx)
-
-
 def registration_option_decorators(plain_name):
     """``--registration FILE`` and ``--name`` of ``detect`` (``plain_name``: ``--name HOLE`` too) and
     ``batch``.
@@ -845,41 +514,6 @@ def registration_option_decorators(plain_name):
                           "Needs --spec."),
     ]
     return lambda function: _applied(options, function)
-
-
-def read_registration(path):
-    """The registration of ``holecli register``'s JSON result, and the record's provenance of it.
-
-    Returns
-    -------
-    registration : holecli.registration.apply.LoadedRegistration
-    provenance : dict
-        ``file``, ``sha256`` (of its bytes), ``spec_file``, ``spec_sha256`` (the spec it was fitted
-        to), ``verdict``, ``free_dofs``.
-
-    Raises
-    ------
-    Failure
-        With the input-error code, ``FILE: ...``, when it cannot be read, is not JSON or not a
-        registration.
-    """
-    import hashlib
-    import json
-
-    from holecli.registration import RegistrationError
-    from holecli.registration.apply import parse_registration
-
-    data = read_small_bytes(path, "a registration")
-    try:
-        registration = parse_registration(json.loads(_utf8(path, data)))
-    except json.JSONDecodeError as error:
-        raise Failure(f"{path}: not a registration (holecli register's JSON): {error}", EXIT_INPUT) from None
-    except RegistrationError as error:
-        raise Failure(f"{path}: {error}", EXIT_INPUT) from None
-    provenance = {"file": path, "sha256": hashlib.sha256(data).hexdigest(), "spec_file": registration.spec_file,
-                  "spec_sha256": registration.spec_sha256, "verdict": registration.verdict,
-                  "free_dofs": list(registration.free_dofs)}
-    return registration, provenance
 
 
 def inspection_from_options(spec, spec_file, registration_file, name_pairs, scans=None):
@@ -924,33 +558,6 @@ def inspection_from_options(spec, spec_file, registration_file, name_pairs, scan
     if registration_file is not None:
         registration, provenance = read_registration(registration_file)
     return Inspection(spec, registration, provenance, tuple(name_pairs))
-
-
-class CsvFields(click.ParamType):
-    """``--fields``'s value: comma-separated CSV column names (:func:`holecli.report.csv_fields`), kept in
-    the order given. A name that is not a column is refused with the list of the valid ones.
-
-    Parameters
-    ----------
-    batch : bool
-        Whether the columns are ``holecli batch``'s (:data:`holecli.report.BATCH_CSV_COLUMNS`, with
-        ``error`` and ``path``) rather than ``detect``'s.
-    """
-
-    name = "FIELD[,FIELD...]"
-
-    def __init__(self, batch=False):
-        self.batch = batch
-
-    def convert(self, value, param, ctx):
-        if isinstance(value, tuple) or value is None:
-            return value
-        from holecli.report import BATCH_CSV_COLUMNS, CSV_COLUMNS, csv_fields
-
-        try:
-            return csv_fields(str(value), BATCH_CSV_COLUMNS if self.batch else CSV_COLUMNS)
-        except ValueError as error:
-            self.fail(str(error), param, ctx)
 
 
 def fields_option(batch=False):

@@ -1,6 +1,6 @@
 """``holecli plot``: draw the holes of one scan into a PNG (matplotlib, the optional extra ``plot``).
 
-Also the ``--plot FILE.png|DIR/`` of ``holecli detect`` (:func:`write_plot`, :func:`plot_destination`)
+Also the ``--plot FILE.png|DIR/`` of ``holecli detect`` (:func:`plot_png`, :func:`plot_destination`)
 and the plot folder of ``holecli batch --plot`` (:func:`make_plot_folder`). matplotlib is imported
 here only when a picture is drawn: ``holecli detect`` and ``holecli batch`` without ``--plot`` never
 import it.
@@ -12,11 +12,12 @@ import os
 
 import click
 
-from holecli.cli.exits import EXIT_CODES_HELP, EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, Failure, run_guarded
+from holecli.cli.exits import EXIT_CODES_HELP, EXIT_INPUT, Failure, exit_code, run_guarded
 from holecli.cli.options import (check_verbosity, columns_option, detection_option_decorators, detection_options,
                                  input_format_option,
                                  refuse_same_files, verbosity_option_decorators)
-from holecli.errors import HoleCliError
+from holecli.cli.outputs import write_outputs
+from holecli.cli.source import STDIN, check_stdin_format, measure
 
 MISSING_EXTRA = "holecli plot needs the optional extra: pip install 'holecli[plot]'"
 
@@ -37,48 +38,20 @@ def require_matplotlib():
     return matplotlib
 
 
-def measure_with_points(path, options, scan=None):
-    """:func:`holecli.cli.detect.measure_file`, also returning the points (the picture needs them).
-
-    Returns
-    -------
-    detection : holecli.Detection
-    points : (n, 3) float ndarray
-    """
-    from holecli.batch import failure_message
-    from holecli.cli.detect import STDIN, measure_stdin
-    from holecli.io import STDIN_NAME, read_cloud
-    from holecli.pipeline import read_and_detect
-
-    try:
-        if path == STDIN:
-            detection, cloud = measure_stdin(options, scan)
-        else:
-            options = dict(options)
-            input_format = options.pop("input_format", None)
-            columns = options.pop("columns", None)
-            detection, cloud = read_and_detect(
-                lambda: read_cloud(path, scan=scan, input_format=input_format, columns=columns),
-                scan=scan, input_format=input_format, columns=columns, **options)
-    except HoleCliError as error:
-        raise Failure(failure_message(STDIN_NAME if path == STDIN else path, error), EXIT_INPUT) from None
-    return detection, cloud.points
-
-
 # What messages call the picture: "fit.png: cannot write the plot: ...".
 PLOT_WHAT = "the plot"
 
 
-def plot_png(detection, points, max_panels=None, dpi=None, unit=None, checked=None, checked_unit=None):
-    """The PNG of ``detection`` (:func:`holecli.plot.figure`, :func:`holecli.plot.png_bytes`), not yet written.
+def plot_png(measurement, max_panels=None, dpi=None, unit=None):
+    """The PNG of a measurement (:meth:`holecli.measure.Measurement.png`: with the verdict when it was
+    checked), not yet written.
 
     Parameters
     ----------
-    detection, points, max_panels, unit, checked, checked_unit
-        As for :func:`holecli.plot.figure` (``checked``: the holes of the checked record, for the
-        verdict).
-    dpi : int, optional
-        As for :func:`holecli.plot.png_bytes`.
+    measurement : holecli.measure.Measurement
+        Measured with ``plot=True``.
+    max_panels, dpi, unit
+        As for :meth:`holecli.measure.Measurement.png`.
 
     Returns
     -------
@@ -90,20 +63,17 @@ def plot_png(detection, points, max_panels=None, dpi=None, unit=None, checked=No
         matplotlib missing (input/output code).
     """
     require_matplotlib()
-    from holecli import plot
-
-    fig = plot.figure(detection, points, max_panels=max_panels, unit=unit, checked=checked, checked_unit=checked_unit)
-    return plot.png_bytes(fig, dpi=dpi)
+    return measurement.png(max_panels=max_panels, dpi=dpi, unit=unit)
 
 
-def write_plot(path, detection, points, max_panels=None, dpi=None, unit=None, checked=None, checked_unit=None):
-    """Draw ``detection`` (:func:`plot_png`) and write the PNG to ``path`` atomically.
+def write_plot(path, measurement, max_panels=None, dpi=None, unit=None):
+    """Draw a measurement (:func:`plot_png`) and write the PNG to ``path`` atomically.
 
     Parameters
     ----------
     path : str
         The PNG.
-    detection, points, max_panels, dpi, unit, checked, checked_unit
+    measurement, max_panels, dpi, unit
         As for :func:`plot_png`.
 
     Raises
@@ -111,10 +81,7 @@ def write_plot(path, detection, points, max_panels=None, dpi=None, unit=None, ch
     Failure
         matplotlib missing, or the file cannot be written (input/output code).
     """
-    from holecli.cli.detect import write_outputs
-
-    write_outputs([(path, plot_png(detection, points, max_panels=max_panels, dpi=dpi, unit=unit, checked=checked,
-                                   checked_unit=checked_unit), PLOT_WHAT)])
+    write_outputs([(path, plot_png(measurement, max_panels=max_panels, dpi=dpi, unit=unit), PLOT_WHAT)])
 
 
 def is_plot_folder(value):
@@ -144,7 +111,6 @@ def plot_name(scan):
     str
     """
     from holecli.batch import scan_stem
-    from holecli.cli.detect import STDIN
 
     return ("stdin" if scan == STDIN else scan_stem(scan) or "scan") + ".png"
 
@@ -249,8 +215,6 @@ def plot(scan, output, input_format, columns, scan_index, units, max_panels, dpi
       holecli plot scan.pcd -o fit.png --view-dir 0,0,-1 --full-only
     """
     check_verbosity(quiet, verbose)
-    from holecli.cli.detect import check_stdin_format
-
     check_stdin_format(scan, input_format)
     options = detection_options(method, view_dir, min_diameter, max_holes, full_only, gauge_depth)
     if input_format is not None:
@@ -261,12 +225,15 @@ def plot(scan, output, input_format, columns, scan_index, units, max_panels, dpi
     def body():
         refuse_same_files([("SCAN", scan)], [("-o/--output", output)])  # before anything is read
         require_matplotlib()  # before the detection: a missing extra is said at once
-        detection, points = measure_with_points(scan, options, scan_index)
-        write_plot(output, detection, points, max_panels=max_panels, dpi=dpi, unit=units)
-        return detection
+        measurement = measure(scan, options, scan_index, plot=True)
+        write_plot(output, measurement, max_panels=max_panels, dpi=dpi, unit=units)
+        return measurement
 
-    detection = run_guarded(body)
+    measurement = run_guarded(body)
+    detection = measurement.detection
     if not quiet:
         click.echo(f"holecli: {len(detection.holes)} hole{'' if len(detection.holes) == 1 else 's'} of "
                    f"{detection.file} drawn in {output}", err=True)
-    raise SystemExit(EXIT_OK if detection.holes else EXIT_NO_HOLE)
+    from holecli.batch import Tally
+
+    raise SystemExit(exit_code(Tally.of([measurement.record])))

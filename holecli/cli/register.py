@@ -3,7 +3,7 @@
 Every SCAN is measured as ``holecli detect`` measures it; its holes are matched with the ``--spec``
 file's nominal holes and :func:`holecli.registration.register` fits the transform. The result (JSON,
 CSV or a table) goes to stdout or ``--output``, the corrected targets (``--targets``) to
-``--targets-output``; both are written together (:func:`holecli.cli.detect.write_outputs`) once the
+``--targets-output``; both are written together (:func:`holecli.cli.outputs.write_outputs`) once the
 whole registration succeeded: when either cannot be written, neither file is replaced. No output may
 be a SCAN, the ``--spec`` or the ``--targets`` file, or the other output.
 """
@@ -17,9 +17,10 @@ import sys
 
 import click
 
-from holecli.cli.exits import (EXIT_INPUT, EXIT_NO_HOLE, EXIT_OK, EXIT_OUT_OF_TOLERANCE, EXIT_UNDECIDED, EXIT_USAGE,
-                               Failure, run_guarded)
+from holecli.cli.exits import EXIT_INPUT, EXIT_NO_HOLE, EXIT_USAGE, Failure, exit_code, run_guarded
 from holecli.cli.options import Decimal, columns_option, detection_option_decorators, detection_options
+from holecli.cli.outputs import write_outputs
+from holecli.cli.source import measure
 
 REGISTER_EXIT_CODES_HELP = (
     "\b\nExit codes:\n"
@@ -265,6 +266,27 @@ def targets_in_units(targets, units):
     return dataclasses.replace(targets, points=targets.points * scale_factor(targets.units, units), units=units)
 
 
+def registration_tally(record):
+    """The counts of a ``register`` record for :func:`holecli.cli.exits.exit_code`: a failed verdict
+    (``--max-residual``) is out of tolerance; an outlier or inconsistent holes (a reference hole that
+    disagrees) undecided.
+
+    Parameters
+    ----------
+    record : dict
+        A ``register`` record.
+
+    Returns
+    -------
+    holecli.batch.Tally
+    """
+    from holecli.batch import Tally
+
+    doubtful = bool(record["outliers"]) or not (record["consistency"] or {"consistent": True})["consistent"]
+    return Tally(files=1, holes=len(record["holes"]), out_of_tolerance=int(record["verdict"] == "fail"),
+                 undecided=int(doubtful))
+
+
 @click.command(epilog=REGISTER_EXIT_CODES_HELP)
 @click.argument("scans", metavar="SCAN...", nargs=-1, required=True, type=click.Path(path_type=str))
 @click.option("--spec", "spec_file", required=True, type=click.Path(dir_okay=False, path_type=str), metavar="FILE.toml",
@@ -338,13 +360,12 @@ def register(scans, columns, spec_file, name_pairs, targets_file, targets_output
 
     def body():
         from holecli import __version__
-        from holecli.cli.detect import measure_file, write_outputs
         from holecli.cli.options import read_spec, refuse_same_files
         from holecli.errors import HoleCliError
         from holecli.registration import RegistrationError
         from holecli.registration import register as register_holes
 
-        if "-" in scans:  # (measure_file reads a path; stdin needs --input-format, which register has not)
+        if "-" in scans:  # (measure reads a path here; stdin needs --input-format, which register has not)
             raise Failure("-: holecli register cannot read a scan from standard input: give each scan as a file",
                           EXIT_USAGE)
         # before anything is read: the robot's targets, the spec or a scan are never written over
@@ -363,7 +384,7 @@ def register(scans, columns, spec_file, name_pairs, targets_file, targets_output
                 raise Failure(str(error), EXIT_INPUT) from None
         measured, measured_names, origin, scan_records = [], [], [], []
         for scan in scans:
-            detection = measure_file(scan, options)
+            detection = measure(scan, options).detection
             scan_units = detection.units
             if verbose:
                 from holecli.cli.progress import verbose_text
@@ -426,11 +447,7 @@ def register(scans, columns, spec_file, name_pairs, targets_file, targets_output
             click.echo(f"holecli: warning: register: {warning['code']}: {warning['message']}", err=True)
         for note in record["notes"]:
             click.echo(f"holecli: note: register: {note['code']}: {note['message']}", err=True)
-    if record["verdict"] == "fail":
-        if not quiet:
-            click.echo(f"holecli: registration fails --max-residual {record['max_residual']:g}: "
-                       + "; ".join(record["failed"]), err=True)
-        sys.exit(EXIT_OUT_OF_TOLERANCE)
-    if record["outliers"] or not (record["consistency"] or {"consistent": True})["consistent"]:
-        sys.exit(EXIT_UNDECIDED)  # doubtful: a reference hole disagrees (outlier, inconsistent_holes)
-    sys.exit(EXIT_OK)
+    if record["verdict"] == "fail" and not quiet:
+        click.echo(f"holecli: registration fails --max-residual {record['max_residual']:g}: "
+                   + "; ".join(record["failed"]), err=True)
+    sys.exit(exit_code(registration_tally(record)))

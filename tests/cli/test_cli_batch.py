@@ -607,16 +607,16 @@ def test_interrupt_a_real_batch_then_resume(repo_root, many_scans, tmp_path, sig
 
 
 def test_a_record_that_cannot_be_written_becomes_an_error_record(run, good_scans, monkeypatch):
-    from holecli import batch
+    from holecli.batch import pool
 
-    measure = batch.measure_record
+    measure = pool.measure_record
 
     def with_nan(path, options, spec=None, explain=False):
         record = measure(path, options, spec)
         record["holes"][0]["fit_rms"] = float("nan")
         return record
 
-    monkeypatch.setattr(batch, "measure_record", with_nan)
+    monkeypatch.setattr(pool, "measure_record", with_nan)
     first = next(iter(good_scans))
     result = run("batch", first, "--jobs", "1")
     assert result.exit_code == cli.EXIT_FILE_FAILED

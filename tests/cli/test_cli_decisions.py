@@ -15,7 +15,7 @@ import pytest
 
 from holecli import cli, report, tolerance
 from holecli.batch import FileSummary, RecordWriter, Tally
-from holecli.cli.batch import batch_exit_code
+from holecli.cli.exits import exit_code
 from holecli.cli.exits import BATCH_EXIT_CODES_HELP, EXIT_CODES_HELP, EXIT_UNDECIDED, EXIT_WARNING
 from holecli.io import save_points
 from holecli.report import BATCH_CSV_COLUMNS
@@ -337,7 +337,7 @@ def test_batch_5_over_8_over_6(run, scan, measured, tmp_path):
 )
 def test_batch_exit_code_order(counts, warnings, code):
     tally = Tally(**counts, warning_codes={"rim_gap": 1})
-    assert batch_exit_code(tally, warnings) == code
+    assert exit_code(tally, warnings) == code
 
 
 def test_the_csv_summary_of_an_undecided_record_matches_the_record():

@@ -1,0 +1,126 @@
+"""holecli's modules import each other without a cycle: no module imports, at module level, one that
+imports it back (directly or through others). The graph is read from the source with ``ast``, so that
+it holds every import whether or not a test runs it; imports inside functions are listed apart (they
+run late and cannot make an import fail, but each is a place where a layer may reach the wrong way).
+"""
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parent.parent / "holecli"
+
+
+def module_name(path):
+    """``holecli/cli/detect.py`` -> ``holecli.cli.detect``; a package's ``__init__.py`` -> the package."""
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def resolve(module, node, modules):
+    """The holecli modules an import statement of ``module`` names (``from holecli import io`` names the
+    submodule ``holecli.io``; ``from holecli.io import read_cloud`` names ``holecli.io``)."""
+    if isinstance(node, ast.Import):
+        names = [alias.name for alias in node.names]
+    else:
+        base = node.module or ""
+        if node.level:
+            package = module.split(".")
+            if not (PACKAGE / Path(*package[1:]) / "__init__.py").exists() or module == "holecli":
+                package = package[:-1]
+            package = package[:len(package) - node.level + 1]
+            base = ".".join(package + ([base] if base else []))
+        names = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in modules else base for alias in node.names]
+    found = []
+    for name in names:
+        while name and name not in modules:
+            name = name.rpartition(".")[0]
+        if name.startswith("holecli") and name != module:
+            found.append(name)
+    return found
+
+
+def import_graph():
+    """``(module_level, function_level)``: each a dict from a holecli module to the holecli modules it
+    imports at module level (including ``if`` and ``try`` blocks at the top), and inside functions."""
+    paths = sorted(PACKAGE.rglob("*.py"))
+    modules = {module_name(path) for path in paths}
+    top, inner = {name: set() for name in modules}, {name: set() for name in modules}
+    for path in paths:
+        module = module_name(path)
+        tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+
+        def visit(node, in_function):
+            for child in ast.iter_child_nodes(node):
+                if isinstance(child, (ast.Import, ast.ImportFrom)):
+                    (inner if in_function else top)[module].update(resolve(module, child, modules))
+                visit(child, in_function or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)))
+
+        visit(tree, False)
+    # importing holecli.a.b runs holecli/a/__init__.py first
+    for module in modules:
+        for imported in list(top[module]):
+            parent = imported.rpartition(".")[0]
+            while parent:
+                if parent != module and not module.startswith(parent + "."):
+                    top[module].add(parent)
+                parent = parent.rpartition(".")[0]
+    return top, inner
+
+
+def cycles(graph):
+    """Every strongly connected set of two or more modules of ``graph`` (Tarjan), sorted."""
+    index, low, stack, on_stack, found = {}, {}, [], set(), []
+
+    def connect(node):
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        on_stack.add(node)
+        for other in graph.get(node, ()):
+            if other not in index:
+                connect(other)
+                low[node] = min(low[node], low[other])
+            elif other in on_stack:
+                low[node] = min(low[node], index[other])
+        if low[node] == index[node]:
+            component = []
+            while True:
+                other = stack.pop()
+                on_stack.discard(other)
+                component.append(other)
+                if other == node:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for node in sorted(graph):
+        if node not in index:
+            connect(node)
+    return sorted(found)
+
+
+def test_the_graph_is_read_from_the_source():
+    top, inner = import_graph()
+    assert "holecli.pipeline" in top["holecli.measure"] or "holecli.pipeline" in inner["holecli.measure"]
+    assert "holecli.cli.exits" in top["holecli.cli.detect"]
+    assert "holecli.io" in top["holecli.pipeline"]
+
+
+def test_the_cycle_finder_finds_a_cycle_through_three_modules():
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_no_module_of_holecli_imports_itself_back_at_module_level():
+    top, _ = import_graph()
+    assert cycles(top) == []
+
+
+@pytest.mark.parametrize("pair", [("holecli.cli.detect", "holecli.cli.plot")])
+def test_detect_and_plot_do_not_import_each_other(pair):
+    # they did (detect took plot's drawing, plot took detect's stdin reading), inside functions
+    top, inner = import_graph()
+    first, second = pair
+    assert second not in top[first] | inner[first] or first not in top[second] | inner[second]
+    assert first not in top[second] | inner[second]
