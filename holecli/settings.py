@@ -226,7 +226,7 @@ class RimSettings(_Group):
 
 @dataclass(frozen=True)
 class AcceptanceSettings(_Group):
-    """What a candidate must show to be a hole (the refusals of :mod:`holecli.robust.method`)."""
+    """What a candidate must show to be a hole (the refusals of :mod:`holecli.robust.acceptance`)."""
 
     # A fitted circle is no hole when the inner half of it holds more than this fraction of the surface
     # points that area would hold at the scan's density: a groove around a standing island (an O-ring
@@ -362,7 +362,7 @@ class CountersinkSettings(_Group):
 
 @dataclass(frozen=True)
 class FringeSettings(_Group):
-    """The fringe of mixed points at a plain hole's edge (``holecli.robust.method._edge_fringe``)."""
+    """The fringe of mixed points at a plain hole's edge (``holecli.robust.measure._edge_fringe``)."""
 
     # Points off the surface band within edge_fringe_gaps gaps of the edge, and no deeper than
     # edge_fringe_depth times that reach, are mixed samples of the edge (a footprint across the rim);
