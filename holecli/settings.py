@@ -38,9 +38,8 @@ Both spellings make one::
     RobustSettings(candidates=CandidateSettings(cell_gaps=3.0))
 
 A step is given the settings (the whole object or its group, which answer the same names) and reads
-them; where a step is not given any it reads :data:`DEFAULT_SETTINGS`. The module-level copies of a
-field still made at import (``holecli.robust.estimators.cone``'s ``MIN_SLOPE`` and the like,
-``edge_loops.POCKET_MAX_DEPTH_RATIO``) do not follow a caller's settings.
+them; where a step is not given any it reads :data:`DEFAULT_SETTINGS`. No module keeps a copy of a
+field's value.
 """
 
 from __future__ import annotations

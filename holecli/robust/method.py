@@ -132,7 +132,7 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         # A CAD export's vertices: no point inside a face, the holes are the loops of its edges.
         loops, loop_rejected = edge_loops(scene.xy, scene.heights, plane.inliers, scene.height_noise,
                                           min_diameter=min_diameter, resolution=scene.resolution,
-                                          step=coordinate_step(scene.points))
+                                          step=coordinate_step(scene.points), settings=settings)
         if loops or faces_empty(float(sampling.spacing), float(sampling.gap)):
             # (a small scan's sampling makes loops too, of a grid's ties: they are not what it shows)
             rejected.extend(Refusal(check=r.check, value=r.value, limit=r.limit, center=r.center,

@@ -24,18 +24,6 @@ from holecli.geometry.kernels import robust_sigma
 from holecli.robust.estimators.harness import EdgeEstimate
 from holecli.settings import DEFAULT_SETTINGS
 
-# The defaults, from RobustSettings (see there): a countersink wall slopes between MIN_SLOPE and
-# MAX_SLOPE (cone_min_slope, cone_max_slope) and holds MIN_POINTS_BELOW points clearly below the
-# surface (cone_min_points_below); the flat-floor check cuts the points below the surface inside the
-# edge into DEPTH_BINS radial bins (between their 1st and 99th radius percentiles), each kept with
-# at least MIN_BIN_POINTS points (cone_depth_bins, cone_min_bin_points), and wants a depth slope of
-# DEPTH_SLOPE_RATIO of the cone's (cone_depth_slope_ratio).
-MIN_SLOPE = DEFAULT_SETTINGS.cone_min_slope
-MAX_SLOPE = DEFAULT_SETTINGS.cone_max_slope
-MIN_POINTS_BELOW = DEFAULT_SETTINGS.cone_min_points_below
-DEPTH_BINS = DEFAULT_SETTINGS.cone_depth_bins
-MIN_BIN_POINTS = DEFAULT_SETTINGS.cone_min_bin_points
-DEPTH_SLOPE_RATIO = DEFAULT_SETTINGS.cone_depth_slope_ratio
 # A cone found by the least-median start must have its points below the surface spread over at least
 # this fraction of the radii from the edge to the innermost of them (interquartile range): not a
 # bore's wall, which stands at one radius (see fit_cone_edge).
@@ -265,7 +253,7 @@ def _trimmed_hinge(rho, depth, radius, width, noise, settings, median_start=None
     return edge, slope, keep
 
 
-def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOPE_RATIO, *,
+def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=None, *,
                   settings=DEFAULT_SETTINGS, gap=None):
     """Countersink edge from points around a hole, or the reason there is no cone.
 
@@ -281,9 +269,10 @@ def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOP
         Half-width of the radial window searched for the edge.
     noise : float
         Standard deviation of the surface points' heights.
-    depth_slope_ratio : float
+    depth_slope_ratio : float, optional
         Least slope of depth against radius of the points below the surface inside the edge, as a
-        fraction of the cone's slope (the ``"flat_floor"`` check).
+        fraction of the cone's slope (the ``"flat_floor"`` check); None: ``cone_depth_slope_ratio``
+        of ``settings``.
     settings : RobustSettings
         Source of the cone's other limits: ``cone_inner_widths`` (the window reaches that many
         ``width`` inside ``radius``), ``cone_below_sigmas``, ``cone_min_points_below``,
@@ -296,6 +285,8 @@ def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOP
     -------
     Cone or NotACone
     """
+    if depth_slope_ratio is None:
+        depth_slope_ratio = settings.cone_depth_slope_ratio
     window = (rho > radius - settings.cone_inner_widths * width) & (rho < radius + width)
     rho, depth = rho[window], depth[window]
     clearly_below = settings.cone_below_sigmas * noise
