@@ -20,6 +20,7 @@ from functools import partial
 
 import numpy as np
 
+from holecli.geometry import lsq
 from holecli.geometry.kernels import robust_sigma
 from holecli.robust.estimators.harness import EdgeEstimate
 from holecli.settings import DEFAULT_SETTINGS
@@ -425,24 +426,9 @@ def _cone_in_the_plane(scene, queries, center, cone, settings):
     shift = float(np.hypot(cx - center[0], cy - center[1]))
     if not result.success or shift > width or abs(edge - cone.radius) > width or not settings.cone_min_slope <= slope:
         return center, cone.radius, None
-    covariance = _least_squares_covariance(result, scale)  # None: singular (no covariance, not a crash)
+    # the residuals were divided by scale: the covariance is in the parameters' units all the same
+    covariance = lsq.covariance(result.jac, result.fun)  # None: singular (no covariance, not a crash)
     return np.array([cx, cy]), float(edge), None if covariance is None else covariance[:3, :3]
-
-
-def _least_squares_covariance(result, scale):
-    """Covariance of the parameters of a scipy ``least_squares`` result whose residuals were divided
-    by ``scale``: ``s^2 (J^T J)^-1`` with ``s^2`` the residuals' variance (n - p degrees of freedom),
-    in the parameters' units; None when the Jacobian is singular."""
-    jacobian = result.jac
-    n, p = jacobian.shape
-    if n <= p:
-        return None
-    try:
-        inverse = np.linalg.inv(jacobian.T @ jacobian)
-    except np.linalg.LinAlgError:
-        return None
-    variance = float(result.fun @ result.fun) / (n - p)
-    return inverse * variance
 
 
 class ConeEstimator:
