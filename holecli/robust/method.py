@@ -41,6 +41,8 @@ from holecli.robust.measure import measure_candidates
 from holecli.robust.scene import build_scene
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.stages import StageClock
+# (still an attribute of this module, as before issue 26, for the library users who read it here)
+from holecli.vocabulary import REJECTION_REASONS  # noqa: F401
 
 __all__ = ["RobustResult", "detect_robust"]
 
