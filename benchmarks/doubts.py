@@ -20,11 +20,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-import holecli.robust.method as method  # noqa: E402
+import holecli.robust.assemble as assemble  # noqa: E402
 from holecli.vocabulary import DOUBT_CODES  # noqa: E402
 
 RECORDED = []
-_original = method.doubt_warnings
+_original = assemble.doubt_warnings
 
 
 def _recording(doubts, settings):
@@ -33,7 +33,7 @@ def _recording(doubts, settings):
     return warnings
 
 
-method.doubt_warnings = _recording
+assemble.doubt_warnings = _recording
 
 
 def _ratios(d):

@@ -38,9 +38,8 @@ Both spellings make one::
     RobustSettings(candidates=CandidateSettings(cell_gaps=3.0))
 
 A step is given the settings (the whole object or its group, which answer the same names) and reads
-them; where a step is not given any it reads :data:`DEFAULT_SETTINGS`. The module-level copies of a
-field still made at import (``holecli.robust.estimators.cone``'s ``MIN_SLOPE`` and the like,
-``edge_loops.POCKET_MAX_DEPTH_RATIO``) do not follow a caller's settings.
+them; where a step is not given any it reads :data:`DEFAULT_SETTINGS`. No module keeps a copy of a
+field's value.
 """
 
 from __future__ import annotations
@@ -226,7 +225,7 @@ class RimSettings(_Group):
 
 @dataclass(frozen=True)
 class AcceptanceSettings(_Group):
-    """What a candidate must show to be a hole (the refusals of :mod:`holecli.robust.method`)."""
+    """What a candidate must show to be a hole (the refusals of :mod:`holecli.robust.acceptance`)."""
 
     # A fitted circle is no hole when the inner half of it holds more than this fraction of the surface
     # points that area would hold at the scan's density: a groove around a standing island (an O-ring
@@ -362,7 +361,7 @@ class CountersinkSettings(_Group):
 
 @dataclass(frozen=True)
 class FringeSettings(_Group):
-    """The fringe of mixed points at a plain hole's edge (``holecli.robust.method._edge_fringe``)."""
+    """The fringe of mixed points at a plain hole's edge (``holecli.robust.measure._edge_fringe``)."""
 
     # Points off the surface band within edge_fringe_gaps gaps of the edge, and no deeper than
     # edge_fringe_depth times that reach, are mixed samples of the edge (a footprint across the rim);

@@ -101,7 +101,7 @@ NOTE_CODES = {
     "cone_short_arc": "the countersink's cone is seen over too little of its circumference",
     "gauge_depth_outside_cone": "--gauge-depth is not within the countersink's depth: no diameter_at_depth",
     "axis_not_measured": "no cone, bore wall or floor shows the hole's axis: no axis or perpendicularity",
-    # (given by holecli.robust.method for holecli.robust.edge_loops)
+    # (given by holecli.robust.assemble to the holes of holecli.robust.edge_loops)
     "edge_loops": "the edge is a loop of a CAD export's vertices, no point inside a face: the diameter is "
                   "the least-squares circle of the polygon's sides",
 }

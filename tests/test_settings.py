@@ -140,17 +140,3 @@ def test_the_steps_take_the_settings_they_are_given():
     cells = default.cell_of(specks)
     assert not default.material[cells[:, 0], cells[:, 1]].any()
     assert kept.material[cells[:, 0], cells[:, 1]].all()
-
-
-def test_function_defaults_still_copied_from_the_settings():
-    """The module copies of RobustSettings' defaults that remain (in modules of another step of issue
-    26): they must stay equal to the settings until they go."""
-    from holecli.robust import edge_loops
-    from holecli.robust.estimators import cone as countersink
-
-    s = DEFAULT_SETTINGS
-    assert edge_loops.POCKET_MAX_DEPTH_RATIO == s.pocket_max_depth_ratio
-    assert (countersink.MIN_SLOPE, countersink.MAX_SLOPE, countersink.MIN_POINTS_BELOW, countersink.DEPTH_BINS,
-            countersink.MIN_BIN_POINTS, countersink.DEPTH_SLOPE_RATIO) == (
-        s.cone_min_slope, s.cone_max_slope, s.cone_min_points_below, s.cone_depth_bins, s.cone_min_bin_points,
-        s.cone_depth_slope_ratio)

@@ -13,7 +13,11 @@
    :mod:`.estimators.empty_circle` (irregular sampling), :mod:`.estimators.rim_fit` (the rim fit less
    its sampling bias), each measured on synthetic holes by one harness;
 7. :mod:`.surface`: the surface at one hole (its tangent plane, a curved panel's quadric);
-8. :mod:`.method`: the measurement of one candidate, curved surfaces and the 3D result, with
-   :mod:`.hole_shape` (below the edge), :mod:`.uncertainty` and :mod:`.doubts`; a CAD export's
-   vertices by :mod:`.edge_loops`.
+8. :mod:`.measure`: the measurement of one candidate, stages 3-7 with their checks;
+9. :mod:`.curved`: a hole on a curved panel, measured again on its flattened neighbourhood;
+10. :mod:`.assemble`: from the plane frame to the world, the record's objects, with :mod:`.hole_shape`
+    (below the edge), :mod:`.uncertainty` and :mod:`.doubts`; a CAD export's vertices by
+    :mod:`.edge_loops`;
+11. :mod:`.method`: :func:`~holecli.robust.method.detect_robust`, the conductor: the scene, every
+    candidate measured, duplicates and the caller's limits, curved panels, the record.
 """

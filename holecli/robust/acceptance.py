@@ -3,8 +3,8 @@ candidate (:class:`holecli.robust.candidate.Candidate`) and the settings that re
 :class:`holecli.robust.candidate.Refusal` (the check's code, a key of
 :data:`holecli.vocabulary.REJECTION_REASONS`, its value and limit, where the void is) or None.
 
-The measurement (:func:`holecli.robust.method._measure_void`) runs them in stages, each stage's checks
-in the order of its tuple (:func:`first_refusal`):
+The measurement (:func:`holecli.robust.measure.measure_candidate`) runs them in stages, each stage's
+checks in the order of its tuple (:func:`first_refusal`):
 
 * :data:`VOID_CHECKS`, before any triangulation: an empty disk of the smallest reported size fits in
   the void;

@@ -125,7 +125,7 @@ class Candidate:
 @dataclass(frozen=True, eq=False)
 class Measured:
     """A hole measured in the plane frame of its scene, before it is taken to the world
-    (:func:`holecli.robust.method._to_hole`)."""
+    (:func:`holecli.robust.assemble.to_hole`)."""
 
     center: np.ndarray       # (2,) plane frame
     radius: float            # corrected

@@ -1,6 +1,6 @@
 """What makes a measured hole doubtful: warnings from numbers the robust method already knows.
 
-The method (:mod:`holecli.robust.method`) gathers the numbers of one hole into a :class:`Doubts`;
+The method (:mod:`holecli.robust.assemble`) gathers the numbers of one hole into a :class:`Doubts`;
 :func:`doubt_warnings` compares them with their thresholds (``doubt_*`` fields of
 :class:`holecli.settings.RobustSettings`, each with why its value) and returns the warnings, each a
 short stable code (:data:`holecli.vocabulary.DOUBT_CODES`) and a sentence with the numbers. Pure: no
@@ -58,7 +58,7 @@ class Doubts:
         The gap scale g.
     hidden_fringe : float
         Mean radial width of the fringe of mixed points seen off the surface band at the edge when the
-        band hides most of it (``holecli.robust.method._edge_fringe``); 0 otherwise.
+        band hides most of it (``holecli.robust.measure._edge_fringe``); 0 otherwise.
     bias_measured : bool
         False when the diameter's sampling-bias correction was wanted and could not be measured.
     facing_conflict : bool

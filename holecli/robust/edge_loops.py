@@ -33,6 +33,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from holecli.settings import DEFAULT_SETTINGS
 from holecli.vocabulary import LOOP_CHECKS
 
 #: The sampling estimate's gap (the largest empty circles of the faces) over its spacing above which
@@ -52,8 +53,6 @@ ISOLATION_CHORDS = 1.5
 #: Included angles (degrees) a countersink's cone may have between the edge loop and the smaller loop below.
 CONE_ANGLES_DEG = (30.0, 150.0)
 
-#: A floor less than this many diameters deep is a pocket's (RobustSettings.pocket_max_depth_ratio's value).
-POCKET_MAX_DEPTH_RATIO = 0.15
 #: The checks applied, in this order (each has a test that needs it: tests/robust/test_edge_loops.py).
 ACTIVE_CHECKS = tuple(LOOP_CHECKS)
 
@@ -292,7 +291,8 @@ def _hole_type(edge_diameter, rings, tolerance):
     return "through", None, None, (same[0] if same else None)
 
 
-def edge_loops(xy, heights, surface, noise, *, min_diameter=None, resolution=0.0, step=0.0):
+def edge_loops(xy, heights, surface, noise, *, min_diameter=None, resolution=0.0, step=0.0,
+               settings=DEFAULT_SETTINGS):
     """The holes whose edge is a loop of the surface's vertices (see the module docstring).
 
     Parameters
@@ -312,6 +312,9 @@ def edge_loops(xy, heights, surface, noise, *, min_diameter=None, resolution=0.0
     step : float
         The round-off step of the input coordinates (:func:`coordinate_step`): a vertex lies on its
         circle to about one step (float32 vertices at 250 mm: 3e-5 mm).
+    settings : holecli.settings.RobustSettings
+        Source of ``pocket_max_depth_ratio``: a floor less than that many diameters deep is a
+        pocket's.
 
     Returns
     -------
@@ -374,18 +377,19 @@ def edge_loops(xy, heights, surface, noise, *, min_diameter=None, resolution=0.0
             # (a through hole's bottom loop lies on the bottom face, with the part's other bottom vertices).
             # A ring beside it on that floor or below it (a counterbore's bore, a groove's island) is no
             # pocket's: its floor is whole.
+            limit = settings.pocket_max_depth_ratio
             axis = [ring for ring in rings_all() if np.hypot(*(ring.center - center)) <= wide]
             rings = [ring for ring in axis if abs(ring.diameter - 2.0 * radius) <= wide]
             if not rings:
-                return False, None, POCKET_MAX_DEPTH_RATIO
+                return False, None, limit
             ring = min(rings, key=lambda r: r.depth)
             same_level = 2.0 * tolerance + 1e-3 * radius  # (its own vertices lie within the noise of it)
             if any(other is not ring and other.depth >= ring.depth - same_level for other in axis):
-                return False, None, POCKET_MAX_DEPTH_RATIO
+                return False, None, limit
             level = np.abs(below_depth - ring.depth) <= same_level
             beyond = np.hypot(*(below_xy[level] - center).T) > radius + reach
             ratio = ring.depth / (2.0 * radius)
-            return not beyond.any() and ratio < POCKET_MAX_DEPTH_RATIO, ratio, POCKET_MAX_DEPTH_RATIO
+            return not beyond.any() and ratio < limit, ratio, limit
 
         # Each check: () -> (failed, value, limit), evaluated in ACTIVE_CHECKS' order (the cheap first).
         failed = {"loop_not_round": lambda: (worst > tolerance, worst, tolerance),

@@ -65,7 +65,7 @@ class HoleShape:
     uncertainty: Optional[dict] = None  # countersink, counterbore, bore, axis_deg (see _uncertainty)
     notes: tuple = ()  # of HoleNote (NOTE_CODES): why a value is None
     # The bore diameter's standard uncertainty from its cylinder fit's noise alone (None without a bore
-    # diameter): uncertainty["bore"] adds the model error, which the edge shares (see method.py's use)
+    # diameter): uncertainty["bore"] adds the model error, which the edge shares (see assemble.with_shape)
     bore_noise_u: Optional[float] = None
 
 
@@ -320,7 +320,7 @@ def _uncertainty(countersink, cone, counterbore, bore, cylinder, c, n, axis, bor
                                       floor_depth=None if bore.floor_depth is None else bore.floor_rms)
     if counterbore is not None:
         out["counterbore"] = CounterboreUncertainty(diameter=None, depth=floor_rms)
-    # an axis from a floor's normal gets the surface normal's uncertainty (holecli.robust.method)
+    # an axis from a floor's normal gets the surface normal's uncertainty (holecli.robust.assemble)
     if axis is not None and axis_covariance is not None:
         out["axis_deg"] = math.degrees(math.sqrt(max(float(np.linalg.eigvalsh(axis_covariance)[-1]), 0.0)))
     return out

@@ -276,7 +276,7 @@ def _frame_and_grid(points, plane, view_dir, min_diameter, settings, clock):
             # The surface's points slide along the view onto the plane: a triangulation sensor's range
             # noise lies along its ray, and slid back along it a point lands where the ray met the
             # surface (the paper's Table I protocol: the center's error a tenth of the orthogonal
-            # projection's). The center then moves onto its local plane along the view (_to_hole).
+            # projection's). The center then moves onto its local plane along the view (assemble.to_hole).
             direction = view @ rotation
             surface_local = local[surface]
             surface_local[:, 0] -= surface_local[:, 2] * (view[0] / view[2])

@@ -234,7 +234,7 @@ def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, heig
         The sampling-bias correction applied to the diameter (for the estimator's ``correction_share``).
     edge_fringe : float, optional
         Mean radial width ``F`` of the fringe of mixed points along the edge (a laser line of finite
-        width; :func:`holecli.robust.method._edge_fringe`), whose middle was taken as the edge: the
+        width; :func:`holecli.robust.measure._edge_fringe`), whose middle was taken as the edge: the
         model of that fringe is uncertain over its width, a Type B term ``F / sqrt(12)`` on the
         diameter (a rectangular distribution, GUM 4.3.7).
     resolution : float, optional

@@ -1,6 +1,6 @@
 """Counter-examples that pin the robust method's acceptance checks (issue 10).
 
-Every named check of :func:`holecli.robust.method._measure_void` (the ``check`` of a rejection,
+Every named check of :func:`holecli.robust.measure.measure_candidate` (the ``check`` of a rejection,
 ``holecli detect --explain``) and the start of the robust circle fit is held here by a constructed
 scene that it, and nothing else, gets right: removing or loosening the check makes a test below fail.
 The scenes are plain grids with a cut-out of known shape (hand-made points), so that the reason each

@@ -157,18 +157,18 @@ def test_natural_gaps_are_refused_before_their_rim_is_extracted(monkeypatch):
     """Random sampling's natural gaps (no empty disk of the smallest reported radius fits in them) are
     refused as ``below_min_diameter`` without a triangulation: the rim is extracted for the holes and
     a few gaps only, not for each of the hundreds of gaps."""
-    import holecli.robust.method as method
+    import holecli.robust.measure as measure
     from holecli.pipeline import detect
     from holecli.simulation.synth import HoleSpec, SceneSpec, make_scan
 
     calls = []
-    real_hole_rim = method.hole_rim
+    real_hole_rim = measure.hole_rim
 
     def counting_hole_rim(*args, **kwargs):
         calls.append(1)
         return real_hole_rim(*args, **kwargs)
 
-    monkeypatch.setattr(method, "hole_rim", counting_hole_rim)
+    monkeypatch.setattr(measure, "hole_rim", counting_hole_rim)
     scene = SceneSpec(holes=(HoleSpec(center=(0.3, -0.2), diameter=3.0),), extent=(-10.0, 10.0, -10.0, 10.0),
                       spacing=0.05, pattern="random")
     detection = detect(make_scan(scene, 1).points)

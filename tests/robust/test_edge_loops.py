@@ -196,6 +196,22 @@ def test_a_pocket_is_no_hole_and_a_thin_sheets_hole_is(monkeypatch):
     assert hole.type == "through"
 
 
+def test_the_pocket_limit_is_the_callers_setting():
+    """loop_pocket's limit is the ``pocket_max_depth_ratio`` of the settings given (no module copy of its
+    default): the 0.8 mm deep floor of a 12 mm loop (0.067 diameters) is a pocket's under the default
+    0.15 and a blind hole's under 0.05."""
+    from dataclasses import replace
+
+    from holecli.settings import DEFAULT_SETTINGS
+
+    pocket = _plate_with(_ring((0.0, 0.0), 6.0, 48, 0.0), _ring((0.0, 0.0), 6.0, 48, -0.8))
+    _, rejected = _loops(pocket, settings=replace(DEFAULT_SETTINGS, pocket_max_depth_ratio=0.5))
+    (refused,) = [r for r in rejected if r.check == "loop_pocket"]
+    assert refused.limit == 0.5
+    (hole,), rejected = _loops(pocket, settings=replace(DEFAULT_SETTINGS, pocket_max_depth_ratio=0.05))
+    assert "loop_pocket" not in [r.check for r in rejected]
+
+
 @pytest.mark.parametrize("noise", [0.0, 0.005])
 def test_pockets_of_a_panel_as_its_vertices(noise):
     """The panel simulator's pockets (kind "pocket") given as the mesh's vertices: no hole on them (with

@@ -4,7 +4,7 @@ profiler scans (holecli.simulation.profiler, ``line_width``).
 Where the line's footprint straddles the rim the sensor reads the centroid of the light it sees, and
 the point stands off the surface, above it on one side of the hole and below it on the other. That
 fringe is no countersink (``NotACone("unresolved")``), and where the edge lies in it enters the
-diameter's u (``holecli.robust.method._edge_fringe``) or, when the band hides it, a warning
+diameter's u (``holecli.robust.measure._edge_fringe``) or, when the band hides it, a warning
 (``blurred_edge``).
 """
 

@@ -169,11 +169,12 @@ def test_a_curved_panel_hole_is_measured_on_its_flattened_crop_without_a_second_
     """The hole is measured again on its flattened neighbourhood (a scene of the crop, the void at its
     center measured as every candidate is), not by running the whole method on the crop, and the hole
     reported is that measurement's."""
+    import holecli.robust.curved as curved
     import holecli.robust.method as method
 
     points, center, normal = curved_panel(800.0, 2.5, 30.0, convex=True)
     detections, flattened, again = [], [], []
-    real_detect, real_build, real_curved = method.detect_robust, method.build_scene, method._on_curved_surface
+    real_detect, real_build, real_curved = method.detect_robust, method.build_scene, method.on_curved_surface
 
     def counting_detect(*args, **kwargs):
         detections.append(1)
@@ -189,7 +190,8 @@ def test_a_curved_panel_hole_is_measured_on_its_flattened_crop_without_a_second_
 
     monkeypatch.setattr(method, "detect_robust", counting_detect)
     monkeypatch.setattr(method, "build_scene", counting_build)
-    monkeypatch.setattr(method, "_on_curved_surface", recording_curved)
+    monkeypatch.setattr(curved, "build_scene", counting_build)  # the flattened crop's scene
+    monkeypatch.setattr(method, "on_curved_surface", recording_curved)
     (hole,) = detect(points).holes
     assert len(detections) == 1 and flattened == [False, True]
     assert len(again) == 1 and again[0] is not None and hole.center == again[0].center

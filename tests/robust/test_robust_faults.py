@@ -21,7 +21,7 @@ import pytest
 
 from holecli.geometry.plane import fit_plane_robust
 from holecli.pipeline import detect
-from holecli.robust.estimators.cone import DEPTH_SLOPE_RATIO, Cone, NotACone, fit_cone_edge
+from holecli.robust.estimators.cone import Cone, NotACone, fit_cone_edge
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.simulation.synth import BORE, COUNTERSINK, HoleSpec, SceneSpec, make_scan
 
@@ -162,11 +162,14 @@ def test_cone_passes_the_flat_floor_check(noise):
 def test_flat_floor_ratio_is_a_setting():
     """At a limit above the cone's own ratio (about 1), a real cone is refused too; with no limit the
     floor is taken for a cone again, as before the check (the RobustSettings field reaches it)."""
-    assert DEFAULT_SETTINGS.cone_depth_slope_ratio == DEPTH_SLOPE_RATIO
     slope = 1.0 / math.tan(math.radians(50.0))
     rho, depth = cone_inputs(lambda rho: slope * np.clip(2.25 - rho, 0.0, 0.75))
     result = fit_cone_edge(rho, depth, 2.2, 0.35, 1e-3, depth_slope_ratio=1.5)
     assert isinstance(result, NotACone) and result.check == "flat_floor" and result.limit == 1.5
+    # without the argument, the limit is the settings' (no module copy of their default)
+    rho, depth = cone_inputs(lambda rho: np.where(rho < 1.5, 0.5, 0.0))
+    result = fit_cone_edge(rho, depth, 1.5, 0.35, 1e-3, settings=replace(DEFAULT_SETTINGS, cone_depth_slope_ratio=0.2))
+    assert isinstance(result, NotACone) and result.check == "flat_floor" and result.limit == 0.2
     points = make_scan(blind(0.5), 0).points
     unchecked = replace(DEFAULT_SETTINGS, cone_depth_slope_ratio=-np.inf)
     (hole,) = detect(points, settings=unchecked).holes

@@ -7,9 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from holecli import detect
+from holecli import detect, vocabulary
 from holecli.robust import uncertainty
-from holecli.robust.estimators import EMPTY_CIRCLE, LATTICE, METHOD_TERMS, RIM_FIT, SyntheticErrors
+from holecli.robust.estimators import (EMPTY_CIRCLE, ESTIMATOR_NAMED, ESTIMATORS, LATTICE, METHOD_TERMS, RIM_FIT,
+                                        SyntheticErrors)
 from holecli.robust.uncertainty import (circle_fit_covariance, edge_uncertainty, plane_uncertainty,
                                         small_sample_factor, synthetic_reflections)
 
@@ -72,8 +73,19 @@ def test_the_method_terms_add_in_quadrature():
     (ca, cb), (da, db) = METHOD_TERMS["lattice"]["center"], METHOD_TERMS["lattice"]["diameter"]
     assert center == pytest.approx(math.hypot(ca * 0.1, cb * 0.01))
     assert diameter == pytest.approx(math.hypot(da * 0.1, db * 0.01))
-    assert set(METHOD_TERMS) == {"rim_fit", "lattice", "empty_circle", "cone"}
 
+
+
+def test_every_estimator_of_the_vocabulary_has_its_object_and_method_terms():
+    """Each name of holecli.vocabulary.ESTIMATORS (the record's ``uncertainty.estimator``) is an
+    estimator object's, in the same precedence order, with its method terms for the center and the
+    diameter."""
+    assert tuple(estimator.name for estimator in ESTIMATORS) == vocabulary.ESTIMATORS
+    for name in vocabulary.ESTIMATORS:
+        terms = ESTIMATOR_NAMED[name].method_terms
+        assert METHOD_TERMS[name] is terms
+        assert set(terms) == {"center", "diameter"}
+        assert all(len(terms[part]) == 2 and min(terms[part]) >= 0.0 for part in terms)
 
 def test_the_empty_circles_correction_adds_a_rectangular_type_b_term():
     # the empty circle's correction is uncertain by itself: its synthetic holes do not see the

@@ -90,7 +90,7 @@ def estimate_edge(scene, queries, local, rim_xy, center, radius, partial, floor,
 
     Parameters
     ----------
-    scene : holecli.robust.method._Scene
+    scene : holecli.robust.scene.Scene
         What the measurement knows of the whole scan.
     queries : SceneQueries
         The scene's spatial queries.

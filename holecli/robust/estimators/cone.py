@@ -20,22 +20,12 @@ from functools import partial
 
 import numpy as np
 
+from holecli.geometry import lsq
 from holecli.geometry.kernels import robust_sigma
 from holecli.robust.estimators.harness import EdgeEstimate
 from holecli.settings import DEFAULT_SETTINGS
+from holecli.vocabulary import ESTIMATORS
 
-# The defaults, from RobustSettings (see there): a countersink wall slopes between MIN_SLOPE and
-# MAX_SLOPE (cone_min_slope, cone_max_slope) and holds MIN_POINTS_BELOW points clearly below the
-# surface (cone_min_points_below); the flat-floor check cuts the points below the surface inside the
-# edge into DEPTH_BINS radial bins (between their 1st and 99th radius percentiles), each kept with
-# at least MIN_BIN_POINTS points (cone_depth_bins, cone_min_bin_points), and wants a depth slope of
-# DEPTH_SLOPE_RATIO of the cone's (cone_depth_slope_ratio).
-MIN_SLOPE = DEFAULT_SETTINGS.cone_min_slope
-MAX_SLOPE = DEFAULT_SETTINGS.cone_max_slope
-MIN_POINTS_BELOW = DEFAULT_SETTINGS.cone_min_points_below
-DEPTH_BINS = DEFAULT_SETTINGS.cone_depth_bins
-MIN_BIN_POINTS = DEFAULT_SETTINGS.cone_min_bin_points
-DEPTH_SLOPE_RATIO = DEFAULT_SETTINGS.cone_depth_slope_ratio
 # A cone found by the least-median start must have its points below the surface spread over at least
 # this fraction of the radii from the edge to the innermost of them (interquartile range): not a
 # bore's wall, which stands at one radius (see fit_cone_edge).
@@ -265,7 +255,7 @@ def _trimmed_hinge(rho, depth, radius, width, noise, settings, median_start=None
     return edge, slope, keep
 
 
-def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOPE_RATIO, *,
+def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=None, *,
                   settings=DEFAULT_SETTINGS, gap=None):
     """Countersink edge from points around a hole, or the reason there is no cone.
 
@@ -281,9 +271,10 @@ def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOP
         Half-width of the radial window searched for the edge.
     noise : float
         Standard deviation of the surface points' heights.
-    depth_slope_ratio : float
+    depth_slope_ratio : float, optional
         Least slope of depth against radius of the points below the surface inside the edge, as a
-        fraction of the cone's slope (the ``"flat_floor"`` check).
+        fraction of the cone's slope (the ``"flat_floor"`` check); None: ``cone_depth_slope_ratio``
+        of ``settings``.
     settings : RobustSettings
         Source of the cone's other limits: ``cone_inner_widths`` (the window reaches that many
         ``width`` inside ``radius``), ``cone_below_sigmas``, ``cone_min_points_below``,
@@ -296,6 +287,8 @@ def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=DEPTH_SLOP
     -------
     Cone or NotACone
     """
+    if depth_slope_ratio is None:
+        depth_slope_ratio = settings.cone_depth_slope_ratio
     window = (rho > radius - settings.cone_inner_widths * width) & (rho < radius + width)
     rho, depth = rho[window], depth[window]
     clearly_below = settings.cone_below_sigmas * noise
@@ -434,24 +427,9 @@ def _cone_in_the_plane(scene, queries, center, cone, settings):
     shift = float(np.hypot(cx - center[0], cy - center[1]))
     if not result.success or shift > width or abs(edge - cone.radius) > width or not settings.cone_min_slope <= slope:
         return center, cone.radius, None
-    covariance = _least_squares_covariance(result, scale)  # None: singular (no covariance, not a crash)
+    # the residuals were divided by scale: the covariance is in the parameters' units all the same
+    covariance = lsq.covariance(result.jac, result.fun)  # None: singular (no covariance, not a crash)
     return np.array([cx, cy]), float(edge), None if covariance is None else covariance[:3, :3]
-
-
-def _least_squares_covariance(result, scale):
-    """Covariance of the parameters of a scipy ``least_squares`` result whose residuals were divided
-    by ``scale``: ``s^2 (J^T J)^-1`` with ``s^2`` the residuals' variance (n - p degrees of freedom),
-    in the parameters' units; None when the Jacobian is singular."""
-    jacobian = result.jac
-    n, p = jacobian.shape
-    if n <= p:
-        return None
-    try:
-        inverse = np.linalg.inv(jacobian.T @ jacobian)
-    except np.linalg.LinAlgError:
-        return None
-    variance = float(result.fun @ result.fun) / (n - p)
-    return inverse * variance
 
 
 class ConeEstimator:
@@ -461,7 +439,7 @@ class ConeEstimator:
 
     Its uncertainty is the cone fit's least-squares covariance when there is one."""
 
-    name = "cone"
+    name = ESTIMATORS[0]  # "cone", first in precedence (holecli.vocabulary.ESTIMATORS)
     # The method terms (a, b) for the in-plane center and the diameter: a h and b sigma_h in
     # quadrature (see holecli.robust.uncertainty for how they were measured).
     method_terms = {"center": (0.002, 0.0), "diameter": (0.01, 0.0)}

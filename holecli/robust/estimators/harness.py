@@ -78,9 +78,9 @@ def synthetic_errors(measure, center, radii, reflections=None):
 
 @dataclass(frozen=True)
 class SceneQueries:
-    """The spatial questions an estimator asks of the scene (``holecli.robust.method``'s
-    ``_within`` and ``_surface_height``), given by the caller so that the estimators do not import
-    the method that calls them.
+    """The spatial questions an estimator asks of the scene (``holecli.robust.measure``'s
+    ``_within`` and :func:`holecli.robust.surface.surface_height`), given by the caller so that the
+    estimators do not import the measurement that calls them.
 
     Attributes
     ----------
