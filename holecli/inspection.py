@@ -16,11 +16,26 @@ from typing import Optional
 from holecli import tolerance
 from holecli.errors import HoleCliError
 
-__all__ = ["Inspection", "InspectionError", "check_record", "tied_hole_name"]
+__all__ = ["Inspection", "InspectionError", "check_record", "scan_stem", "tied_hole_name"]
 
 
 class InspectionError(HoleCliError, ValueError):
     """A record cannot be checked as asked (a scan tied to a hole holds several holes, units clash)."""
+
+
+def scan_stem(path) -> str:
+    """A scan's file name without its extension (``scans/A1.ply`` -> ``A1``): what names its PNG
+    in a plot folder and, in ``holecli register``, the hole it shows.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    str
+    """
+    return os.path.splitext(os.path.basename(os.path.normpath(os.fspath(path))))[0]
 
 
 def tied_hole_name(path, names, hole_names):
@@ -35,8 +50,6 @@ def tied_hole_name(path, names, hole_names):
         ``--name`` pairs ``(SCAN, HOLE)``; SCAN None (detect's plain ``--name HOLE``) ties any scan.
     hole_names : collection of str
     """
-    from holecli.batch import scan_stem
-
     for scan, hole in names:
         if scan is None or scan in (path, os.path.basename(path), scan_stem(path)):
             return hole, "--name"

@@ -10,7 +10,8 @@ from __future__ import annotations
 from holecli.io.formats import INPUT_EXTENSIONS, INPUT_FORMATS
 
 __all__ = ["DECISION_RULES", "DOUBT_CODES", "ESTIMATORS", "INPUT_EXTENSIONS", "INPUT_FORMATS", "LOOP_CHECKS",
-           "NOTE_CODES", "REJECTION_REASONS", "UNIT_MISMATCH", "WARNING_CODES"]
+           "NOTE_CODES", "NOT_IN_SPEC_FRAME", "REJECTION_REASONS", "UNCERTAINTY_NOTE", "UNIT_MISMATCH",
+           "WARNING_CODES"]
 
 # INPUT_EXTENSIONS (what holecli.io.read_cloud reads, by extension) and INPUT_FORMATS (the formats by
 # name: ``input_format``, ``--input-format``) are derived from the table of formats,
@@ -105,6 +106,15 @@ NOTE_CODES = {
     "edge_loops": "the edge is a loop of a CAD export's vertices, no point inside a face: the diameter is "
                   "the least-squares circle of the polygon's sides",
 }
+
+#: The note of a hole tied to a spec hole (holecli.tolerance.check's ``tied``) that lies beyond its match
+#: radius in a spec no registration mapped: the scan is in another frame, so its position and tilt are
+#: not checked. (A tolerance check's note, given beside NOTE_CODES' measurement notes.)
+NOT_IN_SPEC_FRAME = "not_in_spec_frame"
+
+#: The note of a tolerance check whose expanded uncertainty leaves no value a guarded decision could
+#: pass (holecli.tolerance.uncertainty_exceeds_zone).
+UNCERTAINTY_NOTE = "uncertainty_exceeds_tolerance"
 
 #: The warning of a tolerance check whose values and tolerances look like different units (holecli.units).
 UNIT_MISMATCH = "unit_mismatch"

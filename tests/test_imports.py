@@ -1,7 +1,9 @@
-"""holecli's modules import each other without a cycle: no module imports, at module level, one that
-imports it back (directly or through others). The graph is read from the source with ``ast``, so that
-it holds every import whether or not a test runs it; imports inside functions are listed apart (they
-run late and cannot make an import fail, but each is a place where a layer may reach the wrong way).
+"""holecli's modules import each other without a cycle: no module imports one that imports it back
+(directly or through others), at module level or inside a function. The graph is read from the source
+with ``ast``, so that it holds every import whether or not a test runs it; imports inside functions are
+listed apart (they run late and cannot make an import fail, but each is a place where a layer may reach
+the wrong way: the cycle between ``cli.detect`` and ``cli.plot`` went through them), and the few that
+may close a cycle are named in :data:`LATE_IMPORTS_ALLOWED`, each with its reason.
 """
 
 import ast
@@ -112,9 +114,33 @@ def test_the_cycle_finder_finds_a_cycle_through_three_modules():
     assert cycles({"a": {"b"}, "b": set()}) == []
 
 
-def test_no_module_of_holecli_imports_itself_back_at_module_level():
-    top, _ = import_graph()
-    assert cycles(top) == []
+# The imports inside functions that may close a cycle, (importer, imported), each with its reason.
+LATE_IMPORTS_ALLOWED = {
+    # holecli/__init__.py's __getattr__ loads the heavy parts of the library's face (holecli.detect,
+    # holecli.measure_scan, ...) on first use, so that ``import holecli`` (and the command line's start)
+    # stays cheap; every module that imports from the package at module level (``__version__``, the
+    # errors) would otherwise close a cycle with it, and none of them runs that loader.
+    ("holecli", "holecli.io"): "the package's lazy attribute loader",
+    ("holecli", "holecli.results"): "the package's lazy attribute loader",
+    ("holecli", "holecli.pipeline"): "the package's lazy attribute loader",
+    ("holecli", "holecli.measure"): "the package's lazy attribute loader",
+    # results.py's to_dict() writes holecli's __version__ into each record; the package imports
+    # results only in its lazy loader above, so the two never import each other at load time.
+    ("holecli.results", "holecli"): "the record's holecli_version",
+}
+
+
+def test_no_module_of_holecli_imports_itself_back():
+    top, inner = import_graph()
+    late = {module: {imported for imported in inner[module] if (module, imported) not in LATE_IMPORTS_ALLOWED}
+            for module in inner}
+    assert cycles({module: top[module] | late[module] for module in top}) == []
+
+
+def test_every_allowed_late_import_is_still_there():
+    # an allowance outlives the import it was for: then it would hide the next one
+    _, inner = import_graph()
+    assert [pair for pair in LATE_IMPORTS_ALLOWED if pair[1] not in inner[pair[0]]] == []
 
 
 @pytest.mark.parametrize("pair", [("holecli.cli.detect", "holecli.cli.plot")])
@@ -122,5 +148,4 @@ def test_detect_and_plot_do_not_import_each_other(pair):
     # they did (detect took plot's drawing, plot took detect's stdin reading), inside functions
     top, inner = import_graph()
     first, second = pair
-    assert second not in top[first] | inner[first] or first not in top[second] | inner[second]
     assert first not in top[second] | inner[second]

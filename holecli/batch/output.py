@@ -1,6 +1,6 @@
 """Writing a batch's records and resuming an interrupted batch: :class:`RecordWriter` (JSON Lines or
-CSV, one write per record), :class:`BatchOutput` (the locked output file, what an earlier run wrote)
-and the options a resumed run must share with it.
+CSV, one write per record), :class:`BatchOutput` (the locked output file, what an earlier run wrote),
+the options a resumed run must share with it, and :func:`files_to_do` (what a resumed run has left).
 """
 
 from __future__ import annotations
@@ -13,9 +13,10 @@ import os
 import stat
 
 from holecli.batch.pool import PARENT_ONLY_DESCRIPTORS
-from holecli.batch.tally import FileSummary
 from holecli.errors import HoleCliError
+from holecli.measure import resolved_path
 from holecli.report import BATCH_CSV_COLUMNS, CSV_COLUMNS, csv_text, to_json_line
+from holecli.tally import FileSummary
 
 FORMATS = ("jsonl", "csv")
 
@@ -397,3 +398,24 @@ def resume_options_message(path, differing) -> str:
                       for column, before, after in differing)
     return (f"{path}: cannot resume with other options than its records were made with ({parts}): give the "
             f"same options, or another --output (or --overwrite to replace its records)")
+
+
+def files_to_do(files, earlier) -> list:
+    """The ``files`` that the ``earlier`` records (:class:`FileSummary`) do not hold, matched by
+    :func:`resolved_path`, so that a resumed batch may run from another folder than the first. (A
+    record of holecli 0.1 has no ``path``: its ``file`` is resolved from the current folder.)
+
+    Parameters
+    ----------
+    files : sequence of str
+        The files of this run, in order.
+    earlier : iterable of FileSummary
+        The records already in the output.
+
+    Returns
+    -------
+    list of str
+        ``files`` without those already measured, in their order.
+    """
+    done = {summary.path or resolved_path(summary.file) for summary in earlier}
+    return [path for path in files if resolved_path(path) not in done]

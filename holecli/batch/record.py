@@ -6,7 +6,11 @@ from __future__ import annotations
 
 import os
 
-from holecli.measure import resolved_path
+from holecli import __version__
+from holecli.inspection import scan_stem
+from holecli.measure import MeasureError, measure_scan, resolved_path
+from holecli.results import SCHEMA_VERSION
+
 
 class FileTimeout(BaseException):
     """Raised in a batch worker when its file's time limit has passed (from a SIGALRM handler).
@@ -19,8 +23,6 @@ class FileTimeout(BaseException):
 # What measure_record lets through rather than turning it into an error record: requests to stop
 # (which a caller outside a batch worker expects to get) and a file's time limit (its own message).
 _PASSED_ON = (KeyboardInterrupt, SystemExit, GeneratorExit, FileTimeout)
-
-
 
 
 def measure_record(path, options, spec=None, explain=False, scan=None, units=None, plot_file=None) -> dict:
@@ -59,8 +61,6 @@ def measure_record(path, options, spec=None, explain=False, scan=None, units=Non
         "error": message}``. An unexpected exception (a bug) becomes such an
         error record too, so that one file cannot stop a batch.
     """
-    from holecli.measure import MeasureError, measure_scan
-
     resolved = resolved_path(path)
     try:
         measurement = measure_scan(path, scan=scan, units=units, spec=spec, explain=explain,
@@ -133,21 +133,6 @@ def _result_text(record):
     return text
 
 
-def scan_stem(path) -> str:
-    """A scan's file name without its extension (``scans/A1.ply`` -> ``A1``): what names its PNG
-    in a plot folder and, in ``holecli register``, the hole it shows.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-
-    Returns
-    -------
-    str
-    """
-    return os.path.splitext(os.path.basename(os.path.normpath(os.fspath(path))))[0]
-
-
 def plot_files(paths, folder) -> dict:
     """The PNG of each scan in the plot folder: its stem, made unique by ``-2``, ``-3``, ...
 
@@ -200,8 +185,5 @@ def error_record(path, message, resolved=None) -> dict:
     dict
         ``{"schema_version", "holecli_version", "file", "path", "error"}``.
     """
-    from holecli import __version__
-    from holecli.results import SCHEMA_VERSION
-
     return {"schema_version": SCHEMA_VERSION, "holecli_version": __version__, "file": str(path),
             "path": resolved_path(path) if resolved is None else resolved, "error": message}

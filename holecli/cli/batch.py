@@ -24,6 +24,7 @@ from holecli.cli.options import (Decimal, check_verbosity, decision_from_options
                                  unit_choice, verbosity_option_decorators, with_decision)
 from holecli.cli.options import check_fields, fields_option
 from holecli.cli.progress import BatchDisplay, batch_summary, verbose_text
+from holecli.cli.render import spec_units_line, warning_lines, zone_note_lines
 from holecli.errors import LoadError
 
 
@@ -83,8 +84,8 @@ class StopRequests:
 
 def unit_lines(record):
     """The stderr lines of a record's mistakes of units: each ``unit_mismatch`` warning of its holes
-    (:func:`holecli.cli.detect.warning_lines`) and its ``spec_units_assumed``
-    (:func:`holecli.cli.detect.spec_units_line`).
+    (:func:`holecli.cli.render.warning_lines`) and its ``spec_units_assumed``
+    (:func:`holecli.cli.render.spec_units_line`).
 
     Parameters
     ----------
@@ -95,7 +96,6 @@ def unit_lines(record):
     -------
     list of str
     """
-    from holecli.cli.detect import spec_units_line, warning_lines
     from holecli.units import UNIT_MISMATCH
 
     lines = [line for line in warning_lines(record) if f": {UNIT_MISMATCH}: " in line]
@@ -447,8 +447,6 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
                     for line in unit_lines(record):
                         display.message(line, error=True)
                 if not quiet and not verbose:  # checks a guarded decision can never pass (-v says every note)
-                    from holecli.cli.detect import zone_note_lines
-
                     for line in zone_note_lines(record):
                         display.message(line, error=True)
                 if verbose:

@@ -96,7 +96,7 @@ def exit_code(tally, fail_on_warning=None):
 
     Parameters
     ----------
-    tally : holecli.batch.Tally
+    tally : holecli.tally.Tally
         The counts of every record of the command (one record for ``detect`` and ``plot``; for
         ``register`` a failed verdict counts as out of tolerance, an outlier or inconsistent holes as
         undecided).

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import os
+
 import click
 
 from holecli.cli.exits import EXIT_INPUT, EXIT_OK, Failure, run_guarded, write_stdout
 from holecli.cli.options import check_verbosity, columns_option, input_format_option, verbosity_option_decorators
+from holecli.cli.source import STDIN, check_stdin_format, read_stdin
 from holecli.errors import HoleCliError
+from holecli.measure import failure_message
 
 INFO_EXIT_CODES_HELP = (
     "\b\nExit codes:\n"
@@ -91,22 +95,16 @@ def info(scan, input_format, columns, units, fmt, quiet, verbose):
       holecli info scan.csv --columns x_mm,y_mm,z_mm
       holecli info scan.asc --input-format xyz
     """
-    from holecli.cli.source import STDIN, check_stdin_format
-
     check_verbosity(quiet, verbose)
     check_stdin_format(scan, input_format)
 
     def body():
-        import os
-
-        from holecli.measure import failure_message
+        # (the readers import numpy: not at holecli --help)
         from holecli.io import STDIN_NAME, read_cloud
         from holecli.io.info import describe_cloud, file_fields
 
         try:
             if scan == STDIN:
-                from holecli.cli.source import read_stdin
-
                 cloud = read_stdin(input_format, columns=columns)
                 fields = None if cloud.columns is None or cloud.columns.header is None else list(cloud.columns.header)
             else:

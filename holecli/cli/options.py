@@ -439,8 +439,6 @@ def require_gauge_depth(spec, gauge_depth, spec_file=None):
     if spec_file is None:
         raise click.UsageError("--countersink-gauge-diameter needs --gauge-depth (the depth below the surface at "
                                "which the gauge reads the countersink's diameter)")
-    from holecli.cli.exits import EXIT_USAGE, Failure
-
     names = ", ".join(repr(hole.name) for hole in holes)
     raise Failure(f"{spec_file}: hole {names} {'has' if len(holes) == 1 else 'have'} countersink_gauge_diameter: give "
                   f"--gauge-depth (the depth below the surface at which the gauge reads the countersink's diameter)",

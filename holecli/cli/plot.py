@@ -18,6 +18,7 @@ from holecli.cli.options import (check_verbosity, columns_option, detection_opti
                                  refuse_same_files, verbosity_option_decorators)
 from holecli.cli.outputs import write_outputs
 from holecli.cli.source import STDIN, check_stdin_format, measure
+from holecli.tally import Tally
 
 MISSING_EXTRA = "holecli plot needs the optional extra: pip install 'holecli[plot]'"
 
@@ -110,7 +111,7 @@ def plot_name(scan):
     -------
     str
     """
-    from holecli.batch import scan_stem
+    from holecli.inspection import scan_stem  # (not at holecli --help: it imports holecli.tolerance)
 
     return ("stdin" if scan == STDIN else scan_stem(scan) or "scan") + ".png"
 
@@ -234,6 +235,4 @@ def plot(scan, output, input_format, columns, scan_index, units, max_panels, dpi
     if not quiet:
         click.echo(f"holecli: {len(detection.holes)} hole{'' if len(detection.holes) == 1 else 's'} of "
                    f"{detection.file} drawn in {output}", err=True)
-    from holecli.batch import Tally
-
     raise SystemExit(exit_code(Tally.of([measurement.record])))

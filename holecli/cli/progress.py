@@ -174,7 +174,7 @@ def batch_summary(tally, seconds, checked, earlier, output):
 
     Parameters
     ----------
-    tally : holecli.batch.Tally
+    tally : holecli.tally.Tally
         The counts of every file, the earlier run's included.
     seconds : float
         Wall time of this run.
@@ -268,7 +268,7 @@ class BatchDisplay:
         ----------
         completed : int
             Files of this run measured so far.
-        tally : holecli.batch.Tally
+        tally : holecli.tally.Tally
             The counts so far.
         seconds : float
             Time since the run started, for the rate.

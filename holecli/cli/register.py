@@ -17,10 +17,12 @@ import sys
 
 import click
 
-from holecli.cli.exits import EXIT_INPUT, EXIT_NO_HOLE, EXIT_USAGE, Failure, exit_code, run_guarded
+from holecli.cli.exits import EXIT_INPUT, EXIT_USAGE, Failure, exit_code, run_guarded
 from holecli.cli.options import Decimal, columns_option, detection_option_decorators, detection_options
 from holecli.cli.outputs import write_outputs
+from holecli.cli.render import NARROW_TABLE_BELOW, table_width
 from holecli.cli.source import measure
+from holecli.tally import Tally
 
 REGISTER_EXIT_CODES_HELP = (
     "\b\nExit codes:\n"
@@ -74,7 +76,7 @@ class NamePair(click.ParamType):
 
 def _scan_names(scans, pairs, hole_names, spec_file):
     """{scan: hole name or None}: ``--name`` first, else the file stem when it is a spec hole's name."""
-    from holecli.batch import scan_stem
+    from holecli.inspection import scan_stem  # (not at holecli --help: it imports holecli.tolerance)
 
     names = {}
     for scan, hole in pairs:
@@ -121,8 +123,8 @@ def render_table(record, width=None):
     record : dict
         A ``register`` record.
     width : int, optional
-        The width of the text (default: the terminal's, :func:`holecli.cli.detect.table_width`); under
-        :data:`holecli.cli.detect.NARROW_TABLE_BELOW` the transform is one row per quantity, its three
+        The width of the text (default: the terminal's, :func:`holecli.cli.render.table_width`); under
+        :data:`holecli.cli.render.NARROW_TABLE_BELOW` the transform is one row per quantity, its three
         values over their standard uncertainties.
 
     Returns
@@ -132,8 +134,6 @@ def render_table(record, width=None):
     """
     from rich.console import Console
     from rich.table import Table
-
-    from holecli.cli.detect import NARROW_TABLE_BELOW, table_width
 
     width = table_width() if width is None else width
     buffer = _stringio.StringIO()
@@ -278,10 +278,8 @@ def registration_tally(record):
 
     Returns
     -------
-    holecli.batch.Tally
+    holecli.tally.Tally
     """
-    from holecli.batch import Tally
-
     doubtful = bool(record["outliers"]) or not (record["consistency"] or {"consistent": True})["consistent"]
     return Tally(files=1, holes=len(record["holes"]), out_of_tolerance=int(record["verdict"] == "fail"),
                  undecided=int(doubtful))
@@ -390,8 +388,8 @@ def register(scans, columns, spec_file, name_pairs, targets_file, targets_output
                 from holecli.cli.progress import verbose_text
 
                 accounts.append(verbose_text(detection.to_dict()))
-            if not detection.holes:
-                raise Failure(f"{scan}: no hole found", EXIT_NO_HOLE)
+            if not detection.holes:  # no registration without it: the exit code of a scan without a hole
+                raise Failure(f"{scan}: no hole found", exit_code(Tally(files=1, without_hole=1)))
             name = names[scan]
             if name is not None and len(detection.holes) > 1:
                 raise Failure(f"{scan}: is hole {name!r} but holds {len(detection.holes)} holes (give --max-holes 1, "

@@ -14,7 +14,7 @@ from holecli.io.decimal_text import parse_decimal
 from holecli.units import declared_units
 from holecli.vocabulary import DECISION_RULES
 
-__all__ = ["DECISION_RULES", "DEFAULT_COVERAGE_FACTOR", "NOT_IN_SPEC_FRAME", "Band", "NominalHole", "Spec", "gauge_checked", "load_toml", "nominal_spec", "parse_band", "parse_spec", "spec_number"]
+__all__ = ["DECISION_RULES", "DEFAULT_COVERAGE_FACTOR", "Band", "NominalHole", "Spec", "gauge_checked", "load_toml", "nominal_spec", "parse_band", "parse_spec", "spec_number"]
 
 Vector = tuple[float, float, float]
 
@@ -65,10 +65,6 @@ _KEY_NAMES = {key: key for key in _SPEC_KEYS}
 _TOLERANCE_KEYS = ("tolerance", "position_tolerance", "max_tilt",
                    *(f"{feature.name}_tolerance" for feature in _FEATURE_CHECKS), "countersink_gauge_tolerance",
                    "max_perpendicularity")
-
-# The note of a hole tied to a spec hole (check's ``tied``) that lies beyond its match radius in a spec
-# no registration mapped: the scan is in another frame, so its position and tilt are not checked.
-NOT_IN_SPEC_FRAME = "not_in_spec_frame"
 
 # The decision rules of ISO 14253-1 that check() applies, and the default coverage factor (k = 2: about
 # 95 % coverage for a normal distribution, the usual choice of a calibration certificate).

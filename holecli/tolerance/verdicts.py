@@ -7,11 +7,12 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from holecli.tolerance.spec import (_FEATURE_CHECKS, _ROUND_OFF, _UNCERTAINTY_PATHS, DEFAULT_COVERAGE_FACTOR,
-                                    NOT_IN_SPEC_FRAME, Band, NominalHole, _shown, spec_number)
+from holecli.tolerance.spec import (_FEATURE_CHECKS, _ROUND_OFF, _UNCERTAINTY_PATHS, DEFAULT_COVERAGE_FACTOR, Band,
+                                    NominalHole, _shown, spec_number)
 from holecli.units import UNIT_MISMATCH, label_record, scale_factor, unit_factors, unit_mistake
+from holecli.vocabulary import NOT_IN_SPEC_FRAME, UNCERTAINTY_NOTE
 
-__all__ = ["UNCERTAINTY_NOTE", "check", "describe", "far_from_spec", "spec_in_units", "uncertainty_exceeds_zone",
+__all__ = ["check", "describe", "far_from_spec", "spec_in_units", "uncertainty_exceeds_zone",
            "uncertainty_zone_message", "uncertainty_zone_notes", "unit_scale_match"]
 
 
@@ -153,10 +154,6 @@ def check(record, spec, tied=None) -> dict:
     return out
 
 
-# The note of a check whose expanded uncertainty leaves no value a guarded decision could pass.
-UNCERTAINTY_NOTE = "uncertainty_exceeds_tolerance"
-
-
 def uncertainty_exceeds_zone(entry):
     """Whether a check's expanded uncertainty ``U`` is too wide for its tolerance zone: no measured value
     could pass it under the guarded rule (``2U`` wider than a band ``upper - lower``; ``U`` above a
@@ -204,7 +201,7 @@ def uncertainty_zone_message(check, entry):
 
 
 def uncertainty_zone_notes(conformance):
-    """The notes (:data:`UNCERTAINTY_NOTE`) of a hole's checks whose U exceeds their tolerance zone.
+    """The notes (:data:`holecli.vocabulary.UNCERTAINTY_NOTE`) of a hole's checks whose U exceeds their tolerance zone.
 
     Parameters
     ----------

@@ -921,7 +921,7 @@ def test_every_tolerance_and_detection_option_has_a_metavar_and_help(run, comman
 
 
 def test_the_table_cell_of_a_verdict_shows_each_failed_check_with_its_value():
-    from holecli.cli.detect import verdict_cell
+    from holecli.cli.render import verdict_cell
 
     hole = {"name": "A1", "in_tolerance": False, "diameter_deviation": -0.0029,
             "position_deviation": {"in_plane": 0.061, "along_normal": 0.0}, "tilt_deg": 0.72,

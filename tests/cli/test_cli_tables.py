@@ -9,7 +9,7 @@ import os
 import pytest
 
 from holecli import cli
-from holecli.cli.detect import conformance_text
+from holecli.cli.render import conformance_text
 
 SAMPLES = os.path.join(os.path.dirname(__file__), "..", "..", "sample_clouds")
 PANEL = os.path.join(SAMPLES, "panel.ply")

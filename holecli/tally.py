@@ -1,13 +1,18 @@
-"""Counting a batch's records for its progress, summary and exit code: :class:`FileSummary` of one
-record (or of its CSV rows), :class:`Tally` of them all, and :func:`files_to_do` (what a resumed run
-has left).
+"""The counts of a command's records, the input of its exit code: :class:`FileSummary` of one record (or
+of its CSV rows of ``holecli batch``) and :class:`Tally` of them all. ``holecli detect``, ``plot``,
+``register`` and ``batch`` derive their exit code from a Tally (:func:`holecli.cli.exits.exit_code`);
+``batch`` also its progress and summary. Only the standard library and :mod:`holecli.vocabulary` are
+imported.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from holecli.measure import resolved_path
+from holecli.vocabulary import NOTE_CODES
+
+__all__ = ["FileSummary", "Tally"]
+
 
 @dataclass(frozen=True)
 class FileSummary:
@@ -53,8 +58,6 @@ def _warning_codes(codes):
     """The warning codes among ``codes``, without the notes' (:data:`holecli.vocabulary.NOTE_CODES`),
     which records before schema 2.2 (a resumed batch's earlier ones) gave as warnings: a note never counts
     as a doubt or fails ``--fail-on-warning``."""
-    from holecli.vocabulary import NOTE_CODES
-
     return tuple(code for code in codes if code not in NOTE_CODES)
 
 
@@ -111,24 +114,3 @@ class Tally:
     @property
     def measured(self) -> int:
         return self.files - self.failed
-
-
-def files_to_do(files, earlier) -> list:
-    """The ``files`` that the ``earlier`` records (:class:`FileSummary`) do not hold, matched by
-    :func:`resolved_path`, so that a resumed batch may run from another folder than the first. (A
-    record of holecli 0.1 has no ``path``: its ``file`` is resolved from the current folder.)
-
-    Parameters
-    ----------
-    files : sequence of str
-        The files of this run, in order.
-    earlier : iterable of FileSummary
-        The records already in the output.
-
-    Returns
-    -------
-    list of str
-        ``files`` without those already measured, in their order.
-    """
-    done = {summary.path or resolved_path(summary.file) for summary in earlier}
-    return [path for path in files if resolved_path(path) not in done]
