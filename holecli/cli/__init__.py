@@ -8,7 +8,8 @@ Where things are:
 =========================  ===========================================================================
 ``holecli.cli``            the click group :func:`main` (the ``holecli`` program's entry point, run by
                            :mod:`holecli.__main__` once the signal handlers are installed)
-``holecli.cli.detect``     ``holecli detect`` and its output (JSON, CSV, the table)
+``holecli.cli.detect``     ``holecli detect``
+``holecli.cli.render``     what ``detect`` prints (JSON, CSV, the table) and says about a record on stderr
 ``holecli.cli.batch``      ``holecli batch``: the command, its measuring loop and its stop on signals
 ``holecli.cli.register``   ``holecli register``: the part -> measuring frame transform from reference holes,
                            corrected targets (JSON, CSV, the table)
