@@ -30,7 +30,8 @@ def test_a_cell_is_written_with_a_spec_the_tolerance_reader_takes(tmp_path):
     cell = simulate_cell(random_cell(1, 3), 1)
     truth = write_cell(tmp_path / "cell", cell, seed=1)
     names = sorted(os.listdir(tmp_path / "cell"))
-    assert names == sorted([f"{scan.name}.ply" for scan in cell.scans] + ["part.toml", "targets.csv", "cell.truth.json"])
+    scans = [f"{scan.name}.ply" for scan in cell.scans]
+    assert names == sorted(scans + ["part.toml", "targets.csv", "cell.truth.json"])
     assert truth["seed"] == 1 and json.loads((tmp_path / "cell" / "cell.truth.json").read_text()) == truth
     spec = parse_spec((tmp_path / "cell" / "part.toml").read_text())
     assert [hole.name for hole in spec.holes] == [hole.name for hole in cell.nominal]
@@ -44,7 +45,8 @@ def test_a_lot_is_written_whole_with_its_manifest(tmp_path):
     seen = []
     parts = write_lot(str(tmp_path / "lot"), lot_parts(PANEL, 2, seed=3), _aim, {"panel": "panel.toml"},
                       progress=lambda name, points, truth: seen.append((name, points > 0)))
-    assert seen == [("part_001.ply", True), ("part_002.ply", True)] and [p["file"] for p in parts] == ["part_001.ply", "part_002.ply"]
+    assert seen == [("part_001.ply", True), ("part_002.ply", True)]
+    assert [part["file"] for part in parts] == ["part_001.ply", "part_002.ply"]
     manifest = json.loads((tmp_path / "lot" / "manifest.json").read_text())
     assert manifest["panel"] == "panel.toml" and manifest["units"] == "mm" and manifest["lot"] == parts
     assert os.listdir(tmp_path) == ["lot"]
