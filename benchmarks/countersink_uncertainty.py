@@ -4,7 +4,7 @@ benchmarks/uncertainty.py covers a hole's center and edge diameter; this one cov
 the edge (issue 25): the countersink's diameter, included angle and depth, and the counterbore's depth
 (its diameter is the edge's) and the bore's diameter where the lots show one, on sources with known truth:
 
-* ``lot0``: lots of ``sample_clouds/panel.toml`` made by ``holecli simulate --lot`` (the laser
+* ``lot0``: lots of ``sample_clouds/panel.toml`` made by ``holecli simulate lot`` (the laser
   profiler ray-casting a panel whose circles have the default 0.1 um chord error), no range noise;
   part seeds 100 on (``--first-seed``);
 * ``scan0`` / ``scan_noisy``: one countersunk hole of 3-6 mm (angle 82-110 deg, 64-2048 segments, view
@@ -83,11 +83,11 @@ def _rows_of(hole, truth, scale=1.0):
 
 
 def lot_rows(seed, noise=0.0):
-    """Rows of one 4-part lot of sample_clouds/panel.toml made by ``holecli simulate --lot``."""
+    """Rows of one 4-part lot of sample_clouds/panel.toml made by ``holecli simulate lot``."""
     out = []
     with tempfile.TemporaryDirectory() as tmp:
         lot = Path(tmp) / "lot"
-        subprocess.run([sys.executable, "-m", "holecli", "simulate", "--lot", str(lot), "--parts", "4", "--panel",
+        subprocess.run([sys.executable, "-m", "holecli", "simulate", "lot", str(lot), "--parts", "4", "--panel",
                         str(ROOT / "sample_clouds" / "panel.toml"), "--seed", str(seed), "--range-noise", str(noise),
                         "-q"], check=True, capture_output=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
         for truth_file in sorted(lot.glob("part_*.truth.json")):

@@ -10,7 +10,7 @@ the normal (0-40 deg, any direction), the pitch (0.03-0.1 mm) and the range nois
 the conditions of issue 12's targets. Two more classes draw the hole's kind too: ``curved``, on a
 convex or concave sheet of R 500-2000 mm, and ``robot_frame``, the scan in metres in a robot's base
 frame (any heading, tilted up to 45 deg, 1-2 m from the origin). ``mesh``: the panel written as an STL
-file and scanned by the command a user runs, ``holecli simulate --mesh``, its truth read off the mesh
+file and scanned by the command a user runs, ``holecli simulate panel --mesh``, its truth read off the mesh
 (``holecli.simulation.mesh_truth``; holes drilled along the normal, as that truth needs circular loops).
 
 Per class it prints the holes found and typed right. Then, per measured value, over every scene that
@@ -153,7 +153,7 @@ def errors_of(hole, truth, scale=1.0):
 
 def measure_mesh(seed):
     """The ``mesh`` class: a panel of any kind exported as an STL file and scanned by the real command,
-    ``holecli simulate --mesh``, whose truth is what ``holecli.simulation.mesh_truth`` reads off the
+    ``holecli simulate panel --mesh``, whose truth is what ``holecli.simulation.mesh_truth`` reads off the
     mesh alone (drilled along the normal: the mesh truth needs circular loops)."""
     import open3d as o3d
 
@@ -167,7 +167,7 @@ def measure_mesh(seed):
         mesh.compute_triangle_normals()
         o3d.io.write_triangle_mesh(str(part), mesh)
         vector = lambda v: ",".join(f"{x:.12g}" for x in v)  # noqa: E731
-        command = [sys.executable, "-m", "holecli", "simulate", str(scan), "--mesh", str(part),
+        command = [sys.executable, "-m", "holecli", "simulate", "panel", str(scan), "--mesh", str(part),
                    "--spacing", f"{spec.point_pitch:.12g}", "--line-pitch", f"{spec.line_pitch:.12g}",
                    "--view", vector(spec.view), "--line", vector(spec.line), "--target", "0,0,0",
                    "--line-length", f"{spec.line_length:.12g}", "--scan-length", f"{spec.scan_length:.12g}",

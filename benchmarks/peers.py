@@ -51,7 +51,7 @@ Suites: any folder holding scans with a ``NAME.truth.json`` beside each ``NAME.p
   ``diameter``, ``kind``), named when a false hole lies on one;
 * the scan's pitch p and range noise s: ``cases.json`` of the folder (the validation suite's), else
   ``pitch`` and ``noise`` in the truth, else its ``profiler`` (``max(point_pitch, line_pitch)`` and
-  ``range_noise``, times ``unit_scale``: what ``holecli simulate --mesh/--panel`` writes), else the
+  ``range_noise``, times ``unit_scale``: what ``holecli simulate panel --mesh/--panel`` writes), else the
   cloud's median nearest-neighbour distance and 0 (said in the output).
 
 Run (from the repository's root; the validation suite takes about 4 minutes on 2 cores):

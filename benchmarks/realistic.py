@@ -90,8 +90,8 @@ def scene(kind, seed):
     frame, scale = None, 1.0
     if kind == "robot_frame":
         # any heading, tilted up to 60 deg: the sensor stays on the +z side of the base frame, which is
-        # where holecli looks for it (see the README's sign convention; a part seen from below is not
-        # in this benchmark)
+        # where holecli looks for it (see the sign convention of normals in docs/reference/output.md; a
+        # part seen from below is not in this benchmark)
         frame, scale = robot_frame(rng, np.pi / 3)
     reach = 5.0 * diameter * (2.0 if feature_kind == "slot" else 1.0)
     spec = ProfilerSpec(target=(0.0, 0.0, 0.0), standoff=100.0, view=view, line=line, line_length=reach,

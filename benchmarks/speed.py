@@ -14,7 +14,7 @@ that give those counts) and for laser-stripe scans of 10^5, 10^6 and 10^7 points
 The table's "cpu s" is the pipeline's median CPU time (``time.process_time``: the machine's other load
 disturbs it less than the wall time beside it), and "exponent" the scaling exponent
 ``log(t2 / t1) / log(n2 / n1)`` of that CPU time against the previous size of the same scan (1: linear).
-Its last row ("cad") is a ray-cast CAD scan: ``holecli simulate --panel sample_clouds/panel.toml`` at
+Its last row ("cad") is a ray-cast CAD scan: ``holecli simulate panel --panel sample_clouds/panel.toml`` at
 0.05 mm pitch, noise-free, float32 (about 915,000 points, 4 holes). ``benchmarks/pattern_speed.py``
 has grid, stripes and random sampling per size against a baseline revision.
 
@@ -77,10 +77,10 @@ def stripes_scan(points):
 
 
 def cad_scan(path):
-    """``holecli simulate --panel``: the laser profiler's ray-cast scan of ``sample_clouds/panel.toml``
+    """``holecli simulate panel``: the laser profiler's ray-cast scan of ``sample_clouds/panel.toml``
     (through, countersunk, counterbored and blind holes, a slot, a boss) at 0.05 mm pitch and profile
     pitch, noise-free, in float32 and in a robot base frame 1.2 m out: about 915,000 points, 4 holes."""
-    command = [sys.executable, "-m", "holecli", "simulate", path, "--panel", str(ROOT / "sample_clouds" / "panel.toml"),
+    command = [sys.executable, "-m", "holecli", "simulate", "panel", path, "--panel", str(ROOT / "sample_clouds" / "panel.toml"),
                "--spacing", "0.05", "--line-pitch", "0.05", "--translation", "1200,-300,800"]
     subprocess.run(command, check=True, capture_output=True, env=dict(os.environ, PYTHONPATH=str(ROOT)))
 

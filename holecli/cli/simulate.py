@@ -10,11 +10,17 @@ from __future__ import annotations
 
 import sys
 import time
+from pathlib import Path
 
 import click
+from click.core import ParameterSource
 
 from holecli.cli.exits import EXIT_INPUT, EXIT_OK, EXIT_USAGE, Failure, run_guarded
 from holecli.cli.options import Decimal, FloatTuple, check_verbosity, read_small_text, verbosity_option_decorators
+from holecli.errors import LoadError, SpecError
+
+# The implementations (holecli.simulation, numpy) are imported by the functions that call them, so that
+# `holecli --help` and the other commands start without them.
 
 
 # --- the options, each defined once -----------------------------------------------------------------
@@ -486,20 +492,13 @@ simulate.add_command(lot)
 
 def _simulate_scene(ctx, output, quiet=False, verbose=False):
     """``holecli simulate scene``: the paper's synthetic scan of a flat surface with holes, and its truth."""
-    import json
-    from pathlib import Path
-
-    from holecli.io import WRITE_EXTENSIONS, save_points
-    from holecli.io.outfile import write_text
     from holecli.simulation import synth
 
     p = ctx.params
     pattern, line_pitch, spacing, seed = p["pattern"], p["line_pitch"], p["spacing"], p["seed"]
     rotation = p["rotation"] if p["rotation"] is not None else (32.0, 0.0, 20.0)
     translation = p["translation"] if p["translation"] is not None else (3.0, 4.0, 5.0)
-    if Path(output).suffix.lower() not in WRITE_EXTENSIONS:
-        raise Failure(f"{output}: unsupported extension (expected {', '.join(WRITE_EXTENSIONS)})",
-                      EXIT_INPUT)
+    _check_extension(output)
     specs = () if p["no_hole"] else p["holes"] or ((p["center"][0], p["center"][1], p["diameter"]),)
     started = time.perf_counter()
     try:
@@ -516,13 +515,8 @@ def _simulate_scene(ctx, output, quiet=False, verbose=False):
     except ValueError as error:
         raise Failure(f"{output}: invalid scene: {error}", EXIT_INPUT) from None
     truth = dict(scan.truth, seed=seed, file=Path(output).name)
-    target = p["truth_path"] or str(Path(output).with_suffix(".truth.json"))
     generated = time.perf_counter()
-    try:
-        save_points(output, scan.points)
-        write_text(target, json.dumps(truth, indent=2) + "\n")
-    except OSError as error:
-        raise Failure(f"{output}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
+    target = _write_scan(output, scan.points, truth, p["truth_path"], float32=False)
     if verbose:
         pitch = f"line pitch {line_pitch:g}" if pattern == "stripes" and line_pitch else "no line pitch"
         click.echo(f"holecli: scene: pattern {pattern}, spacing {spacing:g}, {pitch}, {len(specs)} "
@@ -541,6 +535,10 @@ _PROFILER_OPTIONS = ("target", "standoff", "view", "line", "line_length", "scan_
 _SYNTHETIC_OPTIONS = ("diameter", "center", "holes", "no_hole", "extent", "pattern", "scan_angle", "noise_z",
                       "noise_normal", "inside_points", "countersink", "countersink_angle", "bore_depth", "bottom_depth", "outliers",
                       "ragged", "nan_points")
+# The options that aim the profiler at a part (the parameters of holecli.simulation.part.aimed_profiler).
+_AIM_OPTIONS = ("view", "line", "target", "line_length", "scan_length", "rotation", "translation", "spacing",
+                "line_pitch", "standoff", "parallel_rays", "triangulation_deg", "max_incidence_deg", "range_noise",
+                "range_quantum", "dropout", "jitter", "line_width", "keep_nan", "metres", "float64")
 
 
 # The options of simulate that only --cell uses, and the others it accepts.
@@ -556,18 +554,11 @@ _LOT_REFUSES = ("output", "mesh_file", "cell_dir", "truth_path", "cloud", "faces
 
 def _simulate_lot(ctx, directory, quiet=False, verbose=False):
     """``holecli simulate --lot DIR``: N profiler scans of a panel, each part drilled with the cell's scatter
-    and its defects (:mod:`holecli.simulation.lot`), their truths and a manifest; all written into a
-    temporary folder beside DIR, then renamed to DIR (nothing of a failed run is left)."""
-    import json
-    import os
-    import shutil
-    import tempfile
-    from pathlib import Path
-
-    from holecli.errors import SpecError
+    and its defects (:mod:`holecli.simulation.lot`), their truths and a manifest, written whole or not at
+    all (:func:`holecli.simulation.files.write_lot`)."""
+    from holecli.simulation.files import CannotWrite, LotPartError, write_lot
     from holecli.simulation.lot import DIAMETER_SIGMA, POSITION_SIGMA, lot_parts, parse_defect
-    from holecli.simulation.panel import build_panel, panel_truth, parse_panel_toml
-    from holecli.simulation.scan_part import scan_part
+    from holecli.simulation.panel import parse_panel_toml
 
     p = ctx.params
     refused = [name for name in _LOT_REFUSES if _given(ctx, name) or (name == "output" and p.get("output") is not None)]
@@ -590,67 +581,32 @@ def _simulate_lot(ctx, directory, quiet=False, verbose=False):
         drilled = lot_parts(panel, p["parts"], defects, p["seed"])
     except (SpecError, ValueError) as error:
         raise Failure(f"{panel_file}: {error}", EXIT_INPUT) from None
-    parent = target.resolve().parent
-    try:
-        staging = tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".partial", dir=parent)
-    except OSError as error:
-        raise Failure(f"{directory}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
+
+    def progress(name, points, truth):
+        if verbose:
+            given = ", ".join(defect["defect"] for defect in truth["defects"])
+            click.echo(f"holecli: {name}: {points} points, " + (f"defects {given}" if given else "no defect"), err=True)
+
+    manifest = {"panel": panel_file, "parts": p["parts"], "seed": p["seed"], "defects": list(p["defects"]),
+                "scatter": {"position_sigma": POSITION_SIGMA, "diameter_sigma": DIAMETER_SIGMA}}
     started = time.perf_counter()
     try:
-        manifest_parts = []
-        for spec, truth in drilled:
-            name = f"part_{truth['part']:03d}.ply"
-            try:
-                built = build_panel(spec)
-                features = panel_truth(built)["features"]
-                scanned = scan_part(built.vertices, built.triangles, features, _profiler_spec(p, built.vertices),
-                                    rng=truth["scan_seed"])
-            except (SpecError, ValueError) as error:
-                given = ", ".join(defect["defect"] for defect in truth["defects"]) or "no defect"
-                raise Failure(f"{panel_file}: part {truth['part']} ({given}): {error}", EXIT_INPUT) from None
-            scan_truth = dict(scanned.truth, part=truth["part"], seed=truth["scan_seed"], file=name,
-                              units="m" if p["metres"] else "mm")
-            _write_scan(os.path.join(staging, name), scanned.scan.points, scan_truth, None, p["float64"])
-            manifest_parts.append({"file": name, **truth})
-            if verbose:
-                given = ", ".join(defect["defect"] for defect in truth["defects"])
-                click.echo(f"holecli: {name}: {len(scanned.scan.points)} points, "
-                           + (f"defects {given}" if given else "no defect"), err=True)
-        manifest = {"panel": panel_file, "parts": p["parts"], "seed": p["seed"], "defects": list(p["defects"]),
-                    "scatter": {"position_sigma": POSITION_SIGMA, "diameter_sigma": DIAMETER_SIGMA},
-                    "units": "m" if p["metres"] else "mm",
-                    "defective": [part["file"] for part in manifest_parts if part["defective"]],
-                    "lot": manifest_parts}
-        from holecli.io.outfile import write_text
-
-        write_text(os.path.join(staging, "manifest.json"), json.dumps(manifest, indent=2) + "\n")
-        os.chmod(staging, 0o777 & ~_umask())
-        try:
-            os.rename(staging, target)  # onto a new or an empty folder: all at once
-        except OSError as error:
-            raise Failure(f"{directory}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
+        parts = write_lot(directory, drilled, lambda vertices: _aimed_profiler(p, vertices), manifest,
+                          units="m" if p["metres"] else "mm", float32=not p["float64"], progress=progress)
+    except CannotWrite as error:
+        raise Failure(str(error), EXIT_INPUT) from None
+    except LotPartError as error:
+        given = ", ".join(defect["defect"] for defect in error.truth["defects"]) or "no defect"
+        raise Failure(f"{panel_file}: part {error.truth['part']} ({given}): {error.error}", EXIT_INPUT) from None
     if not quiet:
-        defective = sum(part["defective"] for part in manifest_parts)
+        defective = sum(part["defective"] for part in parts)
         click.echo(f"wrote {p['parts']} scan{'' if p['parts'] == 1 else 's'} of {panel_file} ({defective} with "
                    f"defects) and manifest.json to "
                    f"{directory} in {time.perf_counter() - started:.1f} s", err=True)
     return EXIT_OK
 
 
-def _umask():
-    import os
-
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
 def _given(ctx, name):
-    from click.core import ParameterSource
-
     return ctx.get_parameter_source(name) not in (ParameterSource.DEFAULT, None)
 
 
@@ -682,13 +638,8 @@ def _parse_displace(values):
 
 def _simulate_cell(ctx, directory, quiet=False, verbose=False):
     """``holecli simulate --cell DIR``: a registration scene, its scans and its truth."""
-    import json
-    from pathlib import Path
-
-    from holecli.errors import SpecError
-    from holecli.io import save_points
-    from holecli.io.outfile import write_text
     from holecli.simulation.cell import random_cell, simulate_cell
+    from holecli.simulation.files import write_cell
 
     p = ctx.params
     if p.get("output") is not None:
@@ -714,17 +665,8 @@ def _simulate_cell(ctx, directory, quiet=False, verbose=False):
     except SpecError as error:
         raise Failure(f"{directory}: invalid cell: {error}", EXIT_INPUT) from None
     generated = time.perf_counter()
-    folder = Path(directory)
-    truth = dict(cell.truth, seed=seed, units="mm",
-                 files={"scans": {scan.name: f"{scan.name}.ply" for scan in cell.scans}, "spec": "part.toml",
-                        "targets": "targets.csv"})
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-        for scan in cell.scans:
-            save_points(folder / f"{scan.name}.ply", scan.points, float32=not p["float64"])
-        write_text(folder / "part.toml", _part_toml(cell))
-        write_text(folder / "targets.csv", _targets_csv(cell))
-        write_text(folder / "cell.truth.json", json.dumps(truth, indent=2) + "\n")
+        truth = write_cell(directory, cell, seed, float32=not p["float64"])
     except OSError as error:
         raise Failure(f"{directory}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
     if verbose:
@@ -739,62 +681,11 @@ def _simulate_cell(ctx, directory, quiet=False, verbose=False):
     return EXIT_OK
 
 
-# Tolerances written into a cell's part.toml (mm, degrees): a reference hole's drawing.
-_CELL_DIAMETER_TOLERANCE = 0.05
-_CELL_POSITION_TOLERANCE = 0.1
-_CELL_COUNTERSINK_DIAMETER_TOLERANCE = 0.1
-_CELL_COUNTERSINK_ANGLE_TOLERANCE = 1.0
-
-
-def _toml_vector(values):
-    return "[" + ", ".join(repr(float(v)) for v in values) + "]"
-
-
-def _part_toml(cell):
-    """The nominal reference holes of ``cell`` as a :func:`holecli.tolerance.parse_spec` file (part frame)."""
-    lines = ["# The reference holes of a simulated cell as drawn, in the part frame (mm); the scans are in",
-             "# the measuring frame (see cell.truth.json).", ""]
-    for hole in cell.nominal:
-        lines += ["[[hole]]", f"name = {_toml_string(hole.name)}", f"center = {_toml_vector(hole.center)}",
-                  f"normal = {_toml_vector(hole.normal)}", f"diameter = {float(hole.diameter)!r}",
-                  f"tolerance = {_CELL_DIAMETER_TOLERANCE!r}", f"position_tolerance = {_CELL_POSITION_TOLERANCE!r}"]
-        if hole.countersink_diameter is not None:
-            lines += [f"countersink_diameter = {float(hole.countersink_diameter)!r}",
-                      f"countersink_diameter_tolerance = {_CELL_COUNTERSINK_DIAMETER_TOLERANCE!r}",
-                      "countersink_angle = 100.0",
-                      f"countersink_angle_tolerance = {_CELL_COUNTERSINK_ANGLE_TOLERANCE!r}"]
-        lines.append("")
-    return "\n".join(lines)
-
-
-def _toml_string(text):
-    import json
-
-    return json.dumps(text)  # a JSON string is a TOML basic string for the names used here
-
-
-def _targets_csv(cell):
-    """``name,x,y,z,nx,ny,nz`` rows of the targets, part frame, full precision."""
-    import numpy as np
-
-    from holecli.io.targets import INPUT_COLUMNS, format_targets
-
-    rows = []
-    for target in cell.targets:
-        normal = np.asarray(target.normal, dtype=np.float64)
-        normal = normal / np.linalg.norm(normal)
-        rows.append(dict(zip(INPUT_COLUMNS, (target.name, *target.point, *normal))))
-    return format_targets(rows, columns=INPUT_COLUMNS)
-
-
 def _simulate_part(ctx, output, panel_file, mesh_file, truth_path, seed, quiet=False, verbose=False):
     """``holecli simulate --panel/--mesh``: the profiler's scan of a part, and its truth."""
-    from pathlib import Path
-
     import numpy as np
 
-    from holecli.errors import SpecError
-    from holecli.io import WRITE_EXTENSIONS
+    from holecli.simulation.scan_part import scan_part
 
     p = ctx.params
     if panel_file is not None and mesh_file is not None:
@@ -803,25 +694,22 @@ def _simulate_part(ctx, output, panel_file, mesh_file, truth_path, seed, quiet=F
     if synthetic:
         raise click.UsageError(f"{', '.join(_option_name(name) for name in synthetic)} cannot be used with "
                                f"{'--panel' if panel_file else '--mesh'} (they describe a synthetic scene)")
-    if Path(output).suffix.lower() not in WRITE_EXTENSIONS:
-        raise Failure(f"{output}: unsupported extension (expected {', '.join(WRITE_EXTENSIONS)})", EXIT_INPUT)
+    _check_extension(output)
     source = panel_file or mesh_file
     if p["cloud"] != "profiler":
         return _simulate_cad(ctx, output, panel_file, mesh_file, truth_path, seed, quiet, verbose)
     started = time.perf_counter()
     try:
-        vertices, triangles, features, part = _load_part(panel_file, mesh_file, p["view"])
-        spec = _profiler_spec(p, vertices)
-        from holecli.simulation.scan_part import scan_part
-
-        scanned = scan_part(vertices, triangles, features, spec, rng=seed)
+        part = _load_part(panel_file, mesh_file, p["view"])
+        spec = _aimed_profiler(p, part.vertices)
+        scanned = scan_part(part.vertices, part.triangles, part.features, spec, rng=seed)
     except (SpecError, ValueError) as error:
         raise Failure(f"{source}: {error}", EXIT_INPUT) from None
-    truth = dict(scanned.truth, part=part, seed=seed, file=Path(output).name,
+    truth = dict(scanned.truth, part=part.description, seed=seed, file=Path(output).name,
                  units="m" if p["metres"] else "mm")
     points = scanned.scan.points
     generated = time.perf_counter()
-    target = _write_scan(output, points, truth, truth_path, p["float64"])
+    target = _write_scan(output, points, truth, truth_path, float32=not p["float64"])
     finite = int(np.isfinite(points).all(axis=1).sum())
     if verbose:
         click.echo(f"holecli: profiler: point pitch {spec.point_pitch:g}, line pitch {spec.line_pitch:g}, "
@@ -840,13 +728,8 @@ _CAD_ACCEPTS = ("target", "view", "line", "line_length", "scan_length", "range_n
 
 def _simulate_cad(ctx, output, panel_file, mesh_file, truth_path, seed, quiet=False, verbose=False):
     """``holecli simulate --panel/--mesh --cloud KIND``: a cloud made from the mesh as engineers make one, and its
-    truth in the validation suite's format (:mod:`holecli.simulation.cad_cloud`)."""
-    from pathlib import Path
-
-    import numpy as np
-
-    from holecli.errors import SpecError
-    from holecli.simulation.cad_cloud import cad_cloud, cad_truth, cloud_pitch
+    truth in the validation suite's format (:func:`holecli.simulation.part.cad_scan`)."""
+    from holecli.simulation.part import cad_scan
 
     p = ctx.params
     refused = [name for name in _PROFILER_OPTIONS if _given(ctx, name) and name not in _CAD_ACCEPTS]
@@ -856,30 +739,17 @@ def _simulate_cad(ctx, output, panel_file, mesh_file, truth_path, seed, quiet=Fa
     source = panel_file or mesh_file
     started = time.perf_counter()
     try:
-        vertices, triangles, features, part = _load_part(panel_file, mesh_file, p["view"])
-        frame = None
-        if p["rotation"] is not None or p["translation"] is not None:
-            from holecli.simulation.synth import rotation_matrix
-
-            frame = np.eye(4)
-            frame[:3, :3] = rotation_matrix(p["rotation"] or (0.0, 0.0, 0.0))
-            frame[:3, 3] = p["translation"] or (0.0, 0.0, 0.0)
-        region = dict(view=p["view"], line=p["line"], target=p["target"], line_length=p["line_length"],
-                      scan_length=p["scan_length"])
-        points = cad_cloud(vertices, triangles, p["cloud"], p["spacing"], faces=p["faces"], noise=p["range_noise"],
-                           rng=seed, **region)
-        pitch = cloud_pitch(points, p["cloud"], p["spacing"])
-        truth = cad_truth(vertices, triangles, pitch=pitch, faces=p["faces"], kind=p["cloud"], frame=frame,
-                          not_holes=[f for f in features if panel_file and not f.get("is_hole", True)], **region)
+        part = _load_part(panel_file, mesh_file, p["view"])
+        points, truth, pitch = cad_scan(part, p["cloud"], p["spacing"], faces=p["faces"], noise=p["range_noise"],
+                                        seed=seed, rotation=p["rotation"], translation=p["translation"],
+                                        view=p["view"], line=p["line"], target=p["target"],
+                                        line_length=p["line_length"], scan_length=p["scan_length"],
+                                        float64=p["float64"])
     except (SpecError, ValueError) as error:
         raise Failure(f"{source}: {error}", EXIT_INPUT) from None
-    if frame is not None:
-        points = points @ frame[:3, :3].T + frame[:3, 3]
-    if not p["float64"]:
-        points = points.astype(np.float32).astype(np.float64)
-    truth = dict(truth, part=part, seed=seed, file=Path(output).name, noise=float(p["range_noise"]))
+    truth = dict(truth, part=part.description, seed=seed, file=Path(output).name, noise=float(p["range_noise"]))
     generated = time.perf_counter()
-    target = _write_scan(output, points, truth, truth_path, p["float64"])
+    target = _write_scan(output, points, truth, truth_path, float32=not p["float64"])
     if verbose:
         click.echo(f"holecli: cloud: {p['cloud']}, faces {p['faces']}, pitch {pitch:.4g}, noise {p['range_noise']:g}, "
                    f"seed {seed}\nholecli: time: make {(generated - started) * 1e3:.1f} ms, write "
@@ -891,82 +761,38 @@ def _simulate_cad(ctx, output, panel_file, mesh_file, truth_path, seed, quiet=Fa
 
 
 def _load_part(panel_file, mesh_file, view):
-    """(vertices, triangles, features in the part's frame, a description of the part) of --panel or --mesh."""
+    """The :class:`holecli.simulation.part.Part` of --panel or --mesh; a mesh that cannot be read is an
+    input failure."""
+    from holecli.simulation.part import mesh_part, panel_part
+
     if panel_file is not None:
-        from holecli.simulation.panel import build_panel, panel_truth, parse_panel_toml
-
-        panel = build_panel(parse_panel_toml(read_small_text(panel_file, "a panel spec")))
-        truth = panel_truth(panel)
-        return panel.vertices, panel.triangles, truth["features"], {"panel": truth["panel"], "source": panel_file}
-    from holecli.errors import LoadError
-    from holecli.simulation.mesh_truth import mesh_truth
-    from holecli.simulation.profiler import load_mesh
-
+        return panel_part(read_small_text(panel_file, "a panel spec"), panel_file)
     try:
-        vertices, triangles = load_mesh(mesh_file)
+        return mesh_part(mesh_file, view)
     except LoadError as error:
         raise Failure(str(error), EXIT_INPUT) from None
-    truth = mesh_truth(vertices, triangles, view=view)
-    # The diameter of a hole is the edge at the surface: the circle through the edge polygon's vertices.
-    features = [dict(feature, diameter=feature.get("edge_diameter")) for feature in truth["features"]]
-    return vertices, triangles, features, {"mesh": mesh_file, "vertices": len(vertices), "triangles": len(triangles)}
 
 
-def _profiler_spec(p, vertices):
-    """The :class:`holecli.simulation.profiler.ProfilerSpec` of simulate's options; lengths and target default
-    to the part's extent and its middle, on its side facing the sensor."""
-    import numpy as np
+def _aimed_profiler(p, vertices):
+    """The profiler of simulate's options ``p``, aimed at the part of ``vertices``."""
+    from holecli.simulation.part import aimed_profiler
 
-    from holecli.simulation.profiler import ProfilerSpec
-
-    view = np.asarray(p["view"], dtype=np.float64)
-    line = np.asarray(p["line"], dtype=np.float64)
-    if np.linalg.norm(view) == 0 or np.linalg.norm(line) == 0:
-        raise ValueError("--view and --line must not be zero")
-    view, line = view / np.linalg.norm(view), line / np.linalg.norm(line)
-    motion = np.cross(line, view)
-    if np.linalg.norm(motion) < 1e-6:
-        raise ValueError("--line must not be along --view")
-    motion /= np.linalg.norm(motion)
-    low, high = vertices.min(axis=0), vertices.max(axis=0)
-    if p["target"] is not None:
-        target = np.asarray(p["target"], dtype=np.float64)
-    else:
-        middle = 0.5 * (low + high)
-        # on the part's side facing the sensor: as far against the view as its nearest vertex
-        target = middle + (float(np.min(vertices @ view)) - float(middle @ view)) * view
-    line_length = p["line_length"] or float(np.ptp(vertices @ line))
-    scan_length = p["scan_length"] or float(np.ptp(vertices @ motion))
-    frame = None
-    if p["rotation"] is not None or p["translation"] is not None:
-        from holecli.simulation.synth import rotation_matrix
-
-        matrix = np.eye(4)
-        matrix[:3, :3] = rotation_matrix(p["rotation"] or (0.0, 0.0, 0.0))
-        matrix[:3, 3] = p["translation"] or (0.0, 0.0, 0.0)
-        frame = tuple(map(tuple, matrix))
-    return ProfilerSpec(target=tuple(target), standoff=p["standoff"], view=tuple(view), line=tuple(line),
-                        line_length=line_length, scan_length=scan_length, point_pitch=p["spacing"],
-                        line_pitch=p["line_pitch"] or p["spacing"], fan=not p["parallel_rays"],
-                        triangulation_deg=p["triangulation_deg"], max_incidence_deg=p["max_incidence_deg"],
-                        range_noise=p["range_noise"], range_quantum=p["range_quantum"], dropout=p["dropout"],
-                        jitter=p["jitter"], line_width=p["line_width"], keep_nan=p["keep_nan"], frame=frame,
-                        unit_scale=1e-3 if p["metres"] else 1.0, float32=not p["float64"])
+    return aimed_profiler(vertices, **{name: p[name] for name in _AIM_OPTIONS})
 
 
-def _write_scan(output, points, truth, truth_path, float64):
-    """Write a simulated cloud and its truth (``truth_path``, else OUTPUT with ``.truth.json``) and return
-    the truth's path; a file that cannot be written is an input/output failure naming it."""
-    import json
-    from pathlib import Path
+def _check_extension(output):
+    """Fail on an OUTPUT whose extension no writer knows."""
+    from holecli.io import WRITE_EXTENSIONS
 
-    from holecli.io import save_points
-    from holecli.io.outfile import write_text
+    if Path(output).suffix.lower() not in WRITE_EXTENSIONS:
+        raise Failure(f"{output}: unsupported extension (expected {', '.join(WRITE_EXTENSIONS)})", EXIT_INPUT)
 
-    target = truth_path or str(Path(output).with_suffix(".truth.json"))
+
+def _write_scan(output, points, truth, truth_path, float32):
+    """:func:`holecli.simulation.files.write_scan`; a file that cannot be written is an input/output failure."""
+    from holecli.simulation.files import write_scan
+
     try:
-        save_points(output, points, float32=not float64)
-        write_text(target, json.dumps(truth, indent=2) + "\n")
+        return write_scan(output, points, truth, truth_path, float32)
     except OSError as error:
         raise Failure(f"{output}: cannot write: {error.strerror or error}", EXIT_INPUT) from None
-    return target
