@@ -89,7 +89,6 @@ def render_table(records, width=None):
         The tables as rich draws them, no line longer than ``width``, without colour.
     """
     from rich.console import Console
-    from rich.table import Table
 
     from holecli.tolerance import DEFAULT_COVERAGE_FACTOR
     from holecli.units import table_decimals
