@@ -14,7 +14,7 @@ from holecli.geometry.plane import PlaneFit
 from holecli.robust.candidates import Grid, Void
 
 if TYPE_CHECKING:  # (the estimators' types: only named here)
-    from holecli.robust.bias import SyntheticErrors
+    from holecli.robust.estimators.harness import SyntheticErrors
 
 __all__ = ["Candidate", "FirstCircle", "Measured", "Refusal"]
 

@@ -135,7 +135,7 @@ def empty_circle_errors(xy, center, radius, offsets, reach, reflections=None):
     return synthetic_errors(measure, center, [radius + offset for offset in offsets], reflections)
 
 
-def _empty_circle(scene, queries, local, center, radius, settings):
+def _empty_circle(scene, local, center, radius, settings):
     """The edge of a hole in irregular sampling: the largest circle empty of its surface points,
     less that circle's overshoot on synthetic holes cut into the same points.
     ``(center, radius, overshoot, SyntheticErrors)`` or None."""
@@ -145,10 +145,10 @@ def _empty_circle(scene, queries, local, center, radius, settings):
         return None
     empty_center, empty_radius = found
     offsets = [k * scene.sampling.gap for k in settings.bias_offsets]
-    ring = scene.surface_xy[queries.within(scene, scene.surface_xy, empty_center, empty_radius,
-                                           empty_radius + offsets[-1] + 3.0 * reach)]
+    ring = scene.surface_xy[scene.within(scene.surface_xy, empty_center, empty_radius,
+                                         empty_radius + offsets[-1] + 3.0 * reach)]
     errors = empty_circle_errors(ring, empty_center, empty_radius, offsets, reach,
-                                 reflections=harness.reflections(scene, queries, empty_center, empty_radius, offsets))
+                                 reflections=harness.reflections(scene, empty_center, empty_radius, offsets))
     if errors is None:
         return None
     return empty_center, empty_radius - errors.bias, errors.bias, errors
@@ -188,10 +188,10 @@ class EmptyCircle:
         quiet = scene.height_noise * np.sqrt(scene.surface_density) <= settings.empty_circle_max_noise
         return not partial and scene.sampling.period is None and quiet
 
-    def edge(self, scene, queries, local, rim_xy, center, radius, partial, floor, settings):
+    def edge(self, scene, local, rim_xy, center, radius, partial, floor, settings):
         """The largest empty circle less its overshoot (:func:`_empty_circle`); None when there is
         none or its synthetic holes give no overshoot."""
-        found = _empty_circle(scene, queries, local, center, radius, settings)
+        found = _empty_circle(scene, local, center, radius, settings)
         if found is None:
             return None
         return EdgeEstimate(estimator=self, center=found[0], radius=found[1], bias=radius - found[1],

@@ -214,13 +214,13 @@ def lattice_errors(xy, center, radius, offsets, scales, steps, *, settings=DEFAU
     return synthetic_errors(measure, center, [radius + offset for offset in offsets], reflections)
 
 
-def _lattice_errors(scene, queries, center, radius, steps, settings, floor):
+def _lattice_errors(scene, center, radius, steps, settings, floor):
     """:func:`lattice_errors` of a hole of the lattice measured at ``center`` with ``radius``:
     synthetic holes cut into the material around it, the lattice's period apart."""
     offsets = [k * scene.sampling.spacing for k in settings.bias_offsets]
-    scales, ring = synthetic_ring(scene, queries, center, radius, offsets, settings, floor)
+    scales, ring = synthetic_ring(scene, center, radius, offsets, settings, floor)
     return lattice_errors(ring, center, radius, offsets, scales, steps, settings=settings,
-                          reflections=harness.reflections(scene, queries, center, radius, offsets))
+                          reflections=harness.reflections(scene, center, radius, offsets))
 
 
 class Lattice:
@@ -247,14 +247,14 @@ class Lattice:
         """A full hole on a scan whose sampling is regular along at least one axis."""
         return bool(scene.sampling.lattice_axes) and not partial
 
-    def edge(self, scene, queries, local, rim_xy, center, radius, partial, floor, settings):
+    def edge(self, scene, local, rim_xy, center, radius, partial, floor, settings):
         """The separating circle of the brackets around the rim, and its errors on synthetic holes;
         None when the brackets give none."""
         steps = lattice_steps(local, scene.sampling.lattice_axes, scene.sampling.spacing, settings=settings)
         edge = separating_circle(local, rim_xy, steps, center, radius, settings=settings, radii=True)
         if edge is None:
             return None
-        synthetic = _lattice_errors(scene, queries, edge[0], edge[1], steps, settings, floor)
+        synthetic = _lattice_errors(scene, edge[0], edge[1], steps, settings, floor)
         return EdgeEstimate(estimator=self, center=edge[0], radius=edge[1], bias=radius - edge[1],
                             synthetic=synthetic, radius_range=edge[3])
 
