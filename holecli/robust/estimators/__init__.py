@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
+from holecli import vocabulary
 from holecli.robust.estimators.cone import CONE
 from holecli.robust.estimators.empty_circle import EMPTY_CIRCLE
 from holecli.robust.estimators.harness import EdgeEstimate, SyntheticErrors, synthetic_errors
@@ -74,8 +75,10 @@ class EdgeEstimator(Protocol):
         tried)."""
 
 
-#: The estimators in precedence order: the first that applies and finds an edge measures a hole.
-ESTIMATORS = (CONE, LATTICE, EMPTY_CIRCLE, RIM_FIT)
+#: The estimators in precedence order (that of their names in :data:`holecli.vocabulary.ESTIMATORS`): the
+#: first that applies and finds an edge measures a hole.
+ESTIMATORS = tuple({estimator.name: estimator for estimator in (CONE, LATTICE, EMPTY_CIRCLE, RIM_FIT)}[name]
+                   for name in vocabulary.ESTIMATORS)
 
 #: The estimators by their record name.
 ESTIMATOR_NAMED = {estimator.name: estimator for estimator in ESTIMATORS}

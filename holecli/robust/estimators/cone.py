@@ -25,7 +25,7 @@ from holecli.geometry.kernels import robust_sigma
 from holecli.robust.estimators.harness import EdgeEstimate
 from holecli.robust.surface import surface_height
 from holecli.settings import DEFAULT_SETTINGS
-from holecli.vocabulary import ESTIMATORS
+from holecli.vocabulary import ESTIMATOR_CONE
 
 # A cone found by the least-median start must have its points below the surface spread over at least
 # this fraction of the radii from the edge to the innermost of them (interquartile range): not a
@@ -440,7 +440,7 @@ class ConeEstimator:
 
     Its uncertainty is the cone fit's least-squares covariance when there is one."""
 
-    name = ESTIMATORS[0]  # "cone", first in precedence (holecli.vocabulary.ESTIMATORS)
+    name = ESTIMATOR_CONE  # its precedence: holecli.vocabulary.ESTIMATORS
     # The method terms (a, b) for the in-plane center and the diameter: a h and b sigma_h in
     # quadrature (see holecli.robust.uncertainty for how they were measured).
     method_terms = {"center": (0.002, 0.0), "diameter": (0.01, 0.0)}

@@ -22,7 +22,7 @@ from scipy.spatial import Delaunay, QhullError
 from holecli.geometry.kernels import circumradii
 from holecli.robust.estimators import harness
 from holecli.robust.estimators.harness import EdgeEstimate, synthetic_errors
-from holecli.vocabulary import ESTIMATORS
+from holecli.vocabulary import ESTIMATOR_EMPTY_CIRCLE
 
 # The largest empty circle's center on random sampling of density rho around an edge of radius R: a few
 # closest points pin it, and its error per coordinate has a standard deviation of about 0.46 / (rho R)
@@ -161,7 +161,7 @@ class EmptyCircle:
     Its bias correction is given a Type B term of its own (:attr:`correction_share`) and its center's
     uncertainty a floor (:meth:`center_floor`)."""
 
-    name = ESTIMATORS[2]  # "empty_circle", third in precedence (holecli.vocabulary.ESTIMATORS)
+    name = ESTIMATOR_EMPTY_CIRCLE  # its precedence: holecli.vocabulary.ESTIMATORS
     # The method terms (a, b) for the in-plane center and the diameter: a h and b sigma_h in
     # quadrature (see holecli.robust.uncertainty for how they were measured).
     method_terms = {"center": (0.015, 0.3), "diameter": (0.0, 0.0)}

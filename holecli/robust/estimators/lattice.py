@@ -21,7 +21,7 @@ from holecli.robust.estimators import harness
 from holecli.robust.estimators.harness import EdgeEstimate, synthetic_errors
 from holecli.robust.estimators.rim_fit import synthetic_rim, synthetic_ring
 from holecli.settings import DEFAULT_SETTINGS
-from holecli.vocabulary import ESTIMATORS
+from holecli.vocabulary import ESTIMATOR_LATTICE
 
 
 def lattice_steps(xy, axes, spacing, *, settings=DEFAULT_SETTINGS):
@@ -230,7 +230,7 @@ class Lattice:
     Not bias corrected: the radius's uncertainty is the root mean square of its errors on synthetic
     holes, at least the rectangular one over the range of radii the brackets allow."""
 
-    name = ESTIMATORS[1]  # "lattice", second in precedence (holecli.vocabulary.ESTIMATORS)
+    name = ESTIMATOR_LATTICE  # its precedence: holecli.vocabulary.ESTIMATORS
     # The method terms (a, b) for the in-plane center and the diameter: a h and b sigma_h in
     # quadrature (see holecli.robust.uncertainty for how they were measured).
     method_terms = {"center": (0.002, 0.0), "diameter": (0.015, 0.1)}

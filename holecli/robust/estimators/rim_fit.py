@@ -21,7 +21,7 @@ from holecli.robust.edge import fit_edge
 from holecli.robust.estimators import harness
 from holecli.robust.estimators.harness import EdgeEstimate, SyntheticErrors, synthetic_errors
 from holecli.settings import DEFAULT_SETTINGS
-from holecli.vocabulary import ESTIMATORS
+from holecli.vocabulary import ESTIMATOR_RIM_FIT
 
 
 @dataclass(frozen=True)
@@ -232,7 +232,7 @@ class RimFit:
     Its uncertainty is at least the rim's least-squares circle fit's (a burr or debris on the real
     rim that the synthetic holes do not have widens it)."""
 
-    name = ESTIMATORS[3]  # "rim_fit", last in precedence (holecli.vocabulary.ESTIMATORS)
+    name = ESTIMATOR_RIM_FIT  # its precedence: holecli.vocabulary.ESTIMATORS
     # The method terms (a, b) for the in-plane center and the diameter: a h and b sigma_h in
     # quadrature (see holecli.robust.uncertainty for how they were measured).
     method_terms = {"center": (0.0, 0.3), "diameter": (0.0, 0.7)}
