@@ -17,6 +17,8 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Optional
 
+from holecli.vocabulary import ESTIMATOR_RIM_FIT
+
 Vector = tuple[float, float, float]
 
 
@@ -182,7 +184,7 @@ class Uncertainty:
     center_along_normal: float
     diameter: float
     normal_deg: float
-    estimator: str = "rim_fit"
+    estimator: str = ESTIMATOR_RIM_FIT
     countersink: Optional[CountersinkUncertainty] = None
     counterbore: Optional[CounterboreUncertainty] = None
     bore: Optional[BoreUncertainty] = None

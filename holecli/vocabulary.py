@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from holecli.io.formats import INPUT_EXTENSIONS, INPUT_FORMATS
 
-__all__ = ["DECISION_RULES", "DOUBT_CODES", "ESTIMATORS", "INPUT_EXTENSIONS", "INPUT_FORMATS", "LOOP_CHECKS",
+__all__ = ["DECISION_RULES", "DOUBT_CODES", "ESTIMATORS", "ESTIMATOR_CONE", "ESTIMATOR_EMPTY_CIRCLE",
+           "ESTIMATOR_LATTICE", "ESTIMATOR_RIM_FIT", "INPUT_EXTENSIONS", "INPUT_FORMATS", "LOOP_CHECKS",
            "NOTE_CODES", "NOT_IN_SPEC_FRAME", "REJECTION_REASONS", "UNCERTAINTY_NOTE", "UNIT_MISMATCH",
            "WARNING_CODES"]
 
@@ -20,11 +21,16 @@ __all__ = ["DECISION_RULES", "DOUBT_CODES", "ESTIMATORS", "INPUT_EXTENSIONS", "I
 # expanded uncertainty (holecli.tolerance, ``--decision-rule``).
 DECISION_RULES = ("simple", "guarded")
 
-#: How a hole's edge was measured (``uncertainty.estimator`` of a hole), in the order the robust method
-#: tries them: a countersink's cone, the brackets of a lattice, the largest empty circle of irregular
-#: sampling, and the rim fit corrected by synthetic holes, which always applies. (A CAD export's edge
-#: loop says ``edge_loops``.)
-ESTIMATORS = ("cone", "lattice", "empty_circle", "rim_fit")
+#: How a hole's edge was measured (``uncertainty.estimator`` of a hole), each estimator's name: a
+#: countersink's cone, the brackets of a lattice, the largest empty circle of irregular sampling, and the
+#: rim fit corrected by synthetic holes, which always applies. (A CAD export's edge loop says ``edge_loops``.)
+ESTIMATOR_CONE = "cone"
+ESTIMATOR_LATTICE = "lattice"
+ESTIMATOR_EMPTY_CIRCLE = "empty_circle"
+ESTIMATOR_RIM_FIT = "rim_fit"
+#: The estimators' names in the order the robust method tries them (the one statement of their precedence:
+#: holecli.robust.estimators.ESTIMATORS follows it).
+ESTIMATORS = (ESTIMATOR_CONE, ESTIMATOR_LATTICE, ESTIMATOR_EMPTY_CIRCLE, ESTIMATOR_RIM_FIT)
 
 #: Why a loop of a CAD export's vertices is not a hole's edge (holecli.robust.edge_loops), by check name.
 LOOP_CHECKS = {

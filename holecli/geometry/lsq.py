@@ -127,11 +127,12 @@ def levenberg_marquardt(residuals, start, jacobian, *, iterations=200, tolerance
     return p
 
 
-def gauss_newton(residuals, start, jacobian, *, iterations=50, tolerance=1e-13):
+def gauss_newton(residuals, start, jacobian, *, iterations=50, tolerance=1e-13, converged=None):
     """Minimise ``sum(residuals(p)^2)`` from a start already near the minimum (Gauss-Newton).
 
     Each step is the least-squares solution (``numpy.linalg.lstsq``) of ``J step = -r``, taken
-    undamped; it stops when every component of the step is below ``tolerance``. The rounds of a
+    undamped; it stops when every component of the step is below ``tolerance`` (or as ``converged``
+    says). The rounds of a
     trimmed circle fit (:func:`holecli.geometry.circle.fit_circle_robust`) start each from the previous
     round's circle, where this needs a step or two; :func:`levenberg_marquardt` reaches the same
     minimum but not to the last bits (the figures of the sample clouds moved by up to 2e-8 relative).
@@ -144,6 +145,9 @@ def gauss_newton(residuals, start, jacobian, *, iterations=50, tolerance=1e-13):
         Most steps.
     tolerance : float
         Of the step's largest component (absolute, in the parameters' units).
+    converged : callable, optional
+        ``converged(p, step) -> bool``, asked after each step (``p`` the parameters it was taken
+        from) instead of ``tolerance``: a test relative to the model's size.
 
     Returns
     -------
@@ -153,8 +157,9 @@ def gauss_newton(residuals, start, jacobian, *, iterations=50, tolerance=1e-13):
     for _ in range(iterations):
         f = residuals(p)
         step, *_ = np.linalg.lstsq(jacobian(p, f), -f, rcond=None)
+        done = np.max(np.abs(step)) < tolerance if converged is None else converged(p, step)
         p = p + step
-        if np.max(np.abs(step)) < tolerance:
+        if done:
             break
     return p
 

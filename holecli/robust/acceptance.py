@@ -15,6 +15,11 @@ checks in the order of its tuple (:func:`first_refusal`):
   partial hole's rim, no boss;
 * and :func:`edge_below_min_diameter` once more on the edge the estimator corrected.
 
+Then the method (:func:`holecli.robust.method.detect_robust`) selects among the holes measured, by the
+selection checks: :func:`duplicate` (two candidates of one hole), :func:`partial_left_out`
+(``full_only``), :func:`pocket` (a floor too shallow for a drilled hole) and :func:`beyond_max_holes`
+(``max_holes``).
+
 Every check is held by a counter-example scene (``tests/robust/test_acceptance.py``,
 ``tests/robust/test_rejections.py``) and by a table of small inputs
 (``tests/robust/test_acceptance_checks.py``).
@@ -28,10 +33,10 @@ from scipy.spatial import cKDTree
 from holecli.geometry.kernels import largest_angular_gap, robust_sigma
 from holecli.robust.candidate import Refusal
 
-__all__ = ["EDGE_CHECKS", "FIT_CHECKS", "RIM_CHECKS", "VOID_CHECKS", "below_min_diameter", "boss",
-           "edge_below_min_diameter", "first_refusal", "material_in_first_circle", "material_inside",
-           "no_circle_fit", "no_rim", "not_round", "partial_rim_arc", "too_few_fitted_points",
-           "too_few_partial_rim_points", "too_few_rim_points", "void_below_min_diameter"]
+__all__ = ["EDGE_CHECKS", "FIT_CHECKS", "RIM_CHECKS", "VOID_CHECKS", "below_min_diameter", "beyond_max_holes", "boss",
+           "duplicate", "edge_below_min_diameter", "first_refusal", "material_in_first_circle", "material_inside",
+           "no_circle_fit", "no_rim", "not_round", "partial_left_out", "partial_rim_arc", "pocket",
+           "too_few_fitted_points", "too_few_partial_rim_points", "too_few_rim_points", "void_below_min_diameter"]
 
 
 def _refusal(check, value, limit, place, shape=None):
@@ -163,6 +168,62 @@ RIM_CHECKS = (no_rim, too_few_rim_points)
 FIT_CHECKS = (no_circle_fit, too_few_fitted_points, below_min_diameter)
 EDGE_CHECKS = (material_inside, not_round, material_in_first_circle, partial_rim_arc, too_few_partial_rim_points,
                boss)
+
+
+def duplicate(measured, twin):
+    """``duplicate``: ``measured`` (a :class:`holecli.robust.candidate.Measured`) overlaps ``twin``, whose
+    circle fit kept at least as many rim points; None when ``measured`` kept more (``twin`` is then the
+    duplicate: ``duplicate(twin, measured)``)."""
+    kept, twin_kept = int(measured.fit.kept.sum()), int(twin.fit.kept.sum())
+    if kept > twin_kept:
+        return None
+    return _refusal("duplicate", kept, twin_kept, (measured.center, measured.radius))
+
+
+def partial_left_out(measured, full_only, settings):
+    """``partial_left_out``: a partial hole when only full holes are asked for (``full_only``)."""
+    if full_only and measured.partial:
+        return _refusal("partial_left_out", measured.arc_deg, settings.full_arc_deg,
+                        (measured.center, measured.radius))
+    return None
+
+
+def pocket(measured, hole, settings):
+    """``pocket``: the blind ``hole`` (the :class:`holecli.results.Hole` of ``measured``) has a floor
+    shallower than ``pocket_max_depth_ratio`` diameters (a pocket or spot face, not a drilled hole);
+    the value is that depth in diameters."""
+    if hole.type != "blind" or hole.bore is None or hole.bore.floor_depth is None:
+        return None
+    ratio = float(hole.bore.floor_depth) / hole.diameter
+    if ratio < settings.pocket_max_depth_ratio:
+        return _refusal("pocket", ratio, settings.pocket_max_depth_ratio, (measured.center, measured.radius))
+    return None
+
+
+def beyond_max_holes(diameters, places, max_holes):
+    """``beyond_max_holes``: the holes of ``diameters`` smaller than the ``max_holes`` largest (None: no
+    limit); the value is the hole's diameter, the limit the smallest kept.
+
+    Parameters
+    ----------
+    diameters : sequence of float
+    places : callable
+        ``places(i) -> (center, radius)``: where hole ``i`` is (plane frame).
+    max_holes : int or None
+
+    Returns
+    -------
+    kept : list of int
+        The indices of the holes kept: all, in their order, within the limit; else the largest first.
+    refusals : list of Refusal
+        Of the holes left out, largest first.
+    """
+    if max_holes is None or len(diameters) <= max_holes:
+        return list(range(len(diameters))), []
+    ranked = sorted(range(len(diameters)), key=lambda i: -diameters[i])
+    kept = ranked[:max_holes]
+    limit = diameters[kept[-1]]
+    return kept, [_refusal("beyond_max_holes", diameters[i], limit, places(i)) for i in ranked[max_holes:]]
 
 
 def first_refusal(checks, scene, candidate, settings):

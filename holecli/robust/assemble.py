@@ -1,7 +1,8 @@
 """From the plane frame to the world: the record's objects of a measured hole (:func:`to_hole`, its
 uncertainty, :func:`with_shape` for what lies below its edge and its doubts), of a refused candidate
-(:func:`as_rejected`, :func:`to_rejection`), and of an edge loop of a CAD export's vertices
-(:func:`loop_hole`); :func:`overlaps` and :func:`pocket_depth` decide which holes are reported.
+(:func:`to_rejection`), and of an edge loop of a CAD export's vertices (:func:`loop_hole`);
+:func:`overlaps` finds two candidates of one hole (the selection checks are
+:mod:`holecli.robust.acceptance`'s).
 """
 
 from __future__ import annotations
@@ -14,14 +15,13 @@ import numpy as np
 from holecli.geometry.frame import from_plane_frame
 from holecli.geometry.kernels import largest_angular_gap, orient_normal
 from holecli.results import Bore, Counterbore, Countersink, Hole, HoleNote, Rejection, Uncertainty
-from holecli.robust.candidate import Refusal
 from holecli.robust.doubts import Doubts, doubt_warnings, edge_bore_warning
 from holecli.robust.estimators import ESTIMATOR_NAMED
 from holecli.robust.hole_shape import measure_hole_shape
 from holecli.robust.uncertainty import edge_uncertainty, resolution_uncertainty
-from holecli.vocabulary import NOTE_CODES, REJECTION_REASONS
+from holecli.vocabulary import ESTIMATOR_RIM_FIT, NOTE_CODES, REJECTION_REASONS
 
-__all__ = ["as_rejected", "loop_hole", "overlaps", "pocket_depth", "to_hole", "to_rejection", "with_shape"]
+__all__ = ["loop_hole", "overlaps", "to_hole", "to_rejection", "with_shape"]
 
 
 def to_hole(scene, measured, index):
@@ -185,28 +185,13 @@ def _doubts(scene, hole, measured):
 def _bias_not_measured(measured):
     """A rim fit whose sampling-bias correction was wanted and could not be measured: no synthetic
     hole cut into the material around it gave a rim (``holecli.robust.estimators.rim_fit._sampling_bias``)."""
-    return measured.estimator == "rim_fit" and measured.synthetic is None
+    return measured.estimator == ESTIMATOR_RIM_FIT and measured.synthetic is None
 
 
 def overlaps(a, b):
     """Whether two measured holes (:class:`holecli.robust.candidate.Measured`) are one: the center of
     either lies within the larger's radius of the other's."""
     return np.hypot(*(a.center - b.center)) < max(a.radius, b.radius)
-
-
-def pocket_depth(hole, settings):
-    """A blind hole's floor depth in diameters when it is shallower than ``pocket_max_depth_ratio``
-    (a pocket, not a hole), else None."""
-    if hole.type != "blind" or hole.bore is None or hole.bore.floor_depth is None:
-        return None
-    ratio = float(hole.bore.floor_depth) / hole.diameter
-    return ratio if ratio < settings.pocket_max_depth_ratio else None
-
-
-def as_rejected(measured, check, value, limit):
-    """A measured hole left out by ``check`` (``duplicate``, ``partial_left_out``, ``beyond_max_holes``,
-    ``pocket``), as a :class:`holecli.robust.candidate.Refusal`."""
-    return Refusal(check=check, value=value, limit=limit, center=measured.center, radius=float(measured.radius))
 
 
 def to_rejection(scene, rejected):

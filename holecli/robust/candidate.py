@@ -12,9 +12,10 @@ import numpy as np
 from holecli.geometry.circle import CircleFit
 from holecli.geometry.plane import PlaneFit
 from holecli.robust.candidates import Grid, Void
+from holecli.vocabulary import ESTIMATOR_RIM_FIT
 
 if TYPE_CHECKING:  # (the estimators' types: only named here)
-    from holecli.robust.bias import SyntheticErrors
+    from holecli.robust.estimators.harness import SyntheticErrors
 
 __all__ = ["Candidate", "FirstCircle", "Measured", "Refusal"]
 
@@ -136,7 +137,7 @@ class Measured:
     arc_deg: float
     surface_plane: Optional[PlaneFit] = None  # of the surface around the hole (None: the global plane)
     cone_slope: Optional[float] = None     # depth per radius of the countersink cone accepted at the edge
-    estimator: str = "rim_fit"    # how the edge was measured (holecli.vocabulary.ESTIMATORS)
+    estimator: str = ESTIMATOR_RIM_FIT    # how the edge was measured (holecli.vocabulary.ESTIMATORS)
     synthetic: Optional[SyntheticErrors] = None  # that estimator's errors on synthetic holes (None: none measured)
     cone_covariance: Optional[np.ndarray] = None  # (3, 3) covariance of the cone edge's (cx, cy, R) (estimator cone)
     fringe: tuple = (0.0, 0.0, 0.0)  # the edge's fringe of mixed points: (width, shift, hidden) (_edge_fringe)

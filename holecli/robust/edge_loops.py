@@ -33,6 +33,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from holecli.geometry.lsq import gauss_newton
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.vocabulary import LOOP_CHECKS
 
@@ -124,24 +125,31 @@ def coordinate_step(points, sample=10_000) -> float:
 
 
 def _circle_fit(xy):
-    """Geometric least-squares circle (algebraic start, Gauss-Newton): centre (2,), radius."""
+    """Geometric least-squares circle (algebraic start, :func:`holecli.geometry.lsq.gauss_newton` on the
+    centre, the radius the mean distance to it): centre (2,), radius."""
     mean = xy.mean(axis=0)
     q = xy - mean
     a = np.column_stack([2 * q, np.ones(len(q))])
     sol, *_ = np.linalg.lstsq(a, (q ** 2).sum(axis=1), rcond=None)
-    c = sol[:2]
-    for _ in range(20):
+
+    def distances(c):
         d = q - c
-        rho = np.hypot(d[:, 0], d[:, 1])
-        r = rho.mean()
-        j = -d / np.maximum(rho, 1e-300)[:, None]
-        jc = j - j.mean(axis=0)
-        step, *_ = np.linalg.lstsq(jc, -(rho - r), rcond=None)
-        c = c + step
-        if np.hypot(*step) <= 1e-15 * max(r, 1e-300):
-            break
-    d = q - c
-    return c + mean, float(np.hypot(d[:, 0], d[:, 1]).mean())
+        return np.hypot(d[:, 0], d[:, 1])
+
+    def residuals(c):
+        rho = distances(c)
+        return rho - rho.mean()
+
+    def jacobian(c, f):
+        d = q - c
+        j = -d / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-300)[:, None]
+        return j - j.mean(axis=0)
+
+    def converged(c, step):
+        return np.hypot(*step) <= 1e-15 * max(distances(c).mean(), 1e-300)
+
+    c = gauss_newton(residuals, sol[:2], jacobian, iterations=20, converged=converged)
+    return c + mean, float(distances(c).mean())
 
 
 def sides_diameter(ordered, center) -> float:

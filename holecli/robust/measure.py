@@ -16,15 +16,10 @@ from holecli.robust.acceptance import (EDGE_CHECKS, FIT_CHECKS, RIM_CHECKS, VOID
 from holecli.robust.boundary import hole_rim, near_box_edge
 from holecli.robust.candidate import Candidate, FirstCircle, Measured, Refusal
 from holecli.robust.edge import fit_edge
-from holecli.robust.estimators import CONE, SceneQueries, estimate_edge
+from holecli.robust.estimators import CONE, estimate_edge
 from holecli.robust.surface import local_normal, surface_height
 
 __all__ = ["measure_candidate", "measure_candidates"]
-
-
-def _within(scene, xy, center, inner, outer):
-    """:meth:`holecli.robust.scene.Scene.within` (as the estimators ask it, :data:`_QUERIES`)."""
-    return scene.within(xy, center, inner, outer)
 
 
 def _near_void(grid, void, cells):
@@ -83,10 +78,6 @@ def _void_neighbourhood(scene, grid, void, void_mask, margin, settings):
     high = centers.max(axis=0) + 0.5 * cell + margin
     local = scene.material_xy[scene.box(scene.material_xy, low, high)]
     return local, near_box_edge(local, low, high, settings.cut_alphas * alpha)
-
-
-# The scene's spatial queries the edge estimators ask (holecli.robust.estimators).
-_QUERIES = SceneQueries(within=_within, surface_height=surface_height)
 
 
 def _with_rim(scene, candidate, in_void, void_mask, settings):
@@ -205,7 +196,7 @@ def _measure_void(scene, void, settings):
     fit, used, rim_xy, local = candidate.fit, candidate.used, candidate.rim_xy, candidate.local
     partial, arc = candidate.partial, candidate.arc_deg
     center, radius = fit.center, fit.radius
-    edge = estimate_edge(scene, _QUERIES, local, rim_xy[used], center, radius, partial, floor, settings)
+    edge = estimate_edge(scene, local, rim_xy[used], center, radius, partial, floor, settings)
     if edge.estimator is CONE:
         # A countersunk hole: its edge is where the cone meets the surface.
         return Measured(center=edge.center, radius=edge.radius, bias=edge.bias, fit=fit, rim_xy=rim_xy[used],

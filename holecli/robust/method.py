@@ -32,7 +32,8 @@ import numpy as np
 
 from holecli.geometry.kernels import orient_normal
 from holecli.results import Hole, Plane, Scales
-from holecli.robust.assemble import as_rejected, loop_hole, overlaps, pocket_depth, to_hole, to_rejection, with_shape
+from holecli.robust.acceptance import beyond_max_holes, duplicate, partial_left_out, pocket
+from holecli.robust.assemble import loop_hole, overlaps, to_hole, to_rejection, with_shape
 from holecli.robust.candidate import Refusal
 from holecli.robust.candidates import find_voids
 from holecli.robust.curved import on_curved_surface
@@ -108,27 +109,24 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         if twin is None:
             found.append(measured)
             continue
-        kept, dropped = (measured, found[twin]) if measured.fit.kept.sum() > found[twin].fit.kept.sum() \
-            else (found[twin], measured)
-        found[twin] = kept
-        rejected.append(as_rejected(dropped, "duplicate", int(dropped.fit.kept.sum()), int(kept.fit.kept.sum())))
-    if full_only:
-        rejected.extend(as_rejected(m, "partial_left_out", m.arc_deg, settings.full_arc_deg)
-                        for m in found if m.partial)
-        found = [m for m in found if not m.partial]
-    if max_holes is not None and len(found) > max_holes:
-        ranked = sorted(found, key=lambda m: -m.radius)
-        found = ranked[:max_holes]
-        rejected.extend(as_rejected(m, "beyond_max_holes", 2.0 * m.radius, 2.0 * found[-1].radius)
-                        for m in ranked[max_holes:])
+        refused = duplicate(measured, found[twin])
+        if refused is None:  # the twin is the duplicate
+            refused, found[twin] = duplicate(found[twin], measured), measured
+        rejected.append(refused)
+    left_out = [partial_left_out(m, full_only, settings) for m in found]
+    rejected.extend(refused for refused in left_out if refused is not None)
+    found = [m for m, refused in zip(found, left_out) if refused is None]
+    kept, beyond = beyond_max_holes([2.0 * m.radius for m in found], lambda i: (found[i].center, found[i].radius),
+                                    max_holes)
+    rejected.extend(beyond)
+    found = [found[i] for i in kept]
     clock.start("shape")
     holes = [on_curved_surface(scene, measured, settings, view_dir, rng) or to_hole(scene, measured, 0)
              for measured in found]
     holes = [with_shape(scene, hole, measured, gauge_depth, settings) for hole, measured in zip(holes, found)]
-    pockets = [pocket_depth(hole, settings) for hole in holes]
-    rejected.extend(as_rejected(measured, "pocket", depth, settings.pocket_max_depth_ratio)
-                    for measured, depth in zip(found, pockets) if depth is not None)
-    holes = [hole for hole, depth in zip(holes, pockets) if depth is None]
+    pockets = [pocket(measured, hole, settings) for measured, hole in zip(found, holes)]
+    rejected.extend(refused for refused in pockets if refused is not None)
+    holes = [hole for hole, refused in zip(holes, pockets) if refused is None]
     sampling, plane = scene.sampling, scene.plane
     if scene.vertices:
         # A CAD export's vertices: no point inside a face, the holes are the loops of its edges.
@@ -142,13 +140,12 @@ def detect_robust(points, *, view_dir=None, min_diameter=None, max_holes=None, f
         for loop in loops:
             if not any(np.hypot(*(loop.center - m.center)) < max(m.radius, 0.5 * loop.diameter) for m in found):
                 holes.append(loop_hole(scene, loop))
-        if max_holes is not None and len(holes) > max_holes:
-            ranked = sorted(holes, key=lambda hole: -hole.diameter)
-            holes = ranked[:max_holes]
-            rejected.extend(Refusal(check="beyond_max_holes", value=h.diameter, limit=holes[-1].diameter,
-                                      center=(scene.rotation @ (np.asarray(h.center) - scene.origin))[:2],
-                                      radius=h.radius)
-                            for h in ranked[max_holes:])
+        kept, beyond = beyond_max_holes(
+            [hole.diameter for hole in holes],
+            lambda i: ((scene.rotation @ (np.asarray(holes[i].center) - scene.origin))[:2], holes[i].radius),
+            max_holes)
+        rejected.extend(beyond)
+        holes = [holes[i] for i in kept]
     holes.sort(key=lambda hole: (hole.partial, hole.center))
     holes = tuple(Hole(**{**hole.__dict__, "index": i}) for i, hole in enumerate(holes))
     plane_result = Plane(point=tuple(map(float, plane.point)), normal=tuple(map(float, orient_normal(plane.normal))),

@@ -63,6 +63,8 @@ import math
 
 import numpy as np
 
+from holecli.geometry import lsq
+
 
 def resolution_uncertainty(resolution) -> float:
     """The standard uncertainty of a length known to the data's resolution: ``resolution / sqrt(12)``
@@ -197,12 +199,7 @@ def circle_fit_covariance(rim_xy, center, radius):
     distance = np.hypot(d[:, 0], d[:, 1])
     distance[distance == 0] = 1e-300
     jacobian = np.column_stack([-d[:, 0] / distance, -d[:, 1] / distance, -np.ones(len(d))])
-    residuals = distance - radius
-    try:
-        inverse = np.linalg.inv(jacobian.T @ jacobian)
-    except np.linalg.LinAlgError:
-        return None
-    return inverse * float(residuals @ residuals) / (len(d) - 3)
+    return lsq.covariance(jacobian, distance - radius)
 
 
 def edge_uncertainty(estimator, synthetic, rim_xy, center, radius, spacing, height_noise, cone_covariance=None,

@@ -44,6 +44,26 @@ def test_gauss_newton_and_levenberg_marquardt_agree_near_the_minimum():
                                levenberg_marquardt(residuals, TRUE, jacobian), rtol=1e-9)
 
 
+def test_gauss_newton_stops_where_its_convergence_test_says():
+    """``converged(p, step)`` is asked after each step, with the parameters the step was taken from."""
+    residuals, jacobian = exponential(T, TRUE[0] * np.exp(TRUE[1] * T))
+    asked = []
+
+    def converged(p, step):
+        asked.append(np.array(p))
+        return len(asked) == 2
+
+    found = gauss_newton(residuals, [1.8, -1.3], jacobian, converged=converged)
+    assert len(asked) == 2 and np.array_equal(asked[0], [1.8, -1.3])
+    one = gauss_newton(residuals, [1.8, -1.3], jacobian, iterations=1)
+    np.testing.assert_array_equal(asked[1], one)
+    np.testing.assert_array_equal(found, gauss_newton(residuals, [1.8, -1.3], jacobian, iterations=2))
+    # a relative test lets a fit run to convergence
+    relative = gauss_newton(residuals, [1.8, -1.3], jacobian,
+                            converged=lambda p, step: np.hypot(*step) <= 1e-15 * np.hypot(*p))
+    np.testing.assert_allclose(relative, TRUE, rtol=1e-12)
+
+
 def test_an_unknown_stop_rule_is_refused():
     residuals, jacobian = exponential(T, np.zeros_like(T))
     with pytest.raises(ValueError, match="stop must be"):

@@ -4,13 +4,14 @@ its code, value, limit and place (the counter-example scenes of test_acceptance.
 test_rejections.py hold the same checks through the whole method)."""
 
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from holecli.geometry.circle import CircleFit
 from holecli.robust import acceptance
-from holecli.robust.candidate import Candidate, FirstCircle, Refusal
+from holecli.robust.candidate import Candidate, FirstCircle, Measured, Refusal
 from holecli.robust.candidates import Void
 from holecli.robust.scene import build_scene
 from holecli.settings import DEFAULT_SETTINGS
@@ -120,3 +121,69 @@ def test_a_refusal_of_the_corrected_edge(scene):
     assert acceptance.edge_below_min_diameter(scene, np.zeros(2), 0.3) is None
     refused = acceptance.edge_below_min_diameter(scene, np.zeros(2), 0.2)
     assert (refused.check, refused.value, refused.limit, refused.radius) == ("below_min_diameter", 0.4, 0.5, 0.2)
+
+
+# The selection checks: among the holes measured, which are reported.
+
+def _measured(center=(0.0, 0.0), radius=1.0, kept=60, partial=False, arc_deg=360.0):
+    return Measured(center=np.asarray(center, dtype=float), radius=radius, bias=0.0,
+                    fit=_fit(center, radius, count=kept), rim_xy=_circle(center, radius, count=kept),
+                    partial=partial, arc_deg=arc_deg)
+
+
+def _blind(diameter, floor_depth):
+    return SimpleNamespace(type="blind", diameter=diameter, bore=SimpleNamespace(floor_depth=floor_depth))
+
+
+PLACE = ((3.0, -1.0), 0.5)
+
+
+@pytest.mark.parametrize("refuse, passing, refusing, code, value, limit, center, radius", [
+    # of two candidates of one hole, the one whose fit kept fewer rim points (a tie: the one asked about)
+    (lambda m, twin: acceptance.duplicate(m, twin), (_measured(kept=60), _measured(kept=40)),
+     (_measured((0.1, 0.0), kept=40), _measured(kept=60)), "duplicate", 40, 60, (0.1, 0.0), 1.0),
+    (lambda m, twin: acceptance.duplicate(m, twin), None,
+     (_measured(kept=50), _measured(kept=50)), "duplicate", 50, 50, (0.0, 0.0), 1.0),
+    # a partial hole, only when full holes only are asked for
+    (lambda m, full_only: acceptance.partial_left_out(m, full_only, DEFAULT_SETTINGS),
+     (_measured(partial=True, arc_deg=200.0), False), (_measured(partial=True, arc_deg=200.0), True),
+     "partial_left_out", 200.0, DEFAULT_SETTINGS.full_arc_deg, (0.0, 0.0), 1.0),
+    # a blind hole's floor shallower than a drilled hole's, in diameters
+    (lambda m, hole: acceptance.pocket(m, hole, DEFAULT_SETTINGS),
+     (_measured(), _blind(2.0, 2.0 * (DEFAULT_SETTINGS.pocket_max_depth_ratio + 0.01))),
+     (_measured(), _blind(2.0, 2.0 * 0.5 * DEFAULT_SETTINGS.pocket_max_depth_ratio)),
+     "pocket", 0.5 * DEFAULT_SETTINGS.pocket_max_depth_ratio, DEFAULT_SETTINGS.pocket_max_depth_ratio,
+     (0.0, 0.0), 1.0),
+])
+def test_each_selection_check_refuses_its_counter_example(refuse, passing, refusing, code, value, limit, center,
+                                                          radius):
+    if passing is not None:
+        assert refuse(*passing) is None
+    refused = refuse(*refusing)
+    assert isinstance(refused, Refusal) and refused.check == code and code in REJECTION_REASONS
+    assert refused.value == pytest.approx(value) and refused.limit == pytest.approx(limit)
+    np.testing.assert_allclose(refused.center, center, atol=1e-12)
+    assert refused.radius == pytest.approx(radius)
+
+
+def test_a_pocket_needs_a_blind_hole_with_a_floor():
+    shallow = 0.1 * DEFAULT_SETTINGS.pocket_max_depth_ratio
+    for hole in (SimpleNamespace(type="through", diameter=2.0, bore=None),
+                 SimpleNamespace(type="blind", diameter=2.0, bore=None), _blind(2.0, None)):
+        assert acceptance.pocket(_measured(), hole, DEFAULT_SETTINGS) is None
+    assert acceptance.pocket(_measured(), _blind(2.0, shallow), DEFAULT_SETTINGS).check == "pocket"
+
+
+@pytest.mark.parametrize("diameters, max_holes, kept, refused", [
+    ([1.0, 3.0, 2.0], None, [0, 1, 2], []),            # no limit
+    ([1.0, 3.0, 2.0], 3, [0, 1, 2], []),               # within it: all, in their order
+    ([1.0, 3.0, 2.0], 2, [1, 2], [(1.0, 2.0)]),        # beyond it: the largest, largest first
+    ([1.0, 3.0, 2.0, 0.5], 1, [1], [(2.0, 3.0), (1.0, 3.0), (0.5, 3.0)]),
+])
+def test_beyond_max_holes_keeps_the_largest(diameters, max_holes, kept, refused):
+    places = lambda i: ((float(i), 0.0), 0.5 * diameters[i])  # noqa: E731
+    indices, refusals = acceptance.beyond_max_holes(diameters, places, max_holes)
+    assert indices == kept
+    assert [(r.value, r.limit) for r in refusals] == refused
+    assert all(r.check == "beyond_max_holes" and r.radius == 0.5 * r.value for r in refusals)
+    assert all(r.value < r.limit for r in refusals)

@@ -7,10 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from holecli import detect, vocabulary
+from holecli import detect
 from holecli.robust import uncertainty
-from holecli.robust.estimators import (EMPTY_CIRCLE, ESTIMATOR_NAMED, ESTIMATORS, LATTICE, METHOD_TERMS, RIM_FIT,
-                                        SyntheticErrors)
+from holecli.robust.estimators import EMPTY_CIRCLE, LATTICE, METHOD_TERMS, RIM_FIT, SyntheticErrors
 from holecli.robust.uncertainty import (circle_fit_covariance, edge_uncertainty, plane_uncertainty,
                                         small_sample_factor, synthetic_reflections)
 
@@ -75,17 +74,6 @@ def test_the_method_terms_add_in_quadrature():
     assert diameter == pytest.approx(math.hypot(da * 0.1, db * 0.01))
 
 
-
-def test_every_estimator_of_the_vocabulary_has_its_object_and_method_terms():
-    """Each name of holecli.vocabulary.ESTIMATORS (the record's ``uncertainty.estimator``) is an
-    estimator object's, in the same precedence order, with its method terms for the center and the
-    diameter."""
-    assert tuple(estimator.name for estimator in ESTIMATORS) == vocabulary.ESTIMATORS
-    for name in vocabulary.ESTIMATORS:
-        terms = ESTIMATOR_NAMED[name].method_terms
-        assert METHOD_TERMS[name] is terms
-        assert set(terms) == {"center", "diameter"}
-        assert all(len(terms[part]) == 2 and min(terms[part]) >= 0.0 for part in terms)
 
 def test_the_empty_circles_correction_adds_a_rectangular_type_b_term():
     # the empty circle's correction is uncertain by itself: its synthetic holes do not see the

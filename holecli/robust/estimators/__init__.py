@@ -21,14 +21,15 @@ from __future__ import annotations
 
 from typing import Protocol
 
+from holecli import vocabulary
 from holecli.robust.estimators.cone import CONE
 from holecli.robust.estimators.empty_circle import EMPTY_CIRCLE
-from holecli.robust.estimators.harness import EdgeEstimate, SceneQueries, SyntheticErrors, synthetic_errors
+from holecli.robust.estimators.harness import EdgeEstimate, SyntheticErrors, synthetic_errors
 from holecli.robust.estimators.lattice import LATTICE
 from holecli.robust.estimators.rim_fit import RIM_FIT
 
 __all__ = ["CONE", "EMPTY_CIRCLE", "ESTIMATORS", "ESTIMATOR_NAMED", "EdgeEstimate", "EdgeEstimator", "LATTICE",
-           "METHOD_TERMS", "RIM_FIT", "SceneQueries", "SyntheticErrors", "estimate_edge", "synthetic_errors"]
+           "METHOD_TERMS", "RIM_FIT", "SyntheticErrors", "estimate_edge", "synthetic_errors"]
 
 
 class EdgeEstimator(Protocol):
@@ -69,13 +70,15 @@ class EdgeEstimator(Protocol):
         """Whether it is tried on a hole (``partial``: the hole is cut by the scan's border or missing
         data) of ``scene``."""
 
-    def edge(self, scene, queries, local, rim_xy, center, radius, partial, floor, settings):
+    def edge(self, scene, local, rim_xy, center, radius, partial, floor, settings):
         """The hole's :class:`EdgeEstimate`, or None when it finds no edge (the next estimator is
         tried)."""
 
 
-#: The estimators in precedence order: the first that applies and finds an edge measures a hole.
-ESTIMATORS = (CONE, LATTICE, EMPTY_CIRCLE, RIM_FIT)
+#: The estimators in precedence order (that of their names in :data:`holecli.vocabulary.ESTIMATORS`): the
+#: first that applies and finds an edge measures a hole.
+ESTIMATORS = tuple({estimator.name: estimator for estimator in (CONE, LATTICE, EMPTY_CIRCLE, RIM_FIT)}[name]
+                   for name in vocabulary.ESTIMATORS)
 
 #: The estimators by their record name.
 ESTIMATOR_NAMED = {estimator.name: estimator for estimator in ESTIMATORS}
@@ -84,7 +87,7 @@ ESTIMATOR_NAMED = {estimator.name: estimator for estimator in ESTIMATORS}
 METHOD_TERMS = {estimator.name: estimator.method_terms for estimator in ESTIMATORS}
 
 
-def estimate_edge(scene, queries, local, rim_xy, center, radius, partial, floor, settings):
+def estimate_edge(scene, local, rim_xy, center, radius, partial, floor, settings):
     """The edge of a hole whose rim is fitted: that of the first of :data:`ESTIMATORS` that applies
     and finds one.
 
@@ -92,8 +95,6 @@ def estimate_edge(scene, queries, local, rim_xy, center, radius, partial, floor,
     ----------
     scene : holecli.robust.scene.Scene
         What the measurement knows of the whole scan.
-    queries : SceneQueries
-        The scene's spatial queries.
     local : (n, 2) float
         The material points around the hole (plane frame).
     rim_xy : (m, 2) float
@@ -114,7 +115,7 @@ def estimate_edge(scene, queries, local, rim_xy, center, radius, partial, floor,
     """
     for estimator in ESTIMATORS:
         if estimator.applies(scene, partial, settings):
-            found = estimator.edge(scene, queries, local, rim_xy, center, radius, partial, floor, settings)
+            found = estimator.edge(scene, local, rim_xy, center, radius, partial, floor, settings)
             if found is not None:
                 return found
     raise AssertionError("the rim fit gives every hole an edge")  # pragma: no cover

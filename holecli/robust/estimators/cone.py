@@ -23,8 +23,9 @@ import numpy as np
 from holecli.geometry import lsq
 from holecli.geometry.kernels import robust_sigma
 from holecli.robust.estimators.harness import EdgeEstimate
+from holecli.robust.surface import surface_height
 from holecli.settings import DEFAULT_SETTINGS
-from holecli.vocabulary import ESTIMATORS
+from holecli.vocabulary import ESTIMATOR_CONE
 
 # A cone found by the least-median start must have its points below the surface spread over at least
 # this fraction of the radii from the edge to the innermost of them (interquartile range): not a
@@ -336,7 +337,7 @@ def fit_cone_edge(rho, depth, radius, width, noise, depth_slope_ratio=None, *,
     return Cone(radius=edge, slope=slope, points=int(keep.sum()))
 
 
-def _countersink(scene, queries, center, radius, settings):
+def _countersink(scene, center, radius, settings):
     """The countersink cone around a fitted rim, or the named check it failed (a
     :class:`NotACone`).
 
@@ -349,7 +350,7 @@ def _countersink(scene, queries, center, radius, settings):
     width = 2.0 * scene.alpha
     cone = None
     for _ in range(settings.cone_window_moves + 1):
-        xy, depth = _points_around_edge(scene, queries, center, radius, width, settings)
+        xy, depth = _points_around_edge(scene, center, radius, width, settings)
         rho = np.hypot(xy[:, 0] - center[0], xy[:, 1] - center[1])
         found = fit_cone_edge(rho, depth, radius, width, scene.height_noise,
                               depth_slope_ratio=settings.cone_depth_slope_ratio, settings=settings,
@@ -363,19 +364,19 @@ def _countersink(scene, queries, center, radius, settings):
     return cone
 
 
-def _points_around_edge(scene, queries, center, radius, width, settings):
+def _points_around_edge(scene, center, radius, width, settings):
     """The points within [r - 2 width, r + width] of ``center`` that may lie on a countersink's cone
     (plane frame xy, (k, 2)), and their depth below the surface around the hole (k,)."""
-    index = queries.within(scene, scene.xy, center, max(radius - settings.cone_inner_widths * width, 0.0),
-                           radius + width)
+    index = scene.within(scene.xy, center, max(radius - settings.cone_inner_widths * width, 0.0),
+                         radius + width)
     # Points above the surface band (outliers, a stray point 1e8 off along the normal) are on no
     # cone, and one of them would outweigh every other point in the hinge's least squares.
     index = index[scene.heights[index] <= scene.band]
     xy = scene.xy[index]
-    return xy, queries.surface_height(scene, center, radius, settings, xy) - scene.heights[index]
+    return xy, surface_height(scene, center, radius, settings, xy) - scene.heights[index]
 
 
-def _cone_in_the_plane(scene, queries, center, cone, settings):
+def _cone_in_the_plane(scene, center, cone, settings):
     """Center and edge radius of a countersink from its cone, ``depth = s * max(0, R - |xy - c|)``
     fitted to the points around the edge with the center ``c`` free, and the covariance of
     ``(cx, cy, R)`` (None when the rim's center and the hinge's edge stay).
@@ -390,7 +391,7 @@ def _cone_in_the_plane(scene, queries, center, cone, settings):
     from scipy.optimize import least_squares
 
     width = 2.0 * scene.alpha
-    around_xy, around_depth = _points_around_edge(scene, queries, center, cone.radius, width, settings)
+    around_xy, around_depth = _points_around_edge(scene, center, cone.radius, width, settings)
     start = np.array([center[0], center[1], cone.radius, cone.slope])
     for _ in range(2):
         # Only the points on the cone: a bore wall seen on one side of a tilted scan would pull the
@@ -439,7 +440,7 @@ class ConeEstimator:
 
     Its uncertainty is the cone fit's least-squares covariance when there is one."""
 
-    name = ESTIMATORS[0]  # "cone", first in precedence (holecli.vocabulary.ESTIMATORS)
+    name = ESTIMATOR_CONE  # its precedence: holecli.vocabulary.ESTIMATORS
     # The method terms (a, b) for the in-plane center and the diameter: a h and b sigma_h in
     # quadrature (see holecli.robust.uncertainty for how they were measured).
     method_terms = {"center": (0.002, 0.0), "diameter": (0.01, 0.0)}
@@ -456,13 +457,13 @@ class ConeEstimator:
         """Every hole (whether there is a cone is the fit's to say)."""
         return True
 
-    def edge(self, scene, queries, local, rim_xy, center, radius, partial, floor, settings):
+    def edge(self, scene, local, rim_xy, center, radius, partial, floor, settings):
         """The cone's edge in the plane, its slope and covariance; None when the points around the
         rim are no cone (:class:`NotACone`)."""
-        cone = _countersink(scene, queries, center, radius, settings)
+        cone = _countersink(scene, center, radius, settings)
         if not isinstance(cone, Cone):
             return None
-        cone_center, cone_radius, covariance = _cone_in_the_plane(scene, queries, center, cone, settings)
+        cone_center, cone_radius, covariance = _cone_in_the_plane(scene, center, cone, settings)
         return EdgeEstimate(estimator=self, center=cone_center, radius=cone_radius, bias=radius - cone_radius,
                             cone_slope=cone.slope, cone_covariance=covariance)
 

@@ -22,7 +22,7 @@ from scipy.spatial import Delaunay, QhullError
 from holecli.geometry.kernels import circumradii
 from holecli.robust.estimators import harness
 from holecli.robust.estimators.harness import EdgeEstimate, synthetic_errors
-from holecli.vocabulary import ESTIMATORS
+from holecli.vocabulary import ESTIMATOR_EMPTY_CIRCLE
 
 # The largest empty circle's center on random sampling of density rho around an edge of radius R: a few
 # closest points pin it, and its error per coordinate has a standard deviation of about 0.46 / (rho R)
@@ -135,7 +135,7 @@ def empty_circle_errors(xy, center, radius, offsets, reach, reflections=None):
     return synthetic_errors(measure, center, [radius + offset for offset in offsets], reflections)
 
 
-def _empty_circle(scene, queries, local, center, radius, settings):
+def _empty_circle(scene, local, center, radius, settings):
     """The edge of a hole in irregular sampling: the largest circle empty of its surface points,
     less that circle's overshoot on synthetic holes cut into the same points.
     ``(center, radius, overshoot, SyntheticErrors)`` or None."""
@@ -145,10 +145,10 @@ def _empty_circle(scene, queries, local, center, radius, settings):
         return None
     empty_center, empty_radius = found
     offsets = [k * scene.sampling.gap for k in settings.bias_offsets]
-    ring = scene.surface_xy[queries.within(scene, scene.surface_xy, empty_center, empty_radius,
-                                           empty_radius + offsets[-1] + 3.0 * reach)]
+    ring = scene.surface_xy[scene.within(scene.surface_xy, empty_center, empty_radius,
+                                         empty_radius + offsets[-1] + 3.0 * reach)]
     errors = empty_circle_errors(ring, empty_center, empty_radius, offsets, reach,
-                                 reflections=harness.reflections(scene, queries, empty_center, empty_radius, offsets))
+                                 reflections=harness.reflections(scene, empty_center, empty_radius, offsets))
     if errors is None:
         return None
     return empty_center, empty_radius - errors.bias, errors.bias, errors
@@ -161,7 +161,7 @@ class EmptyCircle:
     Its bias correction is given a Type B term of its own (:attr:`correction_share`) and its center's
     uncertainty a floor (:meth:`center_floor`)."""
 
-    name = ESTIMATORS[2]  # "empty_circle", third in precedence (holecli.vocabulary.ESTIMATORS)
+    name = ESTIMATOR_EMPTY_CIRCLE  # its precedence: holecli.vocabulary.ESTIMATORS
     # The method terms (a, b) for the in-plane center and the diameter: a h and b sigma_h in
     # quadrature (see holecli.robust.uncertainty for how they were measured).
     method_terms = {"center": (0.015, 0.3), "diameter": (0.0, 0.0)}
@@ -188,10 +188,10 @@ class EmptyCircle:
         quiet = scene.height_noise * np.sqrt(scene.surface_density) <= settings.empty_circle_max_noise
         return not partial and scene.sampling.period is None and quiet
 
-    def edge(self, scene, queries, local, rim_xy, center, radius, partial, floor, settings):
+    def edge(self, scene, local, rim_xy, center, radius, partial, floor, settings):
         """The largest empty circle less its overshoot (:func:`_empty_circle`); None when there is
         none or its synthetic holes give no overshoot."""
-        found = _empty_circle(scene, queries, local, center, radius, settings)
+        found = _empty_circle(scene, local, center, radius, settings)
         if found is None:
             return None
         return EdgeEstimate(estimator=self, center=found[0], radius=found[1], bias=radius - found[1],

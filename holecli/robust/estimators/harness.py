@@ -13,7 +13,7 @@ can use it without importing the package that imports them.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Optional
+from typing import Optional
 
 import numpy as np
 
@@ -76,26 +76,6 @@ def synthetic_errors(measure, center, radii, reflections=None):
     return SyntheticErrors(radial=np.array(radial), center=np.array(shifts).reshape(-1, 2))
 
 
-@dataclass(frozen=True)
-class SceneQueries:
-    """The spatial questions an estimator asks of the scene (``holecli.robust.measure``'s
-    ``_within`` and :func:`holecli.robust.surface.surface_height`), given by the caller so that the
-    estimators do not import the measurement that calls them.
-
-    Attributes
-    ----------
-    within : callable
-        ``within(scene, xy, center, inner, outer)``: indices of the points of ``xy`` (one of the
-        scene's arrays) at a distance in ``[inner, outer)`` from ``center``.
-    surface_height : callable
-        ``surface_height(scene, center, radius, settings, xy)``: height of the surface itself at
-        ``xy`` near a hole (0 on a flat scan).
-    """
-
-    within: Callable
-    surface_height: Callable
-
-
 @dataclass(frozen=True, eq=False)
 class EdgeEstimate:
     """A hole's edge as one estimator measured it.
@@ -130,12 +110,12 @@ class EdgeEstimate:
     cone_covariance: object = None
 
 
-def reflections(scene, queries, center, radius, offsets):
+def reflections(scene, center, radius, offsets):
     """:func:`holecli.robust.uncertainty.synthetic_reflections` for synthetic holes of ``radius +
     offsets`` at ``center``: the surface points deeper than two gaps inside ``radius`` give the
     density, and a reflection within 1.5 cells of the edge joins the material (a speck farther in
     is removed by the occupancy grid, :func:`holecli.robust.candidates.occupancy_grid`)."""
     inner = radius - 2.0 * scene.sampling.gap
-    count = len(queries.within(scene, scene.surface_xy, center, 0.0, inner)) if inner > 0 else 0
+    count = len(scene.within(scene.surface_xy, center, 0.0, inner)) if inner > 0 else 0
     return synthetic_reflections(count, inner, center, [radius + offset for offset in offsets], 1.5 * scene.cell)
 

@@ -21,7 +21,7 @@ from holecli.robust.estimators import harness
 from holecli.robust.estimators.harness import EdgeEstimate, synthetic_errors
 from holecli.robust.estimators.rim_fit import synthetic_rim, synthetic_ring
 from holecli.settings import DEFAULT_SETTINGS
-from holecli.vocabulary import ESTIMATORS
+from holecli.vocabulary import ESTIMATOR_LATTICE
 
 
 def lattice_steps(xy, axes, spacing, *, settings=DEFAULT_SETTINGS):
@@ -214,13 +214,13 @@ def lattice_errors(xy, center, radius, offsets, scales, steps, *, settings=DEFAU
     return synthetic_errors(measure, center, [radius + offset for offset in offsets], reflections)
 
 
-def _lattice_errors(scene, queries, center, radius, steps, settings, floor):
+def _lattice_errors(scene, center, radius, steps, settings, floor):
     """:func:`lattice_errors` of a hole of the lattice measured at ``center`` with ``radius``:
     synthetic holes cut into the material around it, the lattice's period apart."""
     offsets = [k * scene.sampling.spacing for k in settings.bias_offsets]
-    scales, ring = synthetic_ring(scene, queries, center, radius, offsets, settings, floor)
+    scales, ring = synthetic_ring(scene, center, radius, offsets, settings, floor)
     return lattice_errors(ring, center, radius, offsets, scales, steps, settings=settings,
-                          reflections=harness.reflections(scene, queries, center, radius, offsets))
+                          reflections=harness.reflections(scene, center, radius, offsets))
 
 
 class Lattice:
@@ -230,7 +230,7 @@ class Lattice:
     Not bias corrected: the radius's uncertainty is the root mean square of its errors on synthetic
     holes, at least the rectangular one over the range of radii the brackets allow."""
 
-    name = ESTIMATORS[1]  # "lattice", second in precedence (holecli.vocabulary.ESTIMATORS)
+    name = ESTIMATOR_LATTICE  # its precedence: holecli.vocabulary.ESTIMATORS
     # The method terms (a, b) for the in-plane center and the diameter: a h and b sigma_h in
     # quadrature (see holecli.robust.uncertainty for how they were measured).
     method_terms = {"center": (0.002, 0.0), "diameter": (0.015, 0.1)}
@@ -247,14 +247,14 @@ class Lattice:
         """A full hole on a scan whose sampling is regular along at least one axis."""
         return bool(scene.sampling.lattice_axes) and not partial
 
-    def edge(self, scene, queries, local, rim_xy, center, radius, partial, floor, settings):
+    def edge(self, scene, local, rim_xy, center, radius, partial, floor, settings):
         """The separating circle of the brackets around the rim, and its errors on synthetic holes;
         None when the brackets give none."""
         steps = lattice_steps(local, scene.sampling.lattice_axes, scene.sampling.spacing, settings=settings)
         edge = separating_circle(local, rim_xy, steps, center, radius, settings=settings, radii=True)
         if edge is None:
             return None
-        synthetic = _lattice_errors(scene, queries, edge[0], edge[1], steps, settings, floor)
+        synthetic = _lattice_errors(scene, edge[0], edge[1], steps, settings, floor)
         return EdgeEstimate(estimator=self, center=edge[0], radius=edge[1], bias=radius - edge[1],
                             synthetic=synthetic, radius_range=edge[3])
 

@@ -21,7 +21,7 @@ from holecli.robust.edge import fit_edge
 from holecli.robust.estimators import harness
 from holecli.robust.estimators.harness import EdgeEstimate, SyntheticErrors, synthetic_errors
 from holecli.settings import DEFAULT_SETTINGS
-from holecli.vocabulary import ESTIMATORS
+from holecli.vocabulary import ESTIMATOR_RIM_FIT
 
 
 @dataclass(frozen=True)
@@ -177,21 +177,20 @@ def sampling_errors(xy, center, radius, offsets, scales, allow_open=True, *, set
     return synthetic_errors(measure, center, [radius + offset for offset in offsets], reflections)
 
 
-def synthetic_ring(scene, queries, center, radius, offsets, settings, floor):
+def synthetic_ring(scene, center, radius, offsets, settings, floor):
     """The scales of a synthetic rim and the material points around a hole that synthetic holes of
-    ``radius + offsets`` are cut into (``queries`` a
-    :class:`holecli.robust.estimators.harness.SceneQueries`)."""
+    ``radius + offsets`` are cut into."""
     period = scene.sampling.period or 0.5 * scene.alpha
     reach = scene.alpha + 2.0 * scene.cell
     margin = settings.margin_alphas * scene.alpha + scene.cell
-    ring = scene.material_xy[queries.within(scene, scene.material_xy, center, radius - period,
-                                            radius + offsets[-1] + margin + period)]
+    ring = scene.material_xy[scene.within(scene.material_xy, center, radius - period,
+                                          radius + offsets[-1] + margin + period)]
     scales = RimScales(alpha=scene.alpha, reach=reach, margin=margin, clip=settings.clip_sigmas, floor=floor,
                        depth=scene.envelope)
     return scales, ring
 
 
-def _sampling_bias(scene, queries, center, radius, settings, floor, partial):
+def _sampling_bias(scene, center, radius, settings, floor, partial):
     """Radial sampling bias of a rim fit of ``radius`` at ``center`` and the :class:`SyntheticErrors`
     of its last pass (None when none measured).
 
@@ -204,7 +203,7 @@ def _sampling_bias(scene, queries, center, radius, settings, floor, partial):
     count = int(np.clip(np.ceil(settings.bias_rim_points / rim_points), 1, len(settings.bias_offsets)))
     final = max(count, min(settings.uncertainty_min_synthetic, len(settings.bias_offsets)))
     offsets = [k * period for k in settings.bias_offsets[:final]]
-    scales, ring = synthetic_ring(scene, queries, center, radius, offsets, settings, floor)
+    scales, ring = synthetic_ring(scene, center, radius, offsets, settings, floor)
     bias, errors = 0.0, None
     allow_open = partial
     for passes in range(settings.bias_passes):
@@ -212,14 +211,14 @@ def _sampling_bias(scene, queries, center, radius, settings, floor, partial):
         last = passes == settings.bias_passes - 1
         used = offsets if last else offsets[:count]
         estimate = sampling_errors(ring, center, radius - bias, used, scales, allow_open=allow_open, settings=settings,
-                                   reflections=harness.reflections(scene, queries, center, radius - bias, used))
+                                   reflections=harness.reflections(scene, center, radius - bias, used))
         if estimate is None and errors is None and not allow_open:
             # A full hole near the scan's border: the synthetic holes cut around it (larger than
             # it) reach the outside and their rims open. Measured as for a partial hole rather than
             # not at all (issue 24: a d3.96 hole 0.23 mm from the border kept +53 um uncorrected).
             allow_open = True
             estimate = sampling_errors(ring, center, radius - bias, used, scales, allow_open=True, settings=settings,
-                                       reflections=harness.reflections(scene, queries, center, radius - bias, used))
+                                       reflections=harness.reflections(scene, center, radius - bias, used))
         if estimate is None:
             break
         bias, errors = estimate.bias, estimate
@@ -233,7 +232,7 @@ class RimFit:
     Its uncertainty is at least the rim's least-squares circle fit's (a burr or debris on the real
     rim that the synthetic holes do not have widens it)."""
 
-    name = ESTIMATORS[3]  # "rim_fit", last in precedence (holecli.vocabulary.ESTIMATORS)
+    name = ESTIMATOR_RIM_FIT  # its precedence: holecli.vocabulary.ESTIMATORS
     # The method terms (a, b) for the in-plane center and the diameter: a h and b sigma_h in
     # quadrature (see holecli.robust.uncertainty for how they were measured).
     method_terms = {"center": (0.0, 0.3), "diameter": (0.0, 0.7)}
@@ -250,9 +249,9 @@ class RimFit:
         """Every hole."""
         return True
 
-    def edge(self, scene, queries, local, rim_xy, center, radius, partial, floor, settings):
+    def edge(self, scene, local, rim_xy, center, radius, partial, floor, settings):
         """The rim fit's edge, corrected by its sampling bias (:func:`_sampling_bias`); never None."""
-        bias, synthetic = _sampling_bias(scene, queries, center, radius, settings, floor, partial)
+        bias, synthetic = _sampling_bias(scene, center, radius, settings, floor, partial)
         return EdgeEstimate(estimator=self, center=center, radius=radius - bias, bias=bias, synthetic=synthetic)
 
 

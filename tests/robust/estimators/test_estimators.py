@@ -8,6 +8,7 @@ import pytest
 
 from holecli.robust.estimators import (CONE, EMPTY_CIRCLE, ESTIMATOR_NAMED, ESTIMATORS, LATTICE, METHOD_TERMS,
                                        RIM_FIT, synthetic_errors)
+from holecli.robust.uncertainty import edge_uncertainty
 from holecli.settings import DEFAULT_SETTINGS
 
 
@@ -16,15 +17,22 @@ def test_the_estimators_are_tried_cone_lattice_empty_circle_then_rim_fit():
     assert ESTIMATORS[-1] is RIM_FIT and all(ESTIMATOR_NAMED[e.name] is e for e in ESTIMATORS)
 
 
-def test_the_method_terms_are_each_estimators_own():
-    # the values calibrated on benchmarks/uncertainty.py (seeds 0-199), unchanged by the move
-    assert METHOD_TERMS == {
-        "rim_fit": {"center": (0.0, 0.3), "diameter": (0.0, 0.7)},
-        "lattice": {"center": (0.002, 0.0), "diameter": (0.015, 0.1)},
-        "empty_circle": {"center": (0.015, 0.3), "diameter": (0.0, 0.0)},
-        "cone": {"center": (0.002, 0.0), "diameter": (0.01, 0.0)},
-    }
-    assert all(METHOD_TERMS[e.name] is e.method_terms for e in ESTIMATORS)
+@pytest.mark.parametrize("estimator", ESTIMATORS, ids=lambda e: e.name)
+def test_each_estimators_u_grows_as_its_sampling_coarsens_or_gets_noisier(estimator):
+    """Its method terms widen its uncertainty with the spacing h or the height noise sigma_h: never
+    smaller on a coarser or noisier scan, and the center's larger on one both coarser and noisier."""
+    rim = np.column_stack([np.cos(np.linspace(0, 6, 50)), np.sin(np.linspace(0, 6, 50))])
+    errors = synthetic_errors(lambda radius, inside: ((0.01, 0.0), radius + 0.01), np.zeros(2), [1.0, 1.1, 1.2])
+
+    def u(spacing, noise):
+        return edge_uncertainty(estimator, errors, rim, (0.0, 0.0), 1.0, spacing=spacing, height_noise=noise,
+                                density=100.0)
+
+    fine = u(0.1, 0.01)
+    for coarser in (u(0.2, 0.01), u(0.1, 0.02), u(0.2, 0.02)):
+        assert coarser[0] >= fine[0] and coarser[1] >= fine[1]
+    assert u(0.2, 0.02)[0] > fine[0]
+    assert METHOD_TERMS[estimator.name] is estimator.method_terms
 
 
 def _scene(lattice_axes=(), period=None, height_noise=0.0, surface_density=100.0):

@@ -1,0 +1,74 @@
+"""Tests of holecli.robust.scene: the scene of a scan (its plane frame, scales and grid) and its
+neighbourhood queries."""
+
+import numpy as np
+import pytest
+
+from holecli.robust.scene import build_scene
+
+
+def _plate(seed=1, radius=3.0, count=12_000):
+    """A 20 x 20 mm flat plate randomly sampled (spacing about 0.08 mm), a hole of ``radius`` at the origin."""
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(-10.0, 10.0, (count, 2))
+    xy = xy[np.hypot(*xy.T) >= radius]
+    return np.column_stack([xy, 0.002 * rng.standard_normal(len(xy))])
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return build_scene(_plate(), view_dir=(0.0, 0.0, -1.0))
+
+
+def test_the_scales_are_positive_and_ordered(scene):
+    spacing = float(scene.sampling.spacing)
+    assert 0.05 < spacing < 0.15  # 12,000 points on 400 mm^2 (less the hole): about 0.08 mm apart
+    assert scene.cell > 0 and scene.alpha > 0 and scene.min_radius > 0
+    assert spacing < scene.cell < scene.alpha < scene.min_radius < 3.0  # the hole is above the smallest size
+    assert len(scene.surface_xy) > 0.99 * len(scene.xy)  # a flat plate: (nearly) every point on the surface
+
+
+def test_the_scene_is_scale_free(scene):
+    """The same plate in micrometres: every length of the scene 1000 times longer."""
+    scaled = build_scene(1000.0 * _plate(), view_dir=(0.0, 0.0, -1.0))
+    for length in ("cell", "alpha", "min_radius", "gap_scatter"):
+        assert getattr(scaled, length) == pytest.approx(1000.0 * getattr(scene, length), rel=1e-9)
+    assert scaled.sampling.spacing == pytest.approx(1000.0 * scene.sampling.spacing, rel=1e-9)
+    assert scaled.height_noise == pytest.approx(1000.0 * scene.height_noise, rel=1e-6)
+    np.testing.assert_allclose(scaled.xy, 1000.0 * scene.xy, rtol=1e-9, atol=1e-9)
+
+
+def test_the_plane_frame_keeps_the_plate_flat(scene):
+    assert abs(scene.plane.normal[2]) == pytest.approx(1.0, abs=1e-4)
+    assert np.max(np.abs(scene.heights)) < 0.02
+    # the frame is a rotation: in-plane distances are the world's
+    np.testing.assert_allclose(scene.rotation @ scene.rotation.T, np.eye(3), atol=1e-12)
+    a, b = scene.points[0], scene.points[1]
+    assert np.hypot(*(scene.xy[0] - scene.xy[1])) == pytest.approx(np.hypot(*(a - b)[:2]), abs=1e-4)
+
+
+@pytest.mark.parametrize("indexed", [False, True])
+def test_within_and_box_answer_as_a_brute_force_query(scene, indexed):
+    """With or without the cell index, the queries give the points a pass over them gives."""
+    queried = scene.with_cell_indices() if indexed else scene
+    rng = np.random.default_rng(7)
+    for xy in (queried.xy, queried.surface_xy, queried.material_xy):
+        for _ in range(5):
+            center = rng.uniform(-8.0, 8.0, 2)
+            inner, outer = sorted(rng.uniform(0.0, 3.0, 2))
+            distance = np.hypot(*(xy - center).T)
+            expected = np.flatnonzero((distance >= inner) & (distance < outer))
+            np.testing.assert_array_equal(np.sort(queried.within(xy, center, inner, outer)), expected)
+            low, high = center - outer, center + 0.5 * outer
+            in_box = np.flatnonzero(np.all((xy >= low) & (xy <= high), axis=1))
+            np.testing.assert_array_equal(np.sort(queried.box(xy, low, high)), in_box)
+            assert queried.count_in_disk(xy, center, outer) == np.count_nonzero(distance < outer)
+
+
+def test_the_hole_is_scanned_all_round(scene):
+    # the 3 mm hole in the plate's middle: wholly inside the scan, and no material just outside it lacks
+    assert scene.scanned_fraction(np.zeros(2), 3.0) == pytest.approx(1.0)
+    assert scene.material_arc(np.zeros(2), 3.0) == pytest.approx(360.0)
+    # a disk centred on the plate's corner: about a quarter of it is scanned
+    corner = (scene.rotation @ (np.array([10.0, 10.0, 0.0]) - scene.origin))[:2]
+    assert scene.scanned_fraction(corner, 3.0) == pytest.approx(0.25, abs=0.1)
