@@ -35,6 +35,8 @@ def test_the_schema_is_a_valid_draft_2020_12_schema_shipped_with_the_package():
     schema = record_schema()
     jsonschema.Draft202012Validator.check_schema(schema)
     assert schema["$defs"]["detect_record"]["properties"]["schema_version"]["const"] == SCHEMA_VERSION
+    # the schema's own name and title are of the version it describes (they said 2.2 under records of 2.3)
+    assert schema["$id"].endswith(f":{SCHEMA_VERSION}") and schema["title"].endswith(f"schema {SCHEMA_VERSION}")
     for kind in KINDS:
         assert record_schema(kind)["$ref"] == f"#/$defs/{kind}"
     with pytest.raises(ValueError, match="kind must be one of"):
