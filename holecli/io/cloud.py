@@ -90,47 +90,6 @@ def read_cloud(path, scan=None, input_format=None, columns=None) -> Cloud:
     return _finite_cloud(raw, name, flagged, units, read)
 
 
-def read_cloud(path, scan=None, input_format=None, columns=None) -> Cloud:
-    """Read the points of a PLY, PCD, CSV, TXT, XYZ, E57, LAS or LAZ file.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The file; its extension (any case) selects the format, unless ``input_format`` is given.
-    scan : int, optional
-        The scan to read, from 0, of an E57 file that holds several; by default every scan, each
-        moved into the file's common frame by its pose, merged into one cloud. A file of any other
-        format holds one scan, 0.
-    input_format : {"ply", "pcd", "csv", "txt", "xyz", "e57", "las", "laz"}, optional
-        The format to read the file in, whatever its extension (``scan.asc`` as ``"xyz"``).
-    columns : sequence of 3 (str or int), optional
-        The x, y, z columns of a text table: header names or 0-based indices
-        (:func:`holecli.io.text.parse_columns`); by default found from the header or the data
-        (:mod:`holecli.io.text`). Refused for any other format.
-
-    Returns
-    -------
-    Cloud
-        The finite points of the file and the number of rows dropped as non-finite (or flagged
-        invalid by an E57 file).
-
-    Raises
-    ------
-    LoadError
-        For any problem with the file: missing, a directory, unsupported extension, empty, garbled
-        or truncated, no x, y, z coordinates, a non-numeric value, or no finite point at all; a
-        ``scan`` the file does not have; an E57, LAS or LAZ file when the optional extra that reads
-        it is not installed.
-    ValueError
-        When ``input_format`` is not one of :data:`INPUT_FORMATS` or ``scan`` is not a whole number >= 0.
-    """
-    name = os.fspath(path)
-    _check_scan(scan)
-    extension = _extension(name, input_format)
-    raw, flagged, units, read = _read_checked(name, extension, name, scan, columns)
-    return _finite_cloud(raw, name, flagged, units, read)
-
-
 def _extension(name, input_format):
     """The extension that selects the reader: ``.FORMAT``, else the file's own (lower case)."""
     if input_format is None:
