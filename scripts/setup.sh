@@ -2,8 +2,10 @@
 # Set up holecli in ./.venv on a fresh Debian machine: the system libraries it needs (libusb-1.0 for
 # open3d; the venv module where Debian ships it apart), a Python that open3d has a wheel for, a virtual
 # environment, and the project with its test extra, the extras of the optional formats (e57, las), of
-# the pictures (plot, matplotlib) and of the documentation site (docs, MkDocs and its Material theme),
-# so that their readers, holecli plot and the docs' build are tested.
+# the pictures (plot, matplotlib), of the documentation site (docs, MkDocs and its Material theme) and
+# of the service (serve, postgres, opcua: FastAPI, uvicorn, psycopg, asyncua), so that their readers,
+# holecli plot, the docs' build and holecli serve are tested; and Debian's postgresql, which the tests
+# of the PostgreSQL results store start.
 # Safe to run again: it only does what is missing.
 #
 # The Python: $PYTHON if set, else python3 when open3d has a wheel for it (open3d 0.20: CPython 3.10 to
@@ -34,6 +36,13 @@ have_libusb() {
 if ! have_libusb; then
     say "installing the Debian package libusb-1.0-0 (open3d needs it)"
     apt_install libusb-1.0-0
+fi
+# PostgreSQL: the test suite starts a throwaway server of Debian's package to test the results store
+# (holecli serve --store postgresql://..., tests/store/); holecli itself needs it only for that store
+have_postgres() { compgen -G '/usr/lib/postgresql/*/bin/initdb' >/dev/null; }
+if ! have_postgres; then
+    say "installing the Debian package postgresql (the tests of the PostgreSQL results store start one)"
+    apt_install postgresql
 fi
 
 # pip's notes about local package indexes that this machine lacks are noise: filtered out
@@ -100,6 +109,7 @@ installed() {  # run from / so that the current folder is not what finds holecli
     (cd / && "$root/.venv/bin/python" - "$root" <<'EOF' >/dev/null 2>&1
 import os, sys
 import open3d, pytest, jsonschema, pye57, laspy, lazrs, matplotlib, mkdocs, material  # noqa: F401
+import fastapi, uvicorn, prometheus_client, psycopg, asyncua, httpx, schemathesis  # noqa: F401
 import holecli
 root = os.path.realpath(sys.argv[1])
 sys.exit(os.path.realpath(holecli.__file__) != os.path.join(root, "holecli", "__init__.py")
@@ -116,5 +126,5 @@ if [ ! -x .venv/bin/holecli ] || ! installed; then
         say "replacing open3d with open3d-cpu in .venv"
         pip_quiet .venv/bin/python -m pip uninstall --quiet --yes open3d
     fi
-    pip_quiet .venv/bin/python -m pip install --quiet -e '.[test,e57,las,plot,docs]' --config-settings editable_mode=compat
+    pip_quiet .venv/bin/python -m pip install --quiet -e '.[test,e57,las,plot,docs,serve,postgres,opcua]' --config-settings editable_mode=compat
 fi
