@@ -1,0 +1,228 @@
+"""``holecli serve`` under stop signals, ``kill -9``, its limits and the failures that stop it starting
+(issue 27, "Reliability and security"): a real server in a process of its own (tests/serve/conftest.py)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import sqlite3
+import threading
+import time
+
+import httpx
+import pytest
+
+from holecli.store import open_store
+
+MEASURE_TIMEOUT = 120
+
+
+def measure(client, url, path, **body):
+    """POST a measure-by-path request; the response."""
+    return client.post(url + "/v1/measure", json={"path": path, **body}, timeout=MEASURE_TIMEOUT)
+
+
+def wait_for(condition, seconds, step=0.02):
+    """Poll ``condition()`` until it is true (then True) or ``seconds`` have passed (then False)."""
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(step)
+    return False
+
+
+def health(url):
+    with httpx.Client() as client:
+        return client.get(url + "/v1/health", timeout=10).json()
+
+
+def integrity(path):
+    connection = sqlite3.connect(path)
+    try:
+        return connection.execute("PRAGMA integrity_check").fetchall()
+    finally:
+        connection.close()
+
+
+def assert_no_traceback(text):
+    assert "Traceback" not in text, text
+
+
+@pytest.mark.slow
+def test_sigterm_answers_the_requests_in_flight_then_exits_0(serve, scans, tmp_path):
+    served = serve("--allow-dir", scans, "--workers", "2")
+    answers, errors = {}, []
+
+    def post(number):
+        try:
+            with httpx.Client() as client:
+                answers[number] = measure(client, served.http, "s1e5.ply", meta={"serial": f"S{number}"})
+        except Exception as error:  # noqa: BLE001 - reported by the assertion below
+            errors.append(error)
+
+    threads = [threading.Thread(target=post, args=(number,)) for number in range(6)]
+    for thread in threads:
+        thread.start()
+    # Every request is in flight (measured, or waiting for one of the 2 workers) before the signal.
+    assert wait_for(lambda: health(served.http)["queue"] == 6, 30), health(served.http)
+    served.signal(signal.SIGTERM)
+    time.sleep(0.2)
+    try:
+        with httpx.Client() as client:
+            late = measure(client, served.http, "table1.ply")
+        assert late.status_code == 503, late.text
+        assert late.json()["error"]["code"] == "unavailable"
+    except (httpx.ConnectError, httpx.RemoteProtocolError, httpx.ReadError):
+        pass  # the listening socket is already closed: refused
+    for thread in threads:
+        thread.join(MEASURE_TIMEOUT)
+    assert not errors
+    assert sorted(answers) == list(range(6))
+    assert all(response.status_code == 200 for response in answers.values()), \
+        [response.text for response in answers.values()]
+    assert served.wait(30) == 0
+    assert_no_traceback(served.stderr)
+    assert served.leftovers() == []
+    with open_store(served.store) as store:
+        for number, response in answers.items():
+            stored = store.get(response.json()["id"])
+            assert stored is not None and stored["meta"]["serial"] == f"S{number}"
+
+
+@pytest.mark.slow
+def test_kill_9_during_a_burst_loses_no_acknowledged_result(serve, scans, tmp_path):
+    served = serve("--allow-dir", scans, "--workers", "2")
+    acknowledged, lock, stop = [], threading.Lock(), threading.Event()
+
+    def client_loop(number):
+        with httpx.Client() as client:
+            while not stop.is_set():
+                try:
+                    response = measure(client, served.http, "table1.ply", meta={"cell": f"C{number}"})
+                except httpx.HTTPError:
+                    return  # the server is gone
+                if response.status_code == 200:
+                    with lock:
+                        acknowledged.append(response.json()["id"])
+
+    threads = [threading.Thread(target=client_loop, args=(number,)) for number in range(4)]
+    for thread in threads:
+        thread.start()
+    assert wait_for(lambda: len(acknowledged) >= 12, 60)
+    workers = served.workers()
+    assert len(workers) == 2
+    served.signal(signal.SIGKILL)
+    assert served.wait(10) == -signal.SIGKILL
+    with lock:
+        before_the_kill = list(acknowledged)
+    stop.set()
+    for thread in threads:
+        thread.join(MEASURE_TIMEOUT)
+    # Answers read after the kill were sent before it: all of them count.
+    assert set(before_the_kill) <= set(acknowledged)
+    # The workers die with the service (the parent-death signal), and so does the resource tracker.
+    assert served.leftovers(seconds=5) == []
+    assert integrity(served.store) == [("ok",)]
+    with open_store(served.store) as store:
+        missing = [identifier for identifier in acknowledged if store.get(identifier) is None]
+        assert not missing, f"{len(missing)} of {len(acknowledged)} acknowledged results are not in the store"
+        assert store.count() >= len(acknowledged)
+    again = serve("--allow-dir", scans, "--workers", "1", store=served.store)
+    with httpx.Client() as client:
+        response = measure(client, again.http, "table1.ply")
+        assert response.status_code == 200, response.text
+        assert client.get(again.http + "/v1/results/" + acknowledged[0], timeout=10).status_code == 200
+
+
+@pytest.mark.slow
+def test_a_scan_over_the_request_timeout_gets_408_and_the_next_is_measured(serve, scans):
+    served = serve("--allow-dir", scans, "--workers", "1", "--request-timeout", "0.5")
+    with httpx.Client() as client:
+        started = time.monotonic()
+        response = measure(client, served.http, "s1e6.ply")
+        assert response.status_code == 408, response.text
+        assert response.json()["error"]["code"] == "timeout"
+        assert time.monotonic() - started < 30
+        assert measure(client, served.http, "table1.ply").status_code == 200
+
+
+@pytest.mark.slow
+def test_a_scan_over_the_worker_memory_gets_413_and_the_service_goes_on(serve, scans):
+    served = serve("--allow-dir", scans, "--workers", "1", "--worker-memory-mb", "50")
+    with httpx.Client() as client:
+        response = measure(client, served.http, "s1e6.ply")
+        assert response.status_code == 413, response.text
+        assert response.json()["error"]["code"] == "too_large"
+        assert measure(client, served.http, "table1.ply").status_code == 200
+    assert served.stop() == 0
+    assert_no_traceback(served.stderr)
+
+
+@pytest.mark.slow
+def test_a_worker_killed_while_measuring_gets_503_and_the_pool_is_replaced(serve, scans):
+    served = serve("--allow-dir", scans, "--workers", "1")
+    [worker] = served.workers()
+    answer = {}
+
+    def post():
+        with httpx.Client() as client:
+            answer["response"] = measure(client, served.http, "s1e6.ply")
+
+    thread = threading.Thread(target=post)
+    thread.start()
+    assert wait_for(lambda: health(served.http)["queue"] == 1, 30)
+    time.sleep(0.3)  # the worker is reading the 21 MB file
+    os.kill(worker, signal.SIGKILL)
+    thread.join(MEASURE_TIMEOUT)
+    response = answer["response"]
+    assert response.status_code == 503, response.text
+    assert response.json()["error"]["code"] == "unavailable"
+    with httpx.Client() as client:
+        assert measure(client, served.http, "table1.ply").status_code == 200
+        assert client.get(served.http + "/v1/health", timeout=10).json()["worker_restarts"] == 1
+    assert worker not in served.workers()
+    assert served.stop() == 0
+    assert_no_traceback(served.stderr)
+
+
+def test_a_port_in_use_is_said_in_one_line_exit_3(run_serve, tmp_path):
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        port = taken.getsockname()[1]
+        result = run_serve("--port", port, "--store", tmp_path / "store.sqlite")
+    assert result.returncode == 3, result.stderr
+    assert result.stderr.startswith(f"Error: 127.0.0.1:{port}: cannot listen there"), result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert result.stdout == ""
+
+
+@pytest.mark.parametrize("store", ["a folder", "not sqlite"])
+def test_a_store_that_is_not_a_store_is_said_in_one_line_exit_3(run_serve, tmp_path, store):
+    location = tmp_path / "store"
+    if store == "a folder":
+        location.mkdir()
+    else:
+        location.write_bytes(b"these are not the droids you are looking for\n" * 100)
+    before = sorted(path.name for path in tmp_path.iterdir())
+    result = run_serve("--port", 0, "--store", location)
+    assert result.returncode == 3, result.stderr
+    assert result.stderr.startswith("Error: "), result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert str(location) in result.stderr
+    assert result.stdout == ""
+    if store == "not sqlite":
+        assert location.read_bytes() == b"these are not the droids you are looking for\n" * 100
+    assert sorted(path.name for path in tmp_path.iterdir()) == before
+
+
+def test_the_ready_line_names_the_addresses_and_the_store(serve, tmp_path):
+    served = serve("--workers", "1")
+    assert served.ready["http"].startswith("http://127.0.0.1:")
+    assert served.ready["store"] == str(tmp_path / "store.sqlite")
+    assert served.ready["workers"] == 1 and served.ready["pid"] == served.process.pid
+    assert json.loads(json.dumps(served.ready)) == served.ready
+    assert health(served.http)["status"] == "ok"
