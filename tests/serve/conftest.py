@@ -198,6 +198,12 @@ def start_server(options, *, env, cwd, store, ready_seconds=READY_SECONDS):
     return served
 
 
+@pytest.fixture(scope="session")
+def start_serve():
+    """:func:`start_server`, for fixtures of a wider scope than ``serve``'s (they stop what they start)."""
+    return start_server
+
+
 @pytest.fixture
 def serve(tmp_path, serve_env):
     """``serve(*options, store=PATH, cwd=PATH)``: a ready ``holecli serve`` (:class:`Served`), run in
