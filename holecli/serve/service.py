@@ -381,8 +381,7 @@ class Service:
             except WorkerDied as error:
                 raise ServiceError(503, str(error)) from None
             if "error" in result:
-                # named as the request named it: not the service's copy of an upload, nor a link's target
-                raise ServiceError(result["status"], result["error"].replace(path, shown))
+                raise ServiceError(result["status"], result["error"])
             record = result["record"]
             record["file"] = shown  # as the request named it (the service read the file's real path)
             processing_ms = (time.perf_counter() - started) * 1e3
