@@ -11,20 +11,26 @@ word in any case)::
     PING
     VERSION
     HELP
+    AUTH <token>
 
 Answers::
 
     OK,<id>,<n>{,<x>,<y>,<z>,<d>,<nx>,<ny>,<nz>,<hole verdict>}*n,<verdict>    (MEASURE, RESULT)
     OK,PONG                                                                   (PING)
     OK,<version>                                                              (VERSION)
-    OK,MEASURE,RESULT,PING,VERSION,HELP                                       (HELP)
+    OK,MEASURE,RESULT,PING,VERSION,HELP,AUTH                                  (HELP)
+    OK,AUTH                                                                   (AUTH)
     ERR,<status>,<message>
+
+When the server has a token (``holecli serve --token-file``), MEASURE and RESULT are answered
+``ERR,401`` until the connection sent ``AUTH <token>``; a wrong token is answered ``ERR,401`` and the
+connection closed.
 
 The verdicts are the words ``pass``, ``fail``, ``undecided`` and ``unchecked``. Lengths are in
 millimetres with :data:`DECIMALS` decimals (``units="mm"``) or integer micrometres (``units="um"``);
 the normal's components with :data:`NORMAL_DECIMALS` decimals, or integers of 1e-6. The status of
-``ERR`` is the HTTP-like status of :class:`holecli.serve.service.ServiceError` (400, 403, 404, 408,
-413, 422, 500, 503). The full reference, with a robot-side example, is in the docs ("The line
+``ERR`` is the HTTP-like status of :class:`holecli.serve.service.ServiceError` (400, 401, 403, 404,
+408, 413, 422, 500, 503). The full reference, with a robot-side example, is in the docs ("The line
 protocol").
 
 The pure parts (:func:`decode_line`, :func:`parse_line`, :func:`format_answer`,
@@ -35,6 +41,7 @@ The pure parts (:func:`decode_line`, :func:`parse_line`, :func:`format_answer`,
 from __future__ import annotations
 
 import asyncio
+import hmac
 import logging
 import math
 import re
@@ -47,7 +54,7 @@ from holecli.serve.service import MeasureRequest, ServiceError
 from holecli.units import UNITS
 
 __all__ = ["COMMANDS", "DECIMALS", "IDLE_TIMEOUT", "LINE_TIMEOUT", "LINE_UNITS", "MAX_CONNECTIONS", "MAX_LINE",
-           "MESSAGE_MAX", "NORMAL_DECIMALS", "Help", "LineError", "Measure", "Ping", "Result", "Version",
+           "MESSAGE_MAX", "NORMAL_DECIMALS", "Auth", "Help", "LineError", "Measure", "Ping", "Result", "Version",
            "answer", "close_lines", "decode_line", "format_answer", "format_error", "hole_verdict",
            "parse_line", "record_verdict", "serve_lines"]
 
@@ -70,15 +77,21 @@ MESSAGE_MAX = 200
 # client receives the ERR line before the connection ends.
 LINGER = 2.0
 
-COMMANDS = ("MEASURE", "RESULT", "PING", "VERSION", "HELP")
+COMMANDS = ("MEASURE", "RESULT", "PING", "VERSION", "HELP", "AUTH")
 # The keys of MEASURE that are fields of the request, and the keys of its metadata; every other key is
 # a detection option (holecli.serve.service checks them: an unknown one is refused with 400).
 REQUEST_KEYS = ("spec", "registration", "format")
 META_KEYS = ("part", "serial", "cell", "operator")
+# How the text of an option becomes the value the service takes (holecli.serve.service.OPTIONS); an
+# option whose text does not read as its kind is passed on as text, for the service to refuse by name.
+NUMBER_OPTIONS = ("min_diameter", "gauge_depth")
+INTEGER_OPTIONS = ("max_holes", "scan")
+FLAG_OPTIONS = ("full_only", "explain")
+_FLAGS = {"true": True, "yes": True, "1": True, "false": False, "no": False, "0": False}
 
 _TERMINATOR = b"\r\n"
 _KEY = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)=(.*)\Z", re.DOTALL)
-_RESULT_ID = re.compile(r"[A-Za-z0-9_-]{1,64}\Z")
+_RESULT_ID = re.compile(r"[A-Za-z0-9]{1,64}\Z")
 # C0 controls and DEL; a tab counts as a space.
 _CONTROL = re.compile(r"[\x00-\x08\x0a-\x1f\x7f]")
 _LOG = logging.getLogger(__name__)
@@ -113,8 +126,9 @@ class Measure:
         Names in the service's ``--spec-dir``.
     format : str or None
         The file's format when its extension does not say it (``input_format``).
-    options : dict of str to str
-        Detection options (``min_diameter=0.5``, ``view_dir=0,0,-1``, ...), values as sent.
+    options : dict
+        Detection options (``min_diameter=0.5``, ``view_dir=0,0,-1``, ...), each value read as its
+        kind (:func:`option_value`).
     meta : dict of str to str
         ``part``, ``serial``, ``cell``, ``operator``: stored with the measurement.
     """
@@ -154,7 +168,14 @@ class Help:
     """``HELP``: answered ``OK,`` and the command words."""
 
 
-Command = Union[Measure, Result, Ping, Version, Help]
+@dataclass(frozen=True)
+class Auth:
+    """``AUTH <token>``: the token of a server that asks for one (``holecli serve --token-file``)."""
+
+    token: str = field(repr=False)
+
+
+Command = Union[Measure, Result, Ping, Version, Help, Auth]
 
 
 def decode_line(raw: bytes) -> str:
@@ -206,7 +227,7 @@ def parse_line(text: str) -> Optional[Command]:
 
     Returns
     -------
-    Measure, Result, Ping, Version, Help, or None
+    Measure, Result, Ping, Version, Help, Auth, or None
         None for a blank line (no request: not answered).
 
     Raises
@@ -218,7 +239,7 @@ def parse_line(text: str) -> Optional[Command]:
     Examples
     --------
     >>> parse_line('MEASURE "scans/part 7.ply" spec=plate part=P-7 min_diameter=2')
-    Measure(path='scans/part 7.ply', spec='plate', registration=None, format=None, options={'min_diameter': '2'}, meta={'part': 'P-7'})
+    Measure(path='scans/part 7.ply', spec='plate', registration=None, format=None, options={'min_diameter': 2.0}, meta={'part': 'P-7'})
     >>> parse_line("ping")
     Ping()
     """
@@ -234,8 +255,12 @@ def parse_line(text: str) -> Optional[Command]:
             raise LineError(400, f"RESULT takes one id: got {len(arguments)} words")
         result_id = _unquote(arguments[0])
         if not _RESULT_ID.match(result_id):
-            raise LineError(400, f"not an id: {result_id!r} (at most 64 letters and digits or - _)")
+            raise LineError(400, f"not an id: {_shorten(result_id, 40)!r} (at most 64 letters and digits)")
         return Result(result_id)
+    if name == "AUTH":
+        if len(arguments) != 1:
+            raise LineError(400, f"AUTH takes one token: got {len(arguments)} words")
+        return Auth(_unquote(arguments[0]))
     simple = {"PING": Ping, "VERSION": Version, "HELP": Help}
     if name in simple:
         if arguments:
@@ -260,9 +285,44 @@ def _measure(arguments) -> Measure:
             raise LineError(400, f"{key}= given twice")
         if not value:
             raise LineError(400, f"{key}= has no value")
-        target = fields if key in REQUEST_KEYS else meta if key in META_KEYS else options
-        target[key] = value
+        if key in REQUEST_KEYS:
+            fields[key] = value
+        elif key in META_KEYS:
+            meta[key] = value
+        else:
+            options[key] = option_value(key, value)
     return Measure(path=path, options=options, meta=meta, **fields)
+
+
+def option_value(name: str, text: str):
+    """The value of the detection option ``name`` written ``text``, as the service takes it.
+
+    ``min_diameter``, ``gauge_depth``: a float; ``max_holes``, ``scan``: an int; ``full_only``,
+    ``explain``: true/false (also yes/no, 1/0, any case); ``view_dir``: three floats separated by
+    commas; ``columns``: three names or 0-based numbers separated by commas; any other option its text.
+    A text that does not read as its kind is returned as it is (the service refuses it by name).
+
+    Examples
+    --------
+    >>> option_value("view_dir", "0,0,-1"), option_value("full_only", "YES"), option_value("columns", "x_mm,2,z")
+    ([0.0, 0.0, -1.0], True, ['x_mm', 2, 'z'])
+    >>> option_value("min_diameter", "2mm")
+    '2mm'
+    """
+    try:
+        if name in NUMBER_OPTIONS:
+            return float(text)
+        if name in INTEGER_OPTIONS:
+            return int(text)
+        if name == "view_dir":
+            return [float(item) for item in text.split(",")]
+    except ValueError:
+        return text
+    if name in FLAG_OPTIONS:
+        return _FLAGS.get(text.lower(), text)
+    if name == "columns":
+        return [int(item) if item.isdigit() else item for item in text.split(",")]
+    return text
 
 
 def _split_words(text: str) -> list:
@@ -441,6 +501,7 @@ async def answer(service, command: Command, units: str = "mm") -> str:
     ----------
     service : holecli.serve.service.Service
     command : Measure, Result, Ping, Version or Help
+        (AUTH is the connection's: :func:`serve_lines` answers it.)
     units : {"mm", "um"}
 
     Returns
@@ -462,8 +523,10 @@ async def answer(service, command: Command, units: str = "mm") -> str:
         return "OK," + ",".join(COMMANDS)
     if isinstance(command, Measure):
         record = await service.measure(command.request())
-    else:
+    elif isinstance(command, Result):
         record = await service.result(command.id)
+    else:
+        raise TypeError(f"not a command answer() answers: {command!r}")
     if record.get("error"):
         return format_error(422, record["error"])
     return format_answer(record, units)
@@ -480,9 +543,10 @@ class _Closing(Exception):
 class _Channel:
     """The line protocol of one server: its settings and its open connections."""
 
-    def __init__(self, service, units, max_line, idle_timeout, line_timeout, max_connections):
+    def __init__(self, service, units, token, max_line, idle_timeout, line_timeout, max_connections):
         self.service = service
         self.units = units
+        self.token = token
         self.max_line = max_line
         self.idle_timeout = idle_timeout
         self.line_timeout = line_timeout
@@ -514,13 +578,14 @@ class _Channel:
 
     async def _serve(self, reader, writer):
         buffer, scanned = bytearray(), [0]
+        session = {"authorized": self.token is None}
         while not self.closing:
             raw = await self._next_line(reader, buffer, scanned)
             if raw is None:
                 await self._end(reader, writer, None)
                 return
             self.connections[writer] = True
-            line = await self._answer(raw)
+            line = await self._answer(raw, session)
             if line is not None:
                 writer.write(line.encode("utf-8") + _TERMINATOR)
                 await asyncio.wait_for(writer.drain(), self.line_timeout)
@@ -550,12 +615,21 @@ class _Channel:
                 return None
             buffer += chunk
 
-    async def _answer(self, raw):
+    async def _answer(self, raw, session):
         try:
             command = parse_line(decode_line(raw))
             if command is None:
                 return None
+            if isinstance(command, Auth):
+                if self.token is not None and not hmac.compare_digest(command.token.encode(), self.token.encode()):
+                    raise _Closing(format_error(401, "wrong token"))
+                session["authorized"] = True
+                return "OK,AUTH"
+            if not session["authorized"] and isinstance(command, (Measure, Result)):
+                return format_error(401, "this server asks for a token: send AUTH <token> first")
             return await answer(self.service, command, self.units)
+        except _Closing:
+            raise
         except (LineError, ServiceError) as error:
             return format_error(error.status, error.message)
         except Exception:
@@ -592,10 +666,12 @@ async def _discard(reader):
 _CHANNELS = weakref.WeakKeyDictionary()
 
 
-async def serve_lines(service, host: str, port: int, *, units: str = "mm", max_line: int = MAX_LINE,
+async def serve_lines(service, host: Optional[str] = None, port: Optional[int] = None, *, sock=None,
+                      units: str = "mm", token: Optional[str] = None, max_line: int = MAX_LINE,
                       idle_timeout: Optional[float] = IDLE_TIMEOUT, line_timeout: float = LINE_TIMEOUT,
                       max_connections: int = MAX_CONNECTIONS) -> asyncio.AbstractServer:
-    """Start the line protocol on ``host:port`` (0: a free port) on the running event loop.
+    """Start the line protocol on ``host:port`` (0: a free port), or on the bound socket ``sock``, on
+    the running event loop.
 
     Each connection is its own task and answers its requests in sequence; a line longer than
     ``max_line`` is answered ``ERR,413`` and its connection closed; a line begun and not ended within
@@ -608,10 +684,14 @@ async def serve_lines(service, host: str, port: int, *, units: str = "mm", max_l
     Parameters
     ----------
     service : holecli.serve.service.Service
-    host : str
-    port : int
+    host, port : str, int
+        Where to listen (not with ``sock``).
+    sock : socket.socket, optional
+        A bound TCP socket, not yet listening (``holecli serve`` binds before it starts its workers).
     units : {"mm", "um"}
         The answers' lengths: decimal millimetres or integer micrometres.
+    token : str, optional
+        The token MEASURE and RESULT need, sent once per connection with ``AUTH <token>``.
     max_line : int
         Bytes of a request line, without its newline.
     idle_timeout, line_timeout : float or None, float
@@ -627,8 +707,11 @@ async def serve_lines(service, host: str, port: int, *, units: str = "mm", max_l
         raise ValueError(f"units must be one of {', '.join(LINE_UNITS)}, got {units!r}")
     if max_line < 1 or max_connections < 1:
         raise ValueError(f"max_line and max_connections must be positive, got {max_line} and {max_connections}")
-    channel = _Channel(service, units, max_line, idle_timeout, line_timeout, max_connections)
-    server = await asyncio.start_server(channel.handle, host, port, limit=max_line + 2)
+    channel = _Channel(service, units, token, max_line, idle_timeout, line_timeout, max_connections)
+    if sock is not None:
+        server = await asyncio.start_server(channel.handle, sock=sock, limit=max_line + 2)
+    else:
+        server = await asyncio.start_server(channel.handle, host, port, limit=max_line + 2)
     _CHANNELS[server] = channel
     return server
 

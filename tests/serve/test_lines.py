@@ -2,8 +2,9 @@
 
 import pytest
 
-from holecli.serve.lines import (DECIMALS, MESSAGE_MAX, Help, LineError, Measure, Ping, Result, Version, decode_line,
-                                 format_answer, format_error, hole_verdict, parse_line, record_verdict)
+from holecli.serve.lines import (DECIMALS, MESSAGE_MAX, Auth, Help, LineError, Measure, Ping, Result, Version,
+                                 decode_line, format_answer, format_error, hole_verdict, option_value, parse_line,
+                                 record_verdict)
 
 # --- the request grammar -------------------------------------------------------------------------------
 
@@ -13,14 +14,16 @@ from holecli.serve.lines import (DECIMALS, MESSAGE_MAX, Help, LineError, Measure
     ("ping", Ping()),
     ("  Version\t", Version()),
     ("HELP", Help()),
+    ('AUTH "s3cret token"', Auth("s3cret token")),
     ("RESULT 0123456789abcdef0123456789abcdef", Result("0123456789abcdef0123456789abcdef")),
     ("MEASURE scans/a.ply", Measure("scans/a.ply")),
     ("MEASURE scans/a.ply spec=plate registration=cell3 format=xyz part=P-7 serial=S1 cell=3 operator=jd",
      Measure("scans/a.ply", spec="plate", registration="cell3", format="xyz",
              meta={"part": "P-7", "serial": "S1", "cell": "3", "operator": "jd"})),
-    # options pass through as sent; keys in any case
-    ("MEASURE a.ply MIN_DIAMETER=2.5 view_dir=0,0,-1 full_only=true",
-     Measure("a.ply", options={"min_diameter": "2.5", "view_dir": "0,0,-1", "full_only": "true"})),
+    # options read as their kinds; keys in any case
+    ("MEASURE a.ply MIN_DIAMETER=2.5 view_dir=0,0,-1 full_only=true max_holes=3 units=m",
+     Measure("a.ply", options={"min_diameter": 2.5, "view_dir": [0.0, 0.0, -1.0], "full_only": True, "max_holes": 3,
+                               "units": "m"})),
     # quotes: spaces, \" and \\ inside them; any other backslash is itself
     ('MEASURE "scans/part 7.ply"', Measure("scans/part 7.ply")),
     (r'MEASURE "a \"b\" c\\d.ply"', Measure('a "b" c\\d.ply')),
@@ -57,11 +60,33 @@ def test_a_blank_line_is_no_request(line):
     ("RESULT " + "a" * 65, "not an id"),
     ("PING now", "PING takes no arguments"),
     ("VERSION 2", "VERSION takes no arguments"),
+    ("AUTH", "AUTH takes one token: got 0"),
 ])
 def test_malformed_requests_are_refused_with_400_and_the_reason(line, match):
     with pytest.raises(LineError, match=match) as error:
         parse_line(line)
     assert error.value.status == 400
+
+
+@pytest.mark.parametrize("name, text, value", [
+    ("min_diameter", "0.5", 0.5),
+    ("gauge_depth", "1e-1", 0.1),
+    ("max_holes", "12", 12),
+    ("scan", "0", 0),
+    ("full_only", "TRUE", True), ("full_only", "no", False), ("explain", "1", True), ("explain", "false", False),
+    ("view_dir", "0,0,-1", [0.0, 0.0, -1.0]),
+    ("columns", "x_mm,y_mm,z_mm", ["x_mm", "y_mm", "z_mm"]),
+    ("columns", "1,2,3", [1, 2, 3]),
+    ("method", "paper", "paper"),
+    ("units", "in", "in"),
+    # not of their kind: as sent, for the service to refuse by name
+    ("min_diameter", "2mm", "2mm"), ("max_holes", "2.5", "2.5"), ("full_only", "maybe", "maybe"),
+    ("view_dir", "0,0,down", "0,0,down"),
+    ("no_such_option", "1", "1"),
+])
+def test_options_are_read_as_their_kinds(name, text, value):
+    assert option_value(name, text) == value
+    assert type(option_value(name, text)) is type(value)
 
 
 def test_decode_line_takes_utf8_without_its_carriage_return():
