@@ -1,10 +1,15 @@
 """The line protocol over TCP (holecli.serve.lines): its grammar, and a real server on 127.0.0.1."""
 
 import asyncio
+import json
+import os
 import re
 import shutil
+import signal
 import socket
 import struct
+import subprocess
+import sys
 import threading
 import time
 from types import SimpleNamespace
@@ -537,3 +542,35 @@ def test_close_lines_answers_the_request_in_flight_and_closes_the_idle(cell):
         assert busy.closed() and idle.closed()
     with pytest.raises(ConnectionRefusedError):
         socket.create_connection(("127.0.0.1", port), timeout=5).close()
+
+
+# --- through holecli serve ---------------------------------------------------------------------------
+
+
+@pytest.mark.slow
+def test_holecli_serve_answers_the_line_protocol_and_stops_with_a_connection_open(tmp_path, repo_root):
+    command = [sys.executable, "-m", "holecli", "serve", "--port", "0", "--tcp-port", "0", "--tcp-units", "um",
+               "--store", str(tmp_path / "s.sqlite"), "--allow-dir", str(repo_root / "sample_clouds"),
+               "--workers", "1", "--quiet"]
+    environment = dict(os.environ, PYTHONPATH=str(repo_root))
+    with subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=environment,
+                          start_new_session=True) as server:
+        try:
+            ready = json.loads(server.stdout.readline())  # one JSON line once every front end listens
+            host, port = ready["tcp"].rsplit(":", 1)
+            assert host == "127.0.0.1"
+            with Client(int(port)) as client:
+                fields = _fields(client.ask("MEASURE table1.ply part=P-7"))
+                assert fields[0] == "OK" and fields[2] == "1", fields
+                assert int(fields[6]) == pytest.approx(3000, abs=10)  # micrometres
+                assert client.ask(f"RESULT {fields[1]}") == ",".join(fields)
+                assert client.ask("PING") == "OK,PONG"
+                server.send_signal(signal.SIGTERM)  # this connection open and idle
+                assert server.wait(30) == 0
+                assert client.closed()
+        finally:
+            if server.poll() is None:
+                server.kill()
+                server.wait()
+    with open_store(tmp_path / "s.sqlite") as store:
+        assert store.get(fields[1])["meta"]["part"] == "P-7"
