@@ -125,6 +125,28 @@ def test_decode_line_refuses_garbage_with_400(raw, match):
     assert error.value.status == 400
 
 
+_PIECES = ["MEASURE", "measure", "RESULT", "PING", "VERSION", "HELP", "AUTH", "spec=", "part=", "view_dir=",
+           "min_diameter=", '"', "\\", '\\"', "=", ",", " ", "\t", "\r", "a.ply", "é", "\u2028", "0", "-1", "x" * 70]
+
+
+def _random_line(rng):
+    return "".join(rng.choice(_PIECES, size=rng.integers(0, 12)))
+
+
+def test_any_line_parses_into_a_command_or_a_400(rng):
+    for _ in range(3000):
+        raw = _random_line(rng).encode("utf-8") if rng.random() < 0.8 else rng.bytes(rng.integers(0, 40))
+        raw = raw.replace(b"\n", b"")
+        try:
+            command = parse_line(decode_line(raw))
+        except LineError as error:
+            assert error.status == 400
+            line = format_error(error.status, error.message)
+            assert len(line.split(",")) == 3 and "\n" not in line and "\r" not in line, line
+        else:
+            assert command is None or isinstance(command, (Measure, Result, Ping, Version, Help, Auth))
+
+
 # --- the answers ---------------------------------------------------------------------------------------
 
 
@@ -424,6 +446,18 @@ def test_garbage_is_answered_400_and_the_connection_goes_on(cell, garbage):
     _alive(cell.port)
 
 
+def test_random_lines_get_an_ok_or_a_4xx_never_a_5xx(cell, rng):
+    lines = [_random_line(rng).replace("\r", "").encode("utf-8") for _ in range(300)]
+    requests = [line for line in lines if line.strip(b" \t")]  # a blank line is not answered
+    with Client(cell.port) as client:
+        client.send(b"\n".join(lines) + b"\n")
+        answers = [client.line() for _ in requests]
+        assert client.ask("PING") == "OK,PONG"
+    assert all(re.match(r"(OK,|ERR,4\d\d,)", answer) for answer in answers), \
+        [(request, answer) for request, answer in zip(requests, answers) if not re.match(r"(OK,|ERR,4)", answer)]
+    _alive(cell.port)
+
+
 def test_a_1mb_line_is_answered_413_and_the_connection_closed(cell):
     with Client(cell.port) as client:
         client.send(b"MEASURE " + b"a" * 2**20 + b"\n")
@@ -549,9 +583,12 @@ def test_close_lines_answers_the_request_in_flight_and_closes_the_idle(cell):
 
 @pytest.mark.slow
 def test_holecli_serve_answers_the_line_protocol_and_stops_with_a_connection_open(tmp_path, repo_root):
+    token_file = tmp_path / "token"
+    token_file.write_text(TOKEN + "\n", encoding="utf-8")
+    token_file.chmod(0o600)
     command = [sys.executable, "-m", "holecli", "serve", "--port", "0", "--tcp-port", "0", "--tcp-units", "um",
                "--store", str(tmp_path / "s.sqlite"), "--allow-dir", str(repo_root / "sample_clouds"),
-               "--workers", "1", "--quiet"]
+               "--token-file", str(token_file), "--workers", "1", "--quiet"]
     environment = dict(os.environ, PYTHONPATH=str(repo_root))
     with subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=environment,
                           start_new_session=True) as server:
@@ -560,6 +597,8 @@ def test_holecli_serve_answers_the_line_protocol_and_stops_with_a_connection_ope
             host, port = ready["tcp"].rsplit(":", 1)
             assert host == "127.0.0.1"
             with Client(int(port)) as client:
+                assert client.ask("MEASURE table1.ply").startswith("ERR,401,")
+                assert client.ask(f"AUTH {TOKEN}") == "OK,AUTH"
                 fields = _fields(client.ask("MEASURE table1.ply part=P-7"))
                 assert fields[0] == "OK" and fields[2] == "1", fields
                 assert int(fields[6]) == pytest.approx(3000, abs=10)  # micrometres
