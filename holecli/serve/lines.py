@@ -56,7 +56,7 @@ from holecli.units import UNITS
 __all__ = ["COMMANDS", "DECIMALS", "IDLE_TIMEOUT", "LINE_TIMEOUT", "LINE_UNITS", "MAX_CONNECTIONS", "MAX_LINE",
            "MESSAGE_MAX", "NORMAL_DECIMALS", "Auth", "Help", "LineError", "Measure", "Ping", "Result", "Version",
            "answer", "close_lines", "decode_line", "format_answer", "format_error", "hole_verdict",
-           "parse_line", "record_verdict", "serve_lines"]
+           "option_value", "parse_line", "record_verdict", "serve_lines"]
 
 # The units of the answers' lengths: decimal millimetres, or integer micrometres.
 LINE_UNITS = ("mm", "um")
