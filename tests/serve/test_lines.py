@@ -383,7 +383,6 @@ def test_the_record_in_another_unit_is_answered_in_mm(cell):
     assert float(fields[6]) == pytest.approx(3000.0, abs=10)
 
 
-@pytest.mark.slow
 def test_measure_with_a_spec_gives_each_holes_verdict_and_the_records(cell):
     fields = _fields(ask(cell.port, "MEASURE panel.ply spec=panel part=PANEL"))
     assert fields[:1] == ["OK"] and fields[2] == "4", fields
