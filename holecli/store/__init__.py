@@ -12,11 +12,10 @@ verdict. The tables are :mod:`holecli.store.schema`'s, so statistical process co
 Examples
 --------
 >>> import os, tempfile
->>> folder = tempfile.mkdtemp()
->>> with open_store(os.path.join(folder, "results.sqlite")) as store:
+>>> with tempfile.TemporaryDirectory() as folder, open_store(os.path.join(folder, "results.sqlite")) as store:
 ...     id = store.add({"file": "a.ply", "holes": []}, meta={"part": "P7"})
-...     [summary["verdict"] for summary in store.find(part="P7")]
-['unchecked']
+...     print([summary["verdict"] for summary in store.find(part="P7")], store.count())
+['unchecked'] 1
 """
 
 from __future__ import annotations
