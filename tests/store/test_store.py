@@ -1,5 +1,6 @@
 """The results store (holecli.store), the same assertions against SQLite and a real PostgreSQL."""
 
+import copy
 import json
 import re
 
@@ -78,7 +79,10 @@ def test_bad_metadata_is_refused_before_anything_is_written(store_location, tabl
 @pytest.fixture
 def filled(store_location, panel_record, table1_record, error_record):
     """A store with six measurements of two parts, on three days."""
-    failing = dict(panel_record, verdict=dict(panel_record["verdict"], in_tolerance=False, out_of_tolerance=1))
+    failing = copy.deepcopy(panel_record)
+    failing["verdict"].update(in_tolerance=False, out_of_tolerance=1)
+    failing["holes"][0].update(in_tolerance=False, failed_checks=["diameter"])
+    failing["holes"][0]["conformance"]["diameter"].update(value=0.06, decision="fail", reason="above")
     rows = [
         ("m1", "2026-11-30T08:00:00Z", panel_record, {"part": "P7", "serial": "S1"}),
         ("m2", "2026-12-01T08:00:00Z", failing, {"part": "P7", "serial": "S2", "cell": "C1"}),
@@ -188,3 +192,40 @@ def test_a_closed_store_says_so(store_location, table1_record):
     store.close()
     with pytest.raises(StoreError, match="closed"):
         store.add(table1_record)
+
+
+# The example queries of the docs' "Results store" page (docs-pending/i27-store.md), on both engines.
+DIAMETERS_OVER_TIME = """
+SELECT m.received, m.serial, h.diameter, h.u_diameter
+FROM hole h JOIN measurement m ON m.id = h.measurement_id
+WHERE m.part = 'P7' AND h.name = 'T1'
+ORDER BY m.received
+"""
+FAILURES_OF_A_WEEK = """
+SELECT m.received, m.serial, h.name AS hole, c.name AS characteristic, c.value, c.lower, c.upper
+FROM characteristic c
+JOIN measurement m ON m.id = c.measurement_id
+JOIN hole h ON h.measurement_id = c.measurement_id AND h.idx = c.hole_idx
+WHERE c.decision = 'fail' AND m.received >= '2026-11-30' AND m.received < '2026-12-07'
+ORDER BY m.received, h.idx
+"""
+CHARACTERISTICS_OF_A_SERIAL = """
+SELECT h.name AS hole, c.name AS characteristic, c.value, c.lower, c.upper, c.expanded_uncertainty, c.decision
+FROM characteristic c
+JOIN hole h ON h.measurement_id = c.measurement_id AND h.idx = c.hole_idx
+JOIN measurement m ON m.id = c.measurement_id
+WHERE m.serial = 'S4'
+ORDER BY m.received, h.idx, c.name
+"""
+
+
+def test_the_docs_example_queries(filled, panel_record):
+    diameters = query(filled, DIAMETERS_OVER_TIME)
+    assert [row[1:3] for row in diameters] == [(serial, panel_record["holes"][0]["diameter"])
+                                               for serial in ("S1", "S2", "S4")]
+    assert str(diameters[0][0]).startswith("2026-11-30")
+    failures = query(filled, FAILURES_OF_A_WEEK)
+    assert [row[1:7] for row in failures] == [("S2", "T1", "diameter", 0.06, -0.05, 0.05)]
+    characteristics = query(filled, CHARACTERISTICS_OF_A_SERIAL)
+    assert len(characteristics) == 13 and {row[6] for row in characteristics} == {"pass"}
+    assert characteristics[0][:2] == ("T1", "diameter")
