@@ -196,7 +196,7 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
       holecli batch scans/ -q -o results.jsonl
       holecli batch scans/ --spec part.toml -o shift.jsonl --plot shift_plots/
       holecli batch cell/R1.ply cell/R3.ply --spec part.toml --registration registration.json
-      holecli batch scans/ --spec part.toml -o shift.jsonl --store results.sqlite --meta part=P7 --meta cell=C2
+      holecli batch scans/ --spec part.toml --store results.sqlite --meta part=P7 --meta cell=C2
     """
     check_verbosity(quiet, verbose)
     # --output-units without --units is checked on the files found, in the body (all E57 is fine)
