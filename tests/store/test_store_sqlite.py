@@ -90,10 +90,23 @@ def test_a_folder_without_write_permission_is_refused(tmp_path):
     folder = tmp_path / "locked"
     folder.mkdir(mode=0o500)
     try:
-        with pytest.raises(StoreError, match="cannot open the results store"):
+        with pytest.raises(StoreError, match="its folder .* cannot be written"):
             open_store(folder / "results.sqlite")
     finally:
         folder.chmod(0o700)
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into any file")
+def test_a_store_file_without_write_permission_is_refused_at_once(tmp_path):
+    path = tmp_path / "results.sqlite"
+    with open_store(path):
+        pass
+    path.chmod(0o400)
+    try:
+        with pytest.raises(StoreError, match="the file cannot be written"):
+            open_store(path)
+    finally:
+        path.chmod(0o600)
 
 
 @pytest.mark.slow
