@@ -385,11 +385,8 @@ def open_results_store(location):
 
     try:
         return open_store(location)
-    except StoreError as error:
+    except StoreError as error:  # psycopg missing for a postgresql:// store too
         raise Failure(str(error), EXIT_INPUT) from None
-    except ImportError as error:  # psycopg, for a postgresql:// store
-        raise Failure(f"{location.split('@')[-1]}: a PostgreSQL store needs psycopg: pip install 'holecli[postgres]' "
-                      f"({error})", EXIT_INPUT) from None
 
 
 def store_record(store, record, meta):

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import os
 
-from holecli.store.base import Store, StoreError
+from holecli.store.base import Store, StoreError, redacted
 from holecli.store.sqlite import SQLiteStore
 
 POSTGRES_SCHEMES = ("postgresql://", "postgres://")
@@ -55,7 +55,10 @@ def open_store(location) -> Store:
     text = os.fspath(location)
     if isinstance(text, str) and text.lower().startswith(POSTGRES_SCHEMES):
         # psycopg is imported only for a PostgreSQL store (an optional extra, and 150 ms)
-        from holecli.store.postgres import PostgresStore
-
+        try:
+            from holecli.store.postgres import PostgresStore
+        except ImportError as error:
+            raise StoreError(f"{redacted(text)}: a PostgreSQL store needs psycopg 3: pip install 'holecli[postgres]' "
+                             f"({error})") from None
         return PostgresStore(text)
     return SQLiteStore(text)

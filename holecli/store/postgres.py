@@ -10,7 +10,6 @@ commit is on disk). A connection lost (a restarted server) is opened again at th
 from __future__ import annotations
 
 import datetime
-import re
 
 import psycopg
 from psycopg.conninfo import conninfo_to_dict
@@ -18,7 +17,7 @@ from psycopg.rows import dict_row
 
 from holecli import __version__
 from holecli.store import schema
-from holecli.store.base import Store, StoreError, check_version
+from holecli.store.base import Store, StoreError, check_version, redacted
 
 CONNECT_TIMEOUT_S = 10
 """How long opening a connection may take, seconds."""
@@ -26,18 +25,6 @@ CONNECT_TIMEOUT_S = 10
 # The store's tables are created under this lock, so that two processes opening a new database at
 # once do not both create them (PostgreSQL's CREATE TABLE IF NOT EXISTS is not safe against that).
 _CREATE_LOCK = 0x686F6C65  # "hole"
-
-
-def redacted(url) -> str:
-    """``url`` with its password (in the user part or a ``password=`` parameter) shown as ``***``.
-
-    Examples
-    --------
-    >>> redacted("postgresql://cell:s3cret@db.local:5432/results?sslmode=require&password=x")
-    'postgresql://cell:***@db.local:5432/results?sslmode=require&password=***'
-    """
-    url = re.sub(r"(://[^:/@?#]*:)[^@/?#]*@", r"\1***@", url)
-    return re.sub(r"(?i)([?&]password=)[^&#]*", r"\1***", url)
 
 
 class PostgresStore(Store):

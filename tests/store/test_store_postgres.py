@@ -114,3 +114,21 @@ def test_two_processes_adding_at_once_lose_nothing(postgres_store_url, table1_re
     written = concurrent_adds(postgres_store_url, table1_record, tmp_path, repo_root, processes=2, count=40)
     with open_store(postgres_store_url) as store:
         assert sorted(summary["id"] for summary in store.find(limit=None)) == sorted(written)
+
+
+def test_without_psycopg_a_postgres_store_is_a_store_error(repo_root):
+    import os
+    import subprocess
+    import sys
+
+    code = ("import sys\n"
+            "sys.modules['psycopg'] = None  # as if the extra were not installed\n"
+            "from holecli.store import StoreError, open_store\n"
+            "try:\n"
+            "    open_store('postgresql://cell:s3cret@127.0.0.1/results')\n"
+            "except StoreError as error:\n"
+            "    print(error)\n")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
+                            env=dict(os.environ, PYTHONPATH=str(repo_root)))
+    assert result.stdout.startswith("postgresql://cell:***@127.0.0.1/results: a PostgreSQL store needs psycopg 3: "
+                                    "pip install 'holecli[postgres]'"), result.stderr
