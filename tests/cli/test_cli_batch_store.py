@@ -132,3 +132,38 @@ def test_batch_stores_into_postgres(holecli_process, scans, tmp_path, postgres_s
     written, stored = output_records(output), stored_records(postgres_store_url)
     assert {file: record for file, (record, _) in stored.items()} == written
     assert {answer["meta"]["cell"] for _, answer in stored.values()} == {"C2"}
+
+
+@pytest.mark.slow
+def test_a_killed_batch_has_every_record_written_in_the_store(holecli_process, tmp_path, repo_root):
+    import os
+    import signal
+    import time
+
+    folder = tmp_path / "many"
+    folder.mkdir()
+    for number in range(40):
+        os.link(repo_root / "sample_clouds" / "table1.ply", folder / f"scan{number:02d}.ply")
+    output, store = tmp_path / "out.jsonl", tmp_path / "results.sqlite"
+    process = holecli_process("batch", folder, "-o", output, "--store", store, "-j", "1", "-q", start=True)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and (not output.exists() or output.read_text().count("\n") < 3):
+            time.sleep(0.02)
+        process.send_signal(signal.SIGKILL)
+        process.wait(30)
+    finally:
+        process.kill()
+        process.wait(30)
+        process.stdout.close()
+        process.stderr.close()
+    written = output_records(output)
+    assert 3 <= len(written) < 40
+    stored = stored_records(store)
+    assert all(stored[file][0] == record for file, record in written.items())
+    assert len(stored) - len(written) in (0, 1)  # at most the record committed but not yet written
+    resumed = holecli_process("batch", folder, "-o", output, "--store", store, "-j", "2", "-q", "--resume")
+    assert resumed.returncode == 0, resumed.stderr
+    assert len(output_records(output)) == 40
+    with open_store(store) as opened:
+        assert opened.count() in (40, 41)
