@@ -343,6 +343,8 @@ def parse_meta(pairs) -> dict:
     click.BadParameter
         For a pair without ``=``, a KEY that is not a word or given twice, a VALUE over 200 characters.
     """
+    if not pairs:
+        return {}
     from holecli.store.schema import check_meta
 
     meta = {}

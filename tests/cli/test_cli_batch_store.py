@@ -167,3 +167,9 @@ def test_a_killed_batch_has_every_record_written_in_the_store(holecli_process, t
     assert len(output_records(output)) == 40
     with open_store(store) as opened:
         assert opened.count() in (40, 41)
+
+
+def test_a_batch_without_store_imports_no_store(modules_imported_by, repo_root):
+    imported = modules_imported_by([["batch", repo_root / "sample_clouds" / "table1.ply", "-q"]],
+                                   ["holecli.store", "sqlite3", "psycopg"])
+    assert imported == "[]"
