@@ -431,6 +431,11 @@ def characteristic_rows(record, measurement_id) -> list:
     return rows
 
 
+SUMMARY_KEYS = ("id", "received", "file", "part", "serial", "cell", "operator", "spec", "verdict", "holes",
+                "processing_ms")
+"""The keys of a summary of :meth:`holecli.store.Store.find`, in order."""
+
+
 def summary(row) -> dict:
     """The summary :meth:`holecli.store.Store.find` gives of a measurement row.
 
@@ -445,11 +450,6 @@ def summary(row) -> dict:
     dict
     """
     return {key: row[key] for key in SUMMARY_KEYS}
-
-
-SUMMARY_KEYS = ("id", "received", "file", "part", "serial", "cell", "operator", "spec", "verdict", "holes",
-                "processing_ms")
-"""The keys of a summary of :meth:`holecli.store.Store.find`, in order."""
 
 
 def stored_answer(record_text, *, id, received, processing_ms, meta_text) -> dict:
