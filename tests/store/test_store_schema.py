@@ -127,3 +127,15 @@ def test_the_ddl_of_both_engines_names_every_table_and_index():
             assert f"CREATE TABLE IF NOT EXISTS {table} (" in text
         assert text.count("CREATE INDEX") == 3
     assert "timestamptz" in "\n".join(schema.ddl("postgres")) and "jsonb" not in "\n".join(schema.ddl("postgres"))
+
+
+@pytest.mark.parametrize("hole, word", [
+    ({}, "unchecked"),                                                        # no tolerance given
+    ({"in_tolerance": None, "failed_checks": None}, "unchecked"),            # no nominal applies to it
+    ({"in_tolerance": True, "failed_checks": [], "undecided_checks": []}, "pass"),
+    ({"in_tolerance": False, "failed_checks": ["diameter"], "undecided_checks": []}, "fail"),
+    ({"in_tolerance": False, "failed_checks": ["diameter"], "undecided_checks": ["position"]}, "fail"),
+    ({"in_tolerance": False, "failed_checks": [], "undecided_checks": ["position"]}, "undecided"),
+])
+def test_the_verdict_word_of_a_hole(hole, word):
+    assert schema.hole_verdict_word(hole) == word
