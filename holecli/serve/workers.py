@@ -1,0 +1,205 @@
+"""The service's warm worker processes: each measures one scan at a time, its imports paid once.
+
+:class:`WorkerPool` is a :class:`concurrent.futures.ProcessPoolExecutor` of ``spawn``-ed processes
+(the service's process has threads by the time a worker may need replacing, and ``fork`` from a
+threaded process can copy a held lock). Each worker, once (:func:`_start_worker`): dies with the
+service (the kernel's parent-death signal, even after ``kill -9``), ignores Ctrl-C (the service stops
+its workers itself), runs BLAS on one thread (inherited ``OPENBLAS_NUM_THREADS=1``, see
+:mod:`holecli.threads`), imports the pipeline, and caps the address space it may add to what the warm
+worker holds (``--worker-memory-mb``). Each job (:func:`measure_job`) runs under the batch's time
+limit (:func:`holecli.batch.pool._time_limit`: a wall-clock alarm backed by a CPU limit).
+
+A worker that dies (a crash in a library, the CPU limit, the out-of-memory killer) breaks the pool;
+:meth:`WorkerPool.submit` then starts a new one, and the job that was running gets a
+:class:`WorkerDied` answer.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+
+__all__ = ["JobResult", "WorkerDied", "WorkerPool", "measure_job"]
+
+_WORKER = {}
+
+
+class WorkerDied(Exception):
+    """The worker measuring a job died (killed by its CPU limit, a crash, the out-of-memory killer)."""
+
+
+class JobResult(dict):
+    """What a worker sends back: ``record`` (the detect record) and ``measuring_ms``, or ``error``
+    (one line) with ``status`` (HTTP-like: 408 out of time, 413 out of memory, 422 not measurable, 500
+    a bug)."""
+
+
+def _start_worker(parent, memory_mb):
+    """Pool initializer: runs once in every worker (``parent``: the service's process id)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    from holecli.batch.pool import _die_with_parent
+
+    _die_with_parent(parent)
+    import resource
+
+    try:  # a worker killed by its CPU limit (SIGXCPU) dumps no core
+        resource.setrlimit(resource.RLIMIT_CORE, (0, resource.getrlimit(resource.RLIMIT_CORE)[1]))
+    except (ValueError, OSError):
+        pass
+    import holecli.pipeline  # noqa: F401 - the heavy imports, once per worker
+    import holecli.inspection  # noqa: F401
+    if memory_mb:
+        # What this worker may add to its warm size: the address space it holds now (the libraries'
+        # mappings, which are large and mostly never touched) plus memory_mb.
+        held = _address_space_bytes()
+        if held is not None:
+            limit = held + int(memory_mb * 2**20)
+            try:
+                resource.setrlimit(resource.RLIMIT_AS, (limit, resource.getrlimit(resource.RLIMIT_AS)[1]))
+            except (ValueError, OSError):
+                pass
+    _WORKER["ready"] = True
+
+
+def _address_space_bytes():
+    """This process's virtual size (VmSize of /proc/self/status), in bytes; None off Linux."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("VmSize:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError):
+        return None
+    return None
+
+
+def _ready():
+    return os.getpid()
+
+
+def measure_job(path, how, timeout):
+    """Measure the scan ``path`` in a worker: a :class:`JobResult`, never an exception.
+
+    Parameters
+    ----------
+    path : str
+        The scan (a file the service checked it may read, or its copy of an upload).
+    how : dict
+        Keyword arguments of :func:`holecli.measure_scan` (``spec``, ``units``, ``input_format``,
+        ``scan``, ``columns``, ``explain``, ``name`` and the detection options).
+    timeout : float or None
+        Seconds the job may take (None: no limit).
+
+    Returns
+    -------
+    JobResult
+    """
+    from holecli.batch.pool import _time_limit
+    from holecli.batch.record import FileTimeout, internal_error_message
+    from holecli.measure import MeasureError, measure_scan
+    from holecli.threads import single_blas_thread
+
+    started = time.perf_counter()
+    name = how.get("name") or path
+    try:
+        with _time_limit(timeout), single_blas_thread():
+            record = measure_scan(path, **how).record
+    except FileTimeout:
+        return JobResult(error=f"{name}: not measured within the time limit of {timeout:g} s (--request-timeout)",
+                         status=408)
+    except MeasureError as error:
+        status = 413 if isinstance(error.__cause__, MemoryError) else 422
+        return JobResult(error=str(error), status=status)
+    except MemoryError:
+        return JobResult(error=f"{name}: the scan needs more memory than a worker may use (--worker-memory-mb)",
+                         status=413)
+    except BaseException as error:  # noqa: BLE001 - a bug must not kill the worker or the service
+        return JobResult(error=internal_error_message(name, error), status=500)
+    return JobResult(record=record, measuring_ms=(time.perf_counter() - started) * 1e3)
+
+
+class WorkerPool:
+    """``workers`` warm processes measuring scans (:func:`measure_job`); replaced when one dies.
+
+    Parameters
+    ----------
+    workers : int
+        Processes (at least 1).
+    memory_mb : float or None
+        Address space each may add to its warm size (None: no cap).
+    timeout : float or None
+        Seconds a job may take (None: no limit).
+    """
+
+    def __init__(self, workers, memory_mb=None, timeout=None):
+        self.workers = max(1, int(workers))
+        self.memory_mb = memory_mb
+        self.timeout = timeout
+        self.restarts = 0
+        self._lock = threading.Lock()
+        self._executor = self._new_executor()
+
+    def _new_executor(self):
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        return ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
+                                   initializer=_start_worker, initargs=(os.getpid(), self.memory_mb))
+
+    def warm(self):
+        """Start every worker now and wait until each has paid its imports (the service says it is ready
+        only then)."""
+        # More jobs than workers: every process is started, and each job waits for an initialized one.
+        list(self._executor.map(_ready, range(self.workers * 2)))
+
+    def submit(self, path, how):
+        """Measure ``path`` in a worker: a :class:`concurrent.futures.Future` of a :class:`JobResult`
+        (or of :class:`WorkerDied`)."""
+        from concurrent.futures import Future
+        from concurrent.futures.process import BrokenProcessPool
+
+        with self._lock:
+            try:
+                inner = self._executor.submit(measure_job, path, how, self.timeout)
+            except BrokenProcessPool:
+                self._replace()
+                inner = self._executor.submit(measure_job, path, how, self.timeout)
+        outer = Future()
+
+        def relay(done):
+            try:
+                outer.set_result(done.result())
+            except BrokenProcessPool:
+                with self._lock:
+                    if self._executor is executor:
+                        self._replace()
+                outer.set_exception(WorkerDied(f"{how.get('name') or path}: the worker measuring it died "
+                                               "(a crash in a library, or out of its CPU time or memory)"))
+            except BaseException as error:  # noqa: BLE001 - the future must be answered
+                outer.set_exception(error)
+
+        executor = self._executor
+        inner.add_done_callback(relay)
+        return outer
+
+    def _replace(self):
+        old, self._executor = self._executor, self._new_executor()
+        self.restarts += 1
+        threading.Thread(target=old.shutdown, kwargs={"wait": True, "cancel_futures": True}, daemon=True).start()
+
+    def processes(self):
+        """The worker processes' ids."""
+        return sorted((getattr(self._executor, "_processes", None) or {}).keys())
+
+    def close(self, wait=True):
+        """Stop the workers (after their jobs when ``wait``; killed otherwise)."""
+        if not wait:
+            for process in list((getattr(self._executor, "_processes", None) or {}).values()):
+                try:
+                    process.kill()
+                except (OSError, ValueError):
+                    pass
+        self._executor.shutdown(wait=True, cancel_futures=True)
