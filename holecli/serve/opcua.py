@@ -29,6 +29,7 @@ from asyncua import Client, Server, ua
 
 from holecli.errors import HoleCliError
 from holecli.serve.service import MeasureRequest, ServiceError
+from holecli.store.schema import verdict_word
 
 __all__ = ["ENDPOINT_PATH", "NAMESPACE_URI", "STATUS_OF_ERROR", "MeasureClient", "OpcUaBindError",
            "call_measure", "endpoint_url", "start_opcua"]
@@ -80,16 +81,6 @@ _log = logging.getLogger(__name__)
 
 class OpcUaBindError(HoleCliError, ValueError):
     """The OPC UA server was asked to bind to an address other than a loopback one (it has no security)."""
-
-
-class _BadArgument(Exception):
-    """A method's arguments are unusable (before the service sees them): the call's BadInvalidArgument."""
-
-    code = "bad_request"
-
-    def __init__(self, message):
-        super().__init__(message)
-        self.message = message
 
 
 def endpoint_url(host, port):
@@ -218,10 +209,10 @@ class _OpcUaFront:
             path, spec, meta = _strings(arguments, 3)
             request = MeasureRequest(path=path, spec=spec or None, meta=_parse_meta(meta), channel="opcua")
             answer = await self.service.measure(request)
-        except (ServiceError, _BadArgument) as error:
+        except ServiceError as error:
             return await self._refuse(error.code, error.message)
         await self.publish(answer)
-        verdict = _scan_verdict(answer)
+        verdict = verdict_word(answer)
         return [ua.Variant(answer["id"], ua.VariantType.String),
                 ua.Variant(len(answer.get("holes", ())), ua.VariantType.UInt32),
                 ua.Variant(verdict, ua.VariantType.String)]
@@ -231,7 +222,7 @@ class _OpcUaFront:
         try:
             (result_id,) = _strings(arguments, 1)
             answer = await self.service.result(result_id)
-        except (ServiceError, _BadArgument) as error:
+        except ServiceError as error:
             return await self._refuse(error.code, error.message)
         return [ua.Variant(json.dumps(answer, allow_nan=False), ua.VariantType.String)]
 
@@ -258,7 +249,7 @@ class _OpcUaFront:
             event = self.events.event
             event.ResultId = answer["id"]
             event.HoleCount = ua.Variant(len(answer.get("holes", ())), ua.VariantType.UInt32)
-            event.Verdict = _scan_verdict(answer)
+            event.Verdict = verdict_word(answer)
             event.ProcessingTimeMs = float(answer.get("processing_ms") or 0.0)
             await self.events.trigger(message=f"result {answer['id']} ready")
 
@@ -285,11 +276,11 @@ def _argument(name, vtype, description):
 def _strings(arguments, count):
     """The values of ``count`` String arguments; a ServiceError (bad_request) otherwise."""
     if len(arguments) != count:
-        raise _BadArgument(f"expected {count} arguments, got {len(arguments)}")
+        raise ServiceError(400, f"expected {count} arguments, got {len(arguments)}")
     values = [argument.Value for argument in arguments]
     for index, value in enumerate(values):
         if value is not None and not isinstance(value, str):
-            raise _BadArgument(f"argument {index + 1} must be a String, got {type(value).__name__}")
+            raise ServiceError(400, f"argument {index + 1} must be a String, got {type(value).__name__}")
     return [value or "" for value in values]
 
 
@@ -302,9 +293,9 @@ def _parse_meta(text):
         try:
             meta = json.loads(text)
         except json.JSONDecodeError as error:
-            raise _BadArgument(f"meta is not valid JSON: {error}") from None
+            raise ServiceError(400, f"meta is not valid JSON: {error}") from None
         if not isinstance(meta, dict):
-            raise _BadArgument("meta must be a JSON object")
+            raise ServiceError(400, "meta must be a JSON object")
         return meta
     meta = {}
     for pair in text.split(";"):
@@ -312,24 +303,9 @@ def _parse_meta(text):
             continue
         key, sep, value = pair.partition("=")
         if not sep or not key.strip():
-            raise _BadArgument(f"meta must be key=value pairs separated by ';', got {pair!r}")
+            raise ServiceError(400, f"meta must be key=value pairs separated by ';', got {pair!r}")
         meta[key.strip()] = value.strip()
     return meta
-
-
-def _scan_verdict(record):
-    """The verdict word of a record: unchecked (no tolerances), pass, fail (a check failed or a named hole
-    is missing) or undecided (the store's rule, DESIGN27)."""
-    if "error" in record:
-        return "error"
-    verdict = record.get("verdict")
-    if not verdict:
-        return "unchecked"
-    if verdict.get("in_tolerance"):
-        return "pass"
-    if verdict.get("out_of_tolerance") or verdict.get("missing"):
-        return "fail"
-    return "undecided"
 
 
 def _hole_verdict(hole):
@@ -354,7 +330,7 @@ def _last_result_values(answer):
                "Part": str(meta.get("part") or ""), "Serial": str(meta.get("serial") or ""),
                "ProcessingTimeMs": float(answer.get("processing_ms") or 0.0),
                "MeasuringTimeMs": float(timing.get("elapsed_ms") or 0.0),
-               "HoleCount": len(holes), "Verdict": _scan_verdict(answer)}
+               "HoleCount": len(holes), "Verdict": verdict_word(answer)}
     arrays = {"HoleName": [hole.get("name") or "" for hole in holes],
               "CenterX": [float(hole["center"][0]) for hole in holes],
               "CenterY": [float(hole["center"][1]) for hole in holes],

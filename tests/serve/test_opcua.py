@@ -1,0 +1,219 @@
+"""holecli.serve.opcua: the OPC UA front end, a real asyncua server on 127.0.0.1 in front of a real
+Service (warm worker, SQLite store), called by a real asyncua client. One server and one client for the
+module (asyncua's server takes ~1.5 s to build its standard address space)."""
+
+import asyncio
+import contextlib
+import socket
+from pathlib import Path
+
+import pytest
+
+asyncua = pytest.importorskip("asyncua")
+from asyncua import ua  # noqa: E402
+
+from holecli.serve.opcua import (NAMESPACE_URI, MeasureClient, OpcUaBindError, _parse_meta,  # noqa: E402
+                                 endpoint_url, start_opcua)
+from holecli.serve.service import MeasureRequest, Service, ServiceError  # noqa: E402
+from holecli.store import open_store  # noqa: E402
+
+SAMPLES = Path(__file__).resolve().parents[2] / "sample_clouds"
+TABLE1 = str(SAMPLES / "table1.ply")
+
+
+@pytest.fixture(scope="module")
+def anyio_backend():
+    """One asyncio loop for the module, so that the server and client fixtures live across tests."""
+    return "asyncio"
+
+
+def _free_port():
+    with contextlib.closing(socket.socket()) as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+async def served(anyio_backend, tmp_path_factory):
+    """A Service (one warm worker, a SQLite store, sample_clouds allowed) and its OPC UA server's URL."""
+    store = open_store(tmp_path_factory.mktemp("opcua") / "results.sqlite")
+    service = Service(store, workers=1, allow_dirs=[str(SAMPLES)], metrics=False)
+    try:
+        await asyncio.to_thread(service.warm)
+        port = _free_port()
+        server = await start_opcua(service, "127.0.0.1", port)
+        try:
+            yield service, endpoint_url("127.0.0.1", port)
+        finally:
+            await server.stop()
+    finally:
+        await asyncio.to_thread(service.close)
+
+
+@pytest.fixture(scope="module")
+async def client(served):
+    async with MeasureClient(served[1]) as connected:
+        yield connected
+
+
+class _Events:
+    """An asyncua subscription handler that queues the ResultReady events."""
+
+    def __init__(self):
+        self.queue = asyncio.Queue()
+
+    def event_notification(self, event):
+        self.queue.put_nowait(event)
+
+    async def next(self, timeout=10.0):
+        return await asyncio.wait_for(self.queue.get(), timeout)
+
+
+@contextlib.asynccontextmanager
+async def _result_ready_events(client):
+    events = _Events()
+    subscription = await client.client.create_subscription(20, events)
+    try:
+        event_type = client.client.get_node(ua.NodeId("ResultReadyEventType", client.namespace))
+        await subscription.subscribe_events(ua.ObjectIds.Server, event_type)
+        yield events
+    finally:
+        await subscription.delete()
+
+
+async def _children(node):
+    return {(await child.read_browse_name()).Name: child for child in await node.get_children()}
+
+
+@pytest.mark.anyio
+async def test_address_space_layout(client):
+    """The nodes the docs' table lists, with their classes, data types and method arguments."""
+    objects = client.client.nodes.objects
+    holecli = await objects.get_child(f"{client.namespace}:Holecli")
+    assert holecli.nodeid == ua.NodeId("Holecli", client.namespace)
+    children = await _children(holecli)
+    assert {"Measure", "GetResult", "LastError", "LastResult"} <= set(children)
+    assert await children["Measure"].read_node_class() == ua.NodeClass.Method
+    inputs = await (await children["Measure"].get_child("0:InputArguments")).read_value()
+    outputs = await (await children["Measure"].get_child("0:OutputArguments")).read_value()
+    assert [(a.Name, a.DataType) for a in inputs] == [("Path", ua.NodeId(ua.ObjectIds.String)),
+                                                      ("Spec", ua.NodeId(ua.ObjectIds.String)),
+                                                      ("Meta", ua.NodeId(ua.ObjectIds.String))]
+    assert [(a.Name, a.DataType) for a in outputs] == [("ResultId", ua.NodeId(ua.ObjectIds.String)),
+                                                       ("Holes", ua.NodeId(ua.ObjectIds.UInt32)),
+                                                       ("Verdict", ua.NodeId(ua.ObjectIds.String))]
+    last = await _children(children["LastResult"])
+    assert set(last) == {"ResultId", "Received", "File", "Part", "Serial", "ProcessingTimeMs", "MeasuringTimeMs",
+                         "HoleCount", "Verdict", "HoleName", "CenterX", "CenterY", "CenterZ", "Diameter", "NormalX",
+                         "NormalY", "NormalZ", "HoleVerdict"}
+    assert await last["Diameter"].read_data_type() == ua.NodeId(ua.ObjectIds.Double)
+    assert await last["Diameter"].read_value_rank() == ua.ValueRank.OneDimension
+    assert await last["HoleCount"].read_data_type() == ua.NodeId(ua.ObjectIds.UInt32)
+    assert await last["Received"].read_data_type() == ua.NodeId(ua.ObjectIds.DateTime)
+    event_type = await client.client.nodes.base_event_type.get_child(f"{client.namespace}:ResultReadyEventType")
+    fields = await _children(event_type)
+    assert {"ResultId", "HoleCount", "Verdict", "ProcessingTimeMs"} <= set(fields)
+    assert await client.client.get_namespace_index(NAMESPACE_URI) == client.namespace
+
+
+@pytest.mark.anyio
+async def test_measure_table1_updates_last_result_and_fires_one_event(served, client):
+    """Measure on Table I: one hole of 3 mm, unchecked; LastResult holds it; one ResultReady event."""
+    service = served[0]
+    async with _result_ready_events(client) as events:
+        result_id, holes, verdict = await client.measure(TABLE1, "", "part=P-7;serial=0042")
+        assert (holes, verdict) == (1, "unchecked")
+        assert len(result_id) == 32
+        event = await events.next()
+        assert (event.ResultId, event.HoleCount, event.Verdict) == (result_id, 1, "unchecked")
+        assert event.ProcessingTimeMs > 0
+        assert event.SourceName == "Holecli"
+        with pytest.raises(asyncio.TimeoutError):  # one event per measurement, not one per publisher
+            await events.next(timeout=0.3)
+    last = await client.last_result()  # written before Measure returned
+    assert last["ResultId"] == result_id
+    assert last["HoleCount"] == 1 and last["Verdict"] == "unchecked"
+    assert last["Diameter"] == [pytest.approx(3.0, abs=0.01)]
+    assert last["NormalZ"][0] ** 2 + last["NormalY"][0] ** 2 + last["NormalX"][0] ** 2 == pytest.approx(1.0)
+    assert last["HoleVerdict"] == ["unchecked"] and last["HoleName"] == [""]
+    assert (last["Part"], last["Serial"], last["File"]) == ("P-7", "0042", TABLE1)
+    assert last["ProcessingTimeMs"] >= last["MeasuringTimeMs"] > 0
+    stored = await client.result(result_id)  # GetResult: the stored answer
+    assert stored["id"] == result_id and stored["stored"] is True
+    assert stored["meta"] == {"part": "P-7", "serial": "0042"}
+    assert stored["holes"][0]["diameter"] == pytest.approx(last["Diameter"][0], abs=1e-12)
+    assert stored["holes"][0]["center"] == pytest.approx([last["CenterX"][0], last["CenterY"][0], last["CenterZ"][0]])
+    assert (await service.result(result_id))["id"] == result_id
+
+
+@pytest.mark.anyio
+async def test_other_front_ends_measurements_are_published(served, client):
+    """A measurement asked for over HTTP or TCP (service.measure directly) fires ResultReady too, and
+    a scan without a hole empties the per-hole arrays."""
+    service = served[0]
+    async with _result_ready_events(client) as events:
+        answer = await service.measure(MeasureRequest(path=str(SAMPLES / "no_hole.csv"), channel="http"))
+        event = await events.next()
+    assert event.ResultId == answer["id"] and event.HoleCount == 0
+    last = await client.last_result()
+    assert last["ResultId"] == answer["id"]
+    assert last["HoleCount"] == 0 and last["Diameter"] == [] and last["HoleVerdict"] == []
+
+
+@pytest.mark.anyio
+@pytest.mark.parametrize("arguments, status, code", [
+    (("nope.ply", "", ""), "BadNotFound", "not_found"),
+    (("/etc/hostname", "", ""), "BadUserAccessDenied", "forbidden"),
+    ((str(SAMPLES / "table1.truth.json"), "", ""), "BadDataUnavailable", "unmeasurable"),
+    ((TABLE1, "", "{not json"), "BadInvalidArgument", "bad_request"),
+    ((TABLE1, "", "part"), "BadInvalidArgument", "bad_request"),
+    ((TABLE1, "", '{"part": 7}'), "BadInvalidArgument", "bad_request"),
+    ((TABLE1, "plate-A", ""), "BadNotFound", "not_found"),  # no --spec-dir: no spec of that name
+])
+async def test_refused_measure_is_a_bad_status_and_the_server_goes_on(client, arguments, status, code):
+    """A refused Measure answers a Bad status code and says why in LastError; the server still answers."""
+    with pytest.raises(ua.UaStatusCodeError) as raised:
+        await client.measure(*arguments)
+    assert type(raised.value).__name__ == status
+    assert (await client.last_error()).startswith(f"{code}: ")
+    assert (await client.measure(TABLE1))[1] == 1
+
+
+@pytest.mark.anyio
+async def test_wrong_arguments_and_unknown_result(client):
+    measure = ua.QualifiedName("Measure", client.namespace)
+    with pytest.raises(ua.uaerrors.BadInvalidArgument):
+        await client.holecli.call_method(measure, TABLE1, "")
+    with pytest.raises(ua.uaerrors.BadInvalidArgument):
+        await client.holecli.call_method(measure, TABLE1, ua.Variant(3, ua.VariantType.UInt32), "")
+    assert "must be a String" in await client.last_error()
+    with pytest.raises(ua.uaerrors.BadNotFound):
+        await client.result("0" * 32)
+    with pytest.raises(ua.uaerrors.BadInvalidArgument):
+        await client.result("../x")
+    assert (await client.measure(TABLE1))[1] == 1
+
+
+@pytest.mark.anyio
+@pytest.mark.parametrize("host, port", [("0.0.0.0", 4840), ("192.0.2.7", 4840), ("example.com", 4840),
+                                        ("127.0.0.1", 0)])
+async def test_refuses_non_loopback_hosts(served, host, port):
+    """No security on the endpoint: only a loopback address, and a port the endpoint URL can name."""
+    with pytest.raises(OpcUaBindError, match="loopback|port"):
+        await start_opcua(served[0], host, port)
+
+
+@pytest.mark.parametrize("text, meta", [
+    ("", {}), ("  ", {}), ("part=P-7;serial=0042", {"part": "P-7", "serial": "0042"}),
+    ("part = P 7 ; serial=;", {"part": "P 7", "serial": ""}), ('{"cell": "C2"}', {"cell": "C2"}),
+])
+def test_parse_meta(text, meta):
+    assert _parse_meta(text) == meta
+
+
+@pytest.mark.parametrize("text, match", [("part", "key=value"), ("=x", "key=value"), ("{", "JSON"),
+                                         ('{"a": 1', "JSON"), ("[1]", "key=value")])
+def test_parse_meta_refuses(text, match):
+    with pytest.raises(ServiceError, match=match) as raised:
+        _parse_meta(text)
+    assert raised.value.status == 400
