@@ -41,7 +41,10 @@ def bind(host, port) -> socket.socket:
         The port is in use, the address is not this machine's, ...
     """
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    sock = socket.socket(family, socket.SOCK_STREAM)
+    # IPPROTO_TCP, not 0: asyncio turns Nagle's algorithm off (TCP_NODELAY) only on sockets that say
+    # they are TCP; with it on, each answer on a kept-alive connection waited 40 ms for the client's
+    # delayed acknowledgement of its headers before sending its body.
+    sock = socket.socket(family, socket.SOCK_STREAM, socket.IPPROTO_TCP)
     try:
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         sock.bind((host, port))

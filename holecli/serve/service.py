@@ -304,8 +304,7 @@ class Service:
         """What ``GET /v1/health`` answers."""
         return {"status": "stopping" if self.stopping else "ok", "version": self.version, "workers": self.workers,
                 "worker_restarts": self._pool.restarts, "queue": self._in_flight,
-                "store": getattr(self.store, "location", None), "uptime_s": round(time.time() - self._started, 3),
-                "allow_dirs": list(self.allow_dirs), "specs": self.specs.names()}
+                "store": getattr(self.store, "location", None), "uptime_s": round(time.time() - self._started, 3)}
 
     # -- measuring ----------------------------------------------------------------------------------
 
