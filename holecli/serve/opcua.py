@@ -358,6 +358,7 @@ class MeasureClient:
 
     def __init__(self, url, timeout=30.0):
         self.client = Client(url, timeout=timeout)
+        self.client.session_timeout = 600_000  # asyncua servers grant at most 10 min (and warn when asked for more)
         self.namespace = None
         self.holecli = None
 
