@@ -49,7 +49,7 @@ STATUS_OF_ERROR = {
     "unavailable": ua.StatusCodes.BadResourceUnavailable,
 }
 
-# The variables of LastResult: browse name -> (variant type, is an array, meaning for the docs)
+# The variables of LastResult: browse name -> (variant type, meaning: the node's Description)
 _SCALARS = {
     "ResultId": (ua.VariantType.String, "the id of the stored answer (GetResult's argument)"),
     "Received": (ua.VariantType.DateTime, "when the service received the request (UTC)"),
@@ -117,7 +117,7 @@ async def start_opcua(service, host, port):
                              "or a gateway")
     if not 0 < int(port) < 65536:
         raise OpcUaBindError(f"OPC UA port must be in 1..65535 (the endpoint URL names it), not {port}")
-    server = Server()
+    server = _Server()
     await server.init()
     server.set_endpoint(endpoint_url(host, port))
     server.set_server_name("holecli serve")
@@ -125,11 +125,23 @@ async def start_opcua(service, host, port):
     server.set_identity_tokens([ua.AnonymousIdentityToken])
     await server.set_application_uri("urn:holecli:serve:server")
     namespace = await server.register_namespace(NAMESPACE_URI)
-    front = _OpcUaFront(service, server, namespace)
+    front = server.front = _OpcUaFront(service, server, namespace)
     await front.build()
     await server.start()
     service.subscribe(front.on_answer)
     return server
+
+
+class _Server(Server):
+    """asyncua's server, whose stop also stops publishing the service's answers (the service has no
+    unsubscribe: its callback stays, and does nothing)."""
+
+    front = None
+
+    async def stop(self):
+        if self.front is not None:
+            self.front.stopped = True
+        await super().stop()
 
 
 def _is_loopback(host):
@@ -154,6 +166,7 @@ class _OpcUaFront:
         self._lock = asyncio.Lock()
         self._published = collections.deque(maxlen=_PUBLISHED_IDS_KEPT)
         self._tasks = set()
+        self.stopped = False
 
     def _id(self, *path):
         return ua.NodeId(".".join(path), self.ns)
@@ -161,33 +174,41 @@ class _OpcUaFront:
     async def build(self):
         objects = self.server.nodes.objects
         holecli = await objects.add_object(self._id("Holecli"), ua.QualifiedName("Holecli", self.ns))
-        await holecli.add_method(
+        await _describe(holecli, "holecli serve: measure drilled holes in scans, the last result, ResultReady events")
+        measure = await holecli.add_method(
             self._id("Holecli", "Measure"), ua.QualifiedName("Measure", self.ns), self._measure,
-            [_argument("Path", ua.VariantType.String, "the scan's path on the server (inside an --allow-dir)"),
+            [_argument("Path", ua.VariantType.String, "the scan's path on the server (inside an --allow-dir; a relative one: in the first)"),
              _argument("Spec", ua.VariantType.String, "a spec name in --spec-dir, '' for none"),
              _argument("Meta", ua.VariantType.String,
                        'part, serial, cell, operator: a JSON object or "key=value;key=value", "" for none')],
             [_argument("ResultId", ua.VariantType.String, "the stored answer's id"),
              _argument("Holes", ua.VariantType.UInt32, "number of holes found"),
              _argument("Verdict", ua.VariantType.String, "pass, fail, undecided or unchecked")])
-        await holecli.add_method(
+        await _describe(measure, "measure and store the scan at Path; returns once it is stored (OPC 40100's "
+                                 "StartSingleJob, synchronous)")
+        get_result = await holecli.add_method(
             self._id("Holecli", "GetResult"), ua.QualifiedName("GetResult", self.ns), self._get_result,
             [_argument("ResultId", ua.VariantType.String, "a stored answer's id")],
             [_argument("Result", ua.VariantType.String, "the answer as JSON (the record holecli detect writes, "
                                                          "plus id, received, processing_ms, stored, meta)")])
+        await _describe(get_result, "a stored answer by its id, as JSON (OPC 40100's GetResultById)")
         last_error = await holecli.add_variable(self._id("Holecli", "LastError"),
                                                 ua.QualifiedName("LastError", self.ns),
                                                 ua.Variant("", ua.VariantType.String))
+        await _describe(last_error, "code: message of the last refused Measure or GetResult call")
         self.last_error = last_error.nodeid
         folder = await holecli.add_folder(self._id("Holecli", "LastResult"), ua.QualifiedName("LastResult", self.ns))
-        for name, (vtype, _) in _SCALARS.items():
+        await _describe(folder, "the last stored measurement (from any front end); arrays: one element per hole")
+        for name, (vtype, meaning) in _SCALARS.items():
             node = await folder.add_variable(self._id("Holecli", "LastResult", name), ua.QualifiedName(name, self.ns),
                                              ua.Variant(_EMPTY[vtype], vtype))
+            await _describe(node, meaning)
             self.variables[name] = node.nodeid
-        for name, (vtype, _) in _ARRAYS.items():
+        for name, (vtype, meaning) in _ARRAYS.items():
             node = await folder.add_variable(self._id("Holecli", "LastResult", name), ua.QualifiedName(name, self.ns),
                                              ua.Variant([], vtype))
             await node.write_value_rank(ua.ValueRank.OneDimension)
+            await _describe(node, meaning + ", per hole")
             self.variables[name] = node.nodeid
         base_event_type = self.server.get_node(ua.ObjectIds.BaseEventType)
         event_type = await base_event_type.add_object_type(self._id("ResultReadyEventType"),
@@ -234,9 +255,16 @@ class _OpcUaFront:
 
     def on_answer(self, answer):
         """The service's callback after every stored measurement: publish it on the event loop."""
+        if self.stopped:
+            return
         task = asyncio.get_running_loop().create_task(self.publish(answer))
         self._tasks.add(task)
-        task.add_done_callback(self._tasks.discard)
+        task.add_done_callback(self._published_or_said)
+
+    def _published_or_said(self, task):
+        self._tasks.discard(task)
+        if not task.cancelled() and task.exception() is not None:
+            _log.error("OPC UA: the result could not be published", exc_info=task.exception())
 
     async def publish(self, answer):
         """Write ``answer`` to LastResult and fire ResultReady, once per answer (Measure and the service's
@@ -262,6 +290,11 @@ class _OpcUaFront:
 
 _EMPTY = {ua.VariantType.String: "", ua.VariantType.Double: 0.0, ua.VariantType.UInt32: 0,
           ua.VariantType.DateTime: datetime.datetime(1601, 1, 1, tzinfo=datetime.timezone.utc)}
+
+
+async def _describe(node, text):
+    """Set ``node``'s Description (what a browsing client such as UaExpert shows)."""
+    await node.write_attribute(ua.AttributeIds.Description, ua.DataValue(ua.Variant(ua.LocalizedText(text))))
 
 
 def _argument(name, vtype, description):

@@ -4,6 +4,7 @@ module (asyncua's server takes ~1.5 s to build its standard address space)."""
 
 import asyncio
 import contextlib
+import shutil
 import socket
 from pathlib import Path
 
@@ -12,8 +13,8 @@ import pytest
 asyncua = pytest.importorskip("asyncua")
 from asyncua import ua  # noqa: E402
 
-from holecli.serve.opcua import (NAMESPACE_URI, MeasureClient, OpcUaBindError, _parse_meta,  # noqa: E402
-                                 endpoint_url, start_opcua)
+from holecli.serve.opcua import (NAMESPACE_URI, MeasureClient, OpcUaBindError, _hole_verdict,  # noqa: E402
+                                 _parse_meta, endpoint_url, start_opcua)
 from holecli.serve.service import MeasureRequest, Service, ServiceError  # noqa: E402
 from holecli.store import open_store  # noqa: E402
 
@@ -35,9 +36,13 @@ def _free_port():
 
 @pytest.fixture(scope="module")
 async def served(anyio_backend, tmp_path_factory):
-    """A Service (one warm worker, a SQLite store, sample_clouds allowed) and its OPC UA server's URL."""
-    store = open_store(tmp_path_factory.mktemp("opcua") / "results.sqlite")
-    service = Service(store, workers=1, allow_dirs=[str(SAMPLES)], metrics=False)
+    """A Service (one warm worker, a SQLite store, sample_clouds allowed, the spec ``panel``) and its OPC
+    UA server's URL."""
+    folder = tmp_path_factory.mktemp("opcua")
+    (folder / "specs").mkdir()
+    shutil.copy(SAMPLES / "panel_tolerances.toml", folder / "specs" / "panel.toml")
+    service = Service(open_store(folder / "results.sqlite"), workers=1, allow_dirs=[str(SAMPLES)],
+                      spec_dir=str(folder / "specs"), metrics=False)
     try:
         await asyncio.to_thread(service.warm)
         port = _free_port()
@@ -110,6 +115,7 @@ async def test_address_space_layout(client):
     assert await last["Diameter"].read_value_rank() == ua.ValueRank.OneDimension
     assert await last["HoleCount"].read_data_type() == ua.NodeId(ua.ObjectIds.UInt32)
     assert await last["Received"].read_data_type() == ua.NodeId(ua.ObjectIds.DateTime)
+    assert "per hole" in (await last["Diameter"].read_description()).Text
     event_type = await client.client.nodes.base_event_type.get_child(f"{client.namespace}:ResultReadyEventType")
     fields = await _children(event_type)
     assert {"ResultId", "HoleCount", "Verdict", "ProcessingTimeMs"} <= set(fields)
@@ -161,6 +167,30 @@ async def test_other_front_ends_measurements_are_published(served, client):
 
 
 @pytest.mark.anyio
+async def test_measure_with_a_spec_gives_each_holes_name_and_verdict(client):
+    """The panel with its spec by name: every hole named and in tolerance, as holecli detect --spec says."""
+    result_id, holes, verdict = await client.measure("panel.ply", "panel", '{"part": "panel", "serial": "1"}')
+    assert verdict == "pass"
+    last = await client.last_result()
+    assert last["ResultId"] == result_id and last["HoleCount"] == holes == len(last["Diameter"])
+    stored = await client.result(result_id)
+    assert last["HoleName"] == [hole.get("name") or "" for hole in stored["holes"]]
+    assert {"T1", "C1"} <= set(last["HoleName"])
+    assert set(last["HoleVerdict"]) == {"pass"}
+
+
+@pytest.mark.anyio
+async def test_two_clients_measure_at_once(served, client):
+    """Two connections' Measure calls run side by side (the loop is never blocked): both answered,
+    both stored, one event each."""
+    async with MeasureClient(served[1]) as other, _result_ready_events(client) as events:
+        answers = await asyncio.gather(client.measure(TABLE1), other.measure(str(SAMPLES / "no_hole.csv")))
+        received = {(await events.next()).ResultId, (await events.next()).ResultId}
+    assert [holes for _, holes, _ in answers] == [1, 0]
+    assert received == {result_id for result_id, _, _ in answers}
+
+
+@pytest.mark.anyio
 @pytest.mark.parametrize("arguments, status, code", [
     (("nope.ply", "", ""), "BadNotFound", "not_found"),
     (("/etc/hostname", "", ""), "BadUserAccessDenied", "forbidden"),
@@ -168,7 +198,7 @@ async def test_other_front_ends_measurements_are_published(served, client):
     ((TABLE1, "", "{not json"), "BadInvalidArgument", "bad_request"),
     ((TABLE1, "", "part"), "BadInvalidArgument", "bad_request"),
     ((TABLE1, "", '{"part": 7}'), "BadInvalidArgument", "bad_request"),
-    ((TABLE1, "plate-A", ""), "BadNotFound", "not_found"),  # no --spec-dir: no spec of that name
+    ((TABLE1, "plate-A", ""), "BadNotFound", "not_found"),  # no spec of that name in the spec folder
 ])
 async def test_refused_measure_is_a_bad_status_and_the_server_goes_on(client, arguments, status, code):
     """A refused Measure answers a Bad status code and says why in LastError; the server still answers."""
@@ -201,6 +231,16 @@ async def test_refuses_non_loopback_hosts(served, host, port):
     """No security on the endpoint: only a loopback address, and a port the endpoint URL can name."""
     with pytest.raises(OpcUaBindError, match="loopback|port"):
         await start_opcua(served[0], host, port)
+
+
+@pytest.mark.parametrize("hole, verdict", [
+    ({}, "unchecked"), ({"in_tolerance": None}, "unchecked"), ({"in_tolerance": True}, "pass"),
+    ({"in_tolerance": False, "failed_checks": ["diameter"]}, "fail"),
+    ({"in_tolerance": False, "failed_checks": [], "undecided_checks": ["position"]}, "undecided"),
+    ({"in_tolerance": False, "failed_checks": [], "undecided_checks": []}, "fail"),
+])
+def test_hole_verdict(hole, verdict):
+    assert _hole_verdict(hole) == verdict
 
 
 @pytest.mark.parametrize("text, meta", [
