@@ -47,13 +47,14 @@ STATUS_OF_ERROR = {
     "too_large": ua.StatusCodes.BadRequestTooLarge,
     "unmeasurable": ua.StatusCodes.BadDataUnavailable,
     "unavailable": ua.StatusCodes.BadResourceUnavailable,
+    "internal_error": ua.StatusCodes.BadInternalError,
 }
 
 # The variables of LastResult: browse name -> (variant type, meaning: the node's Description)
 _SCALARS = {
     "ResultId": (ua.VariantType.String, "the id of the stored answer (GetResult's argument)"),
     "Received": (ua.VariantType.DateTime, "when the service received the request (UTC)"),
-    "File": (ua.VariantType.String, "the scan's file name"),
+    "File": (ua.VariantType.String, "the scan, as the request named it"),
     "Part": (ua.VariantType.String, "meta part"),
     "Serial": (ua.VariantType.String, "meta serial"),
     "ProcessingTimeMs": (ua.VariantType.Double, "wall time from receipt to stored, ms"),
@@ -63,10 +64,10 @@ _SCALARS = {
 }
 _ARRAYS = {
     "HoleName": (ua.VariantType.String, "the spec's hole name, '' when unnamed"),
-    "CenterX": (ua.VariantType.Double, "center x"),
-    "CenterY": (ua.VariantType.Double, "center y"),
-    "CenterZ": (ua.VariantType.Double, "center z"),
-    "Diameter": (ua.VariantType.Double, "diameter"),
+    "CenterX": (ua.VariantType.Double, "center x, in the record's unit"),
+    "CenterY": (ua.VariantType.Double, "center y, in the record's unit"),
+    "CenterZ": (ua.VariantType.Double, "center z, in the record's unit"),
+    "Diameter": (ua.VariantType.Double, "diameter, in the record's unit"),
     "NormalX": (ua.VariantType.Double, "unit normal x"),
     "NormalY": (ua.VariantType.Double, "unit normal y"),
     "NormalZ": (ua.VariantType.Double, "unit normal z"),
@@ -84,8 +85,10 @@ class OpcUaBindError(HoleCliError, ValueError):
 
 
 def endpoint_url(host, port):
-    """The endpoint URL of a server on ``host:port``: ``opc.tcp://host:port/holecli/``."""
-    return f"opc.tcp://{host}:{port}{ENDPOINT_PATH}"
+    """The endpoint URL of a server on ``host:port``: ``opc.tcp://host:port/holecli/`` (an IPv6 address
+    in brackets)."""
+    shown = f"[{host}]" if ":" in host else host
+    return f"opc.tcp://{shown}:{port}{ENDPOINT_PATH}"
 
 
 async def start_opcua(service, host, port):
