@@ -7,8 +7,10 @@ one measurements over HTTP and TCP fire too. ``Holecli/GetResult(ResultId)`` ret
 JSON. The layout is modelled on OPC 40100 (Machine Vision: a method starts a job, a ResultReady event,
 a result fetched by its id, with its processing times) without claiming conformance to it.
 
-The server speaks without security (no signing, no encryption, anonymous sessions), so it binds only
-to a loopback address: :func:`start_opcua` refuses any other with :class:`OpcUaBindError`.
+Security follows ``holecli serve``'s rule for every front end: on the loopback interface the endpoint
+may go without security (policy None); beyond it (:func:`check_bind`) the server needs its certificate
+(the only endpoint is then Basic256Sha256, signed and encrypted) and the service's token, which every
+session must give as its password (with a token, on any interface).
 
 Every name of the address space is in the namespace :data:`NAMESPACE_URI`; each node also has a string
 NodeId, its browse path below ``Objects`` joined with dots (``ns=2;s=Holecli.LastResult.Diameter``), for
@@ -20,21 +22,31 @@ from __future__ import annotations
 
 import asyncio
 import collections
+import contextlib
 import datetime
+import hmac
 import ipaddress
 import json
 import logging
+import socket
 
 from asyncua import Client, Server, ua
+from asyncua.crypto import cert_gen
+from asyncua.crypto.permission_rules import User, UserRole
+from cryptography import x509
+from cryptography.hazmat.primitives import serialization
+from cryptography.x509.oid import ExtendedKeyUsageOID
 
 from holecli.errors import HoleCliError
+from holecli.serve.security import is_loopback
 from holecli.serve.service import MeasureRequest, ServiceError
 from holecli.store.schema import verdict_word
 
-__all__ = ["ENDPOINT_PATH", "NAMESPACE_URI", "STATUS_OF_ERROR", "MeasureClient", "OpcUaBindError",
-           "call_measure", "endpoint_url", "start_opcua"]
+__all__ = ["APPLICATION_URI", "ENDPOINT_PATH", "NAMESPACE_URI", "STATUS_OF_ERROR", "MeasureClient", "OpcUaBindError",
+           "call_measure", "check_bind", "endpoint_url", "start_opcua"]
 
 NAMESPACE_URI = "urn:holecli:serve"
+APPLICATION_URI = "urn:holecli:serve:server"
 ENDPOINT_PATH = "/holecli/"
 
 # ServiceError.code -> the status code of a failed Measure or GetResult call
@@ -81,7 +93,7 @@ _log = logging.getLogger(__name__)
 
 
 class OpcUaBindError(HoleCliError, ValueError):
-    """The OPC UA server was asked to bind to an address other than a loopback one (it has no security)."""
+    """The OPC UA server was asked to listen beyond the loopback interface without security, or on no port."""
 
 
 def endpoint_url(host, port):
@@ -91,7 +103,7 @@ def endpoint_url(host, port):
     return f"opc.tcp://{shown}:{port}{ENDPOINT_PATH}"
 
 
-async def start_opcua(service, host, port):
+async def start_opcua(service, host, port, *, token=None, certificate=None, private_key=None):
     """Start the OPC UA server of ``service`` on ``host:port``.
 
     Parameters
@@ -100,9 +112,19 @@ async def start_opcua(service, host, port):
         The service whose ``measure`` and ``result`` the methods call; the server subscribes to it, so
         that every stored measurement (over any front end) updates ``LastResult`` and fires ResultReady.
     host : str
-        A loopback address (``127.0.0.1``, ``::1``, ``localhost``): the server has no security.
+        The address to bind. Beyond the loopback interface (``127.0.0.1``, ``::1``, ``localhost``)
+        ``token``, ``certificate`` and ``private_key`` are required.
     port : int
         The TCP port (4840 is OPC UA's registered one); 0 is refused (the endpoint URL names the port).
+    token : str, optional
+        The service's bearer token: a session must then log in with a user name (any) and this
+        password. Without ``certificate`` the server makes itself a throwaway certificate, so that the
+        password crosses the loopback interface encrypted.
+    certificate, private_key : str, optional
+        The server's application instance certificate and its RSA key (PEM or DER files): the endpoint
+        ``Basic256Sha256`` signed and encrypted is then offered, and beyond the loopback interface it
+        is the only one. Its subject alternative names should hold the URI ``urn:holecli:serve:server``
+        and the host's name.
 
     Returns
     -------
@@ -112,27 +134,92 @@ async def start_opcua(service, host, port):
     Raises
     ------
     OpcUaBindError
-        ``host`` is not a loopback address, or ``port`` is 0.
+        See :func:`check_bind`.
     """
-    if not _is_loopback(host):
-        raise OpcUaBindError(f"OPC UA binds only to a loopback address (127.0.0.1, ::1, localhost), not {host!r}: "
-                             "its endpoint has no signing, encryption or user check; reach it over an SSH tunnel "
-                             "or a gateway")
-    if not 0 < int(port) < 65536:
-        raise OpcUaBindError(f"OPC UA port must be in 1..65535 (the endpoint URL names it), not {port}")
-    server = _Server()
+    check_bind(host, port, token=token, certificate=certificate, private_key=private_key)
+    server = _Server(user_manager=_TokenUsers(token) if token is not None else None)
     await server.init()
+    server.allow_remote_admin(False)  # asyncua's default lets a user named admin change the address space
     server.set_endpoint(endpoint_url(host, port))
     server.set_server_name("holecli serve")
-    server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
-    server.set_identity_tokens([ua.AnonymousIdentityToken])
-    await server.set_application_uri("urn:holecli:serve:server")
+    await server.set_application_uri(APPLICATION_URI)
+    policies = [ua.SecurityPolicyType.Basic256Sha256_SignAndEncrypt]
+    if is_loopback(host):
+        policies.insert(0, ua.SecurityPolicyType.NoSecurity)
+    if certificate is not None:
+        await server.load_certificate(certificate, format=_key_format(certificate))
+        await server.load_private_key(private_key, format=_key_format(private_key))
+    elif token is not None:
+        der_certificate, der_key = _throwaway_certificate(host)
+        await server.load_certificate(der_certificate, format="der")
+        await server.load_private_key(der_key, format="der")
+    else:
+        policies = [ua.SecurityPolicyType.NoSecurity]
+    server.set_security_policy(policies)
+    server.set_identity_tokens([ua.UserNameIdentityToken] if token is not None else [ua.AnonymousIdentityToken])
     namespace = await server.register_namespace(NAMESPACE_URI)
     front = server.front = _OpcUaFront(service, server, namespace)
     await front.build()
     await server.start()
     service.subscribe(front.on_answer)
     return server
+
+
+def check_bind(host, port, *, token=None, certificate=None, private_key=None):
+    """Refuse an OPC UA configuration that would expose the service: beyond the loopback interface the
+    endpoint must be signed and encrypted (``certificate`` and ``private_key``) and sessions must log in
+    (``token``).
+
+    Raises
+    ------
+    OpcUaBindError
+        Naming what is missing; or ``port`` is not in 1..65535; or only one of ``certificate`` and
+        ``private_key`` is given.
+    """
+    if isinstance(port, bool) or not isinstance(port, int) or not 0 < port < 65536:
+        raise OpcUaBindError(f"OPC UA port must be in 1..65535 (the endpoint URL names it), not {port!r}")
+    if (certificate is None) != (private_key is None):
+        raise OpcUaBindError("OPC UA needs both the server's certificate and its private key, or neither")
+    if not is_loopback(host) and (certificate is None or token is None):
+        missing = " and ".join(what for what, given in (("a server certificate and key", certificate),
+                                                        ("a token", token)) if given is None)
+        raise OpcUaBindError(f"OPC UA on {host} (beyond the loopback interface) needs {missing}: without them "
+                             "its endpoint has no signing, encryption or login; bind it to 127.0.0.1, or reach "
+                             "it over an SSH tunnel or a gateway")
+
+
+class _TokenUsers:
+    """asyncua's user manager: a session logs in with any user name and the service's token as password."""
+
+    def __init__(self, token):
+        self._token = token.encode()
+
+    def get_user(self, iserver, username=None, password=None, certificate=None):
+        if password is None:
+            return None
+        given = password.encode() if isinstance(password, str) else bytes(password)
+        return User(role=UserRole.User, name=username) if hmac.compare_digest(given, self._token) else None
+
+
+def _key_format(path):
+    """asyncua's ``format`` of a certificate or key file: ``pem`` when it is text, else ``der``."""
+    with open(path, "rb") as stream:
+        return "pem" if stream.read(11) == b"-----BEGIN " else "der"
+
+
+def _throwaway_certificate(host):
+    """A self-signed certificate and RSA key (DER bytes) valid for a day, for this run only: it encrypts
+    the password on the loopback interface; nobody is meant to trust it."""
+    key = cert_gen.generate_private_key()
+    names = [x509.UniformResourceIdentifier(APPLICATION_URI), x509.DNSName(socket.gethostname()),
+             x509.DNSName("localhost")]
+    with contextlib.suppress(ValueError):
+        names.append(x509.IPAddress(ipaddress.ip_address(host)))
+    certificate = cert_gen.generate_self_signed_app_certificate(
+        key, "holecli serve", {}, names, [ExtendedKeyUsageOID.SERVER_AUTH], days=1)
+    return (certificate.public_bytes(serialization.Encoding.DER),
+            key.private_bytes(serialization.Encoding.DER, serialization.PrivateFormat.PKCS8,
+                              serialization.NoEncryption()))
 
 
 class _Server(Server):
@@ -145,15 +232,6 @@ class _Server(Server):
         if self.front is not None:
             self.front.stopped = True
         await super().stop()
-
-
-def _is_loopback(host):
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 class _OpcUaFront:
@@ -390,15 +468,26 @@ class MeasureClient:
         The endpoint, e.g. ``opc.tcp://127.0.0.1:4840/holecli/``.
     timeout : float
         Seconds a request may take (a measurement of a large scan takes seconds).
+    token : str, optional
+        The service's token (the session's password; user name ``holecli``).
+    security : str, optional
+        asyncua's security string, e.g. ``"Basic256Sha256,SignAndEncrypt,client.der,client.pem,server.der"``
+        (the client's certificate and key, and the server's certificate it trusts).
     """
 
-    def __init__(self, url, timeout=30.0):
+    def __init__(self, url, timeout=30.0, *, token=None, security=None):
         self.client = Client(url, timeout=timeout)
         self.client.session_timeout = 600_000  # asyncua servers grant at most 10 min (and warn when asked for more)
+        if token is not None:
+            self.client.set_user("holecli")
+            self.client.set_password(token)
+        self.security = security
         self.namespace = None
         self.holecli = None
 
     async def __aenter__(self):
+        if self.security is not None:
+            await self.client.set_security_string(self.security)
         await self.client.connect()
         try:
             self.namespace = await self.client.get_namespace_index(NAMESPACE_URI)

@@ -4,6 +4,8 @@ module (asyncua's server takes ~1.5 s to build its standard address space)."""
 
 import asyncio
 import contextlib
+import datetime
+import ipaddress
 import shutil
 import socket
 from pathlib import Path
@@ -12,9 +14,14 @@ import pytest
 
 asyncua = pytest.importorskip("asyncua")
 from asyncua import ua  # noqa: E402
+from asyncua.crypto import cert_gen  # noqa: E402
+from cryptography import x509  # noqa: E402
+from cryptography.hazmat.primitives import serialization  # noqa: E402
+from cryptography.x509.oid import ExtendedKeyUsageOID  # noqa: E402
 
-from holecli.serve.opcua import (NAMESPACE_URI, MeasureClient, OpcUaBindError, _hole_verdict,  # noqa: E402
-                                 _parse_meta, endpoint_url, start_opcua)
+from holecli.serve.opcua import (APPLICATION_URI, NAMESPACE_URI, MeasureClient, OpcUaBindError,  # noqa: E402
+                                 _hole_verdict, _parse_meta, _throwaway_certificate, check_bind, endpoint_url,
+                                 start_opcua)
 from holecli.serve.service import MeasureRequest, Service, ServiceError  # noqa: E402
 from holecli.store import open_store  # noqa: E402
 
@@ -231,6 +238,77 @@ async def test_refuses_non_loopback_hosts(served, host, port):
     """No security on the endpoint: only a loopback address, and a port the endpoint URL can name."""
     with pytest.raises(OpcUaBindError, match="loopback|port"):
         await start_opcua(served[0], host, port)
+
+
+def _certificate(folder, name, uri, usage):
+    """A self-signed application certificate (DER) and its key (PEM) in ``folder``."""
+    key = cert_gen.generate_private_key()
+    certificate = cert_gen.generate_self_signed_app_certificate(
+        key, name, {}, [x509.UniformResourceIdentifier(uri), x509.DNSName(socket.gethostname()),
+                        x509.DNSName("localhost"), x509.IPAddress(ipaddress.ip_address("127.0.0.1"))], [usage])
+    certificate_path, key_path = folder / f"{name}.der", folder / f"{name}.pem"
+    certificate_path.write_bytes(certificate.public_bytes(serialization.Encoding.DER))
+    key_path.write_bytes(key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
+                                           serialization.NoEncryption()))
+    return str(certificate_path), str(key_path)
+
+
+@pytest.mark.anyio
+async def test_secured_endpoint_and_token(served, tmp_path):
+    """With a certificate and a token: Basic256Sha256 signed and encrypted, and a session logs in with the
+    token as its password; without it, or with another, it is refused."""
+    token = "a-token-of-24-characters"
+    server_certificate, server_key = _certificate(tmp_path, "server", APPLICATION_URI, ExtendedKeyUsageOID.SERVER_AUTH)
+    client_certificate, client_key = _certificate(tmp_path, "client", "urn:holecli:test:client",
+                                                  ExtendedKeyUsageOID.CLIENT_AUTH)
+    security = f"Basic256Sha256,SignAndEncrypt,{client_certificate},{client_key},{server_certificate}"
+    port = _free_port()
+    url = endpoint_url("127.0.0.1", port)
+    server = await start_opcua(served[0], "127.0.0.1", port, token=token, certificate=server_certificate,
+                               private_key=server_key)
+    try:
+        policies = {(endpoint.SecurityPolicyUri.rsplit("#", 1)[-1], endpoint.SecurityMode.name,
+                     tuple(policy.TokenType.name for policy in endpoint.UserIdentityTokens))
+                    for endpoint in await server.get_endpoints()}
+        assert policies == {("None", "None_", ("UserName",)), ("Basic256Sha256", "SignAndEncrypt", ("UserName",))}
+        secured = MeasureClient(url, token=token, security=security)
+        secured.client.application_uri = "urn:holecli:test:client"
+        async with secured:
+            assert (await secured.measure(TABLE1))[1] == 1
+        for kwargs, refusal in (({"security": security}, ua.uaerrors.BadIdentityTokenRejected),
+                                ({"token": "another-token-of-24-chars"}, ua.uaerrors.BadUserAccessDenied)):
+            with pytest.raises(refusal):
+                async with MeasureClient(url, **kwargs):
+                    pass
+    finally:
+        await server.stop()
+
+
+@pytest.mark.parametrize("host, kwargs, match", [
+    ("192.0.2.7", {"token": "t" * 16}, "needs a server certificate and key:"),
+    ("192.0.2.7", {"certificate": "c.der", "private_key": "k.pem"}, "needs a token:"),
+    ("0.0.0.0", {}, "needs a server certificate and key and a token"),
+    ("127.0.0.1", {"certificate": "c.der"}, "both"),
+])
+def test_check_bind_refuses(host, kwargs, match):
+    with pytest.raises(OpcUaBindError, match=match):
+        check_bind(host, 4840, **kwargs)
+
+
+@pytest.mark.parametrize("host, kwargs", [
+    ("127.0.0.1", {}), ("::1", {"token": "t" * 16}), ("localhost", {}),
+    ("192.0.2.7", {"token": "t" * 16, "certificate": "c.der", "private_key": "k.pem"}),
+])
+def test_check_bind_accepts(host, kwargs):
+    check_bind(host, 4840, **kwargs)
+
+
+def test_throwaway_certificate_names_the_application():
+    certificate = x509.load_der_x509_certificate(_throwaway_certificate("127.0.0.1")[0])
+    names = certificate.extensions.get_extension_for_class(x509.SubjectAlternativeName).value
+    assert APPLICATION_URI in names.get_values_for_type(x509.UniformResourceIdentifier)
+    assert "127.0.0.1" in [str(address) for address in names.get_values_for_type(x509.IPAddress)]
+    assert certificate.not_valid_after_utc - certificate.not_valid_before_utc <= datetime.timedelta(days=1)
 
 
 @pytest.mark.parametrize("hole, verdict", [
