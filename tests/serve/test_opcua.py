@@ -130,6 +130,16 @@ async def test_address_space_layout(client):
 
 
 @pytest.mark.anyio
+async def test_clients_cannot_change_the_address_space_or_the_results(client):
+    with pytest.raises(ua.UaStatusCodeError):
+        await client.client.nodes.objects.add_folder(client.namespace, "Intruder")
+    result_id = client.client.get_node(ua.NodeId("Holecli.LastResult.ResultId", client.namespace))
+    with pytest.raises(ua.UaStatusCodeError):
+        await result_id.write_value(ua.Variant("forged", ua.VariantType.String))
+    assert await result_id.read_value() != "forged"
+
+
+@pytest.mark.anyio
 async def test_measure_table1_updates_last_result_and_fires_one_event(served, client):
     """Measure on Table I: one hole of 3 mm, unchecked; LastResult holds it; one ResultReady event."""
     service = served[0]
