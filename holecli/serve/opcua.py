@@ -258,7 +258,8 @@ class _OpcUaFront:
         await _describe(holecli, "holecli serve: measure drilled holes in scans, the last result, ResultReady events")
         measure = await holecli.add_method(
             self._id("Holecli", "Measure"), ua.QualifiedName("Measure", self.ns), self._measure,
-            [_argument("Path", ua.VariantType.String, "the scan's path on the server (inside an --allow-dir; a relative one: in the first)"),
+            [_argument("Path", ua.VariantType.String,
+                       "the scan's path on the server (inside an --allow-dir; a relative one: in the first)"),
              _argument("Spec", ua.VariantType.String, "a spec name in --spec-dir, '' for none"),
              _argument("Meta", ua.VariantType.String,
                        'part, serial, cell, operator: a JSON object or "key=value;key=value", "" for none')],
