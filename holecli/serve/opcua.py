@@ -327,7 +327,7 @@ class _OpcUaFront:
             answer = await self.service.result(result_id)
         except ServiceError as error:
             return await self._refuse(error.code, error.message)
-        return [ua.Variant(json.dumps(answer, allow_nan=False), ua.VariantType.String)]
+        return [ua.Variant(json.dumps(answer, separators=(",", ":"), allow_nan=False), ua.VariantType.String)]
 
     async def _refuse(self, code, message):
         """The Bad status of a refused call; its message goes to Holecli/LastError (a status has no text)."""
