@@ -6,8 +6,12 @@ import asyncio
 import contextlib
 import datetime
 import ipaddress
+import json
+import os
 import shutil
+import signal
 import socket
+import sys
 from pathlib import Path
 
 import pytest
@@ -25,7 +29,8 @@ from holecli.serve.opcua import (APPLICATION_URI, NAMESPACE_URI, MeasureClient, 
 from holecli.serve.service import MeasureRequest, Service, ServiceError  # noqa: E402
 from holecli.store import open_store  # noqa: E402
 
-SAMPLES = Path(__file__).resolve().parents[2] / "sample_clouds"
+REPO = Path(__file__).resolve().parents[2]
+SAMPLES = REPO / "sample_clouds"
 TABLE1 = str(SAMPLES / "table1.ply")
 
 
@@ -248,6 +253,35 @@ async def test_refuses_non_loopback_hosts(served, host, port):
     """No security on the endpoint: only a loopback address, and a port the endpoint URL can name."""
     with pytest.raises(OpcUaBindError, match="loopback|port"):
         await start_opcua(served[0], host, port)
+
+
+@pytest.mark.slow
+@pytest.mark.anyio
+async def test_holecli_serve_with_opcua(tmp_path):
+    """``holecli serve --opcua-port 0``: the ready line names the endpoint; a measurement over HTTP fires
+    ResultReady for the OPC UA client and fills LastResult; SIGTERM stops it, exit 0, nothing on stderr."""
+    httpx = pytest.importorskip("httpx")
+    process = await asyncio.create_subprocess_exec(
+        sys.executable, "-m", "holecli", "serve", "--port", "0", "--opcua-port", "0", "--workers", "1", "-q",
+        "--allow-dir", str(SAMPLES), "--store", str(tmp_path / "results.sqlite"),
+        stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE, env=dict(os.environ, PYTHONPATH=str(REPO)))
+    try:
+        addresses = json.loads(await asyncio.wait_for(process.stdout.readline(), 120))
+        assert addresses["opcua"].startswith("opc.tcp://127.0.0.1:") and addresses["opcua"].endswith("/holecli/")
+        async with MeasureClient(addresses["opcua"]) as client, _result_ready_events(client) as events, \
+                httpx.AsyncClient(base_url=addresses["http"], timeout=60) as http:
+            answer = (await http.post("/v1/measure", json={"path": "table1.ply"})).json()
+            assert (await events.next()).ResultId == answer["id"]
+            last = await client.last_result()
+            assert last["ResultId"] == answer["id"] and last["Diameter"] == [pytest.approx(3.0, abs=0.01)]
+            result_id, holes, _ = await client.measure("table1.ply")
+            assert (await http.get(f"/v1/results/{result_id}")).json()["holes"][0]["diameter"] == \
+                pytest.approx(last["Diameter"][0])
+    finally:
+        if process.returncode is None:
+            process.send_signal(signal.SIGTERM)
+        _, err = await asyncio.wait_for(process.communicate(), 60)
+    assert process.returncode == 0 and err.decode() == ""
 
 
 def _certificate(folder, name, uri, usage):
