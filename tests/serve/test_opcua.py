@@ -274,7 +274,7 @@ async def test_holecli_serve_with_opcua(tmp_path):
             assert (await events.next()).ResultId == answer["id"]
             last = await client.last_result()
             assert last["ResultId"] == answer["id"] and last["Diameter"] == [pytest.approx(3.0, abs=0.01)]
-            result_id, holes, _ = await client.measure("table1.ply")
+            result_id, _, _ = await client.measure("table1.ply")
             assert (await http.get(f"/v1/results/{result_id}")).json()["holes"][0]["diameter"] == \
                 pytest.approx(last["Diameter"][0])
     finally:
