@@ -8,6 +8,7 @@ the rows themselves come from :mod:`holecli.store.schema`.
 from __future__ import annotations
 
 import datetime
+import re
 import uuid
 
 from holecli.errors import HoleCliError
@@ -184,6 +185,35 @@ class Store:
         return name
 
 
+def is_a_store(location, tables, version, what) -> bool:
+    """Whether a database holds a results store (True), or nothing yet (False: create the tables).
+
+    Parameters
+    ----------
+    location : str
+        What the messages call the store.
+    tables : set of str
+        The tables the database holds.
+    version : str or None
+        Its ``store_info`` schema version, None when it has none.
+    what : str
+        What the messages call a database of the engine ("an SQLite database", "a database").
+
+    Raises
+    ------
+    StoreError
+        A database with other tables (not a store); a store of a newer schema (:func:`check_version`).
+    """
+    if tables and version is None:
+        shown = ", ".join(sorted(tables)[:5]) + (", ..." if len(tables) > 5 else "")
+        raise StoreError(f"{location}: not a holecli results store ({what} with other tables: {shown}); "
+                         f"it was left as it is")
+    if version is not None:
+        check_version(location, version)
+        return True
+    return False
+
+
 def check_version(location, version):
     """Refuse a store whose schema version is newer than :data:`holecli.store.schema.SCHEMA_VERSION`
     (or not a version at all).
@@ -200,3 +230,15 @@ def check_version(location, version):
     if number > schema.SCHEMA_VERSION:
         raise StoreError(f"{location}: the results store has schema version {number}, newer than this holecli's "
                          f"({schema.SCHEMA_VERSION}): use a newer holecli; the store was left as it is")
+
+
+def redacted(url) -> str:
+    """``url`` with its password (in the user part or a ``password=`` parameter) shown as ``***``.
+
+    Examples
+    --------
+    >>> redacted("postgresql://cell:s3cret@db.local:5432/results?sslmode=require&password=x")
+    'postgresql://cell:***@db.local:5432/results?sslmode=require&password=***'
+    """
+    url = re.sub(r"(://[^:/@?#]*:)[^@/?#]*@", r"\1***@", url)
+    return re.sub(r"(?i)([?&]password=)[^&#]*", r"\1***", url)

@@ -14,7 +14,7 @@ import sqlite3
 
 from holecli import __version__
 from holecli.store import schema
-from holecli.store.base import Store, StoreError, check_version
+from holecli.store.base import Store, StoreError, is_a_store
 
 BUSY_TIMEOUT_S = 30.0
 """How long an add waits for another writer of the same file, seconds."""
@@ -47,6 +47,7 @@ class SQLiteStore(Store):
         existed = os.path.lexists(self.path)
         if existed:
             self._check_header()
+        self._check_writable(existed)
         try:
             self._connection = sqlite3.connect(self.path, timeout=BUSY_TIMEOUT_S, isolation_level=None,
                                                check_same_thread=False)
@@ -74,6 +75,17 @@ class SQLiteStore(Store):
             raise StoreError(f"{self.location}: not a holecli results store (not an SQLite database); "
                              f"it was left as it is")
 
+    def _check_writable(self, existed):
+        """Refuse a store file, or a folder, this process cannot write (SQLite writes its WAL beside it):
+        said now, not at the first add."""
+        folder = os.path.dirname(os.path.abspath(self.path))
+        if existed and not os.access(self.path, os.W_OK):
+            raise StoreError(f"{self.location}: cannot open the results store: the file cannot be written "
+                             f"(permission denied)")
+        if os.path.isdir(folder) and not os.access(folder, os.W_OK | os.X_OK):
+            raise StoreError(f"{self.location}: cannot open the results store: its folder {folder} cannot be written "
+                             f"(permission denied)")
+
     def _open(self, existed):
         """Check an existing database is a store of ours, then set the pragmas and create the tables."""
         connection = self._connection
@@ -83,18 +95,13 @@ class SQLiteStore(Store):
         if "store_info" in tables:
             found = connection.execute("SELECT value FROM store_info WHERE key = 'schema_version'").fetchone()
             version = None if found is None else found[0]
-        if tables and version is None:
-            shown = ", ".join(sorted(tables)[:5]) + (", ..." if len(tables) > 5 else "")
-            raise StoreError(f"{self.location}: not a holecli results store (an SQLite database with other tables: "
-                             f"{shown}); it was left as it is")
-        if version is not None:
-            check_version(self.location, version)
+        existing = is_a_store(self.location, tables, version, "an SQLite database")
         connection.execute("PRAGMA foreign_keys = ON")
         mode = connection.execute("PRAGMA journal_mode = WAL").fetchone()[0]
         if str(mode).lower() != "wal":
             raise StoreError(f"{self.location}: the file system does not allow SQLite's WAL mode (journal mode {mode})")
         connection.execute("PRAGMA synchronous = FULL")
-        if version is None:
+        if not existing:
             self._create()
 
     def _create(self):
