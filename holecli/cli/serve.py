@@ -121,6 +121,10 @@ def _serve(host, port, tcp_port, tcp_units, opcua_port, opcua_cert, opcua_key, s
             from None
     from holecli.store import StoreError, open_store
 
+    def cannot_listen(name, number, error):
+        option = "--port" if name == "http" else "--tcp-port"
+        return Failure(f"{host}:{number}: cannot listen there ({option}): {error.strerror or error}", EXIT_INPUT)
+
     listeners = server.Listeners()
     try:
         for name, number in (("http", port), ("tcp", tcp_port)):
@@ -128,9 +132,7 @@ def _serve(host, port, tcp_port, tcp_units, opcua_port, opcua_cert, opcua_key, s
                 try:
                     setattr(listeners, name, server.bind(host, number))
                 except OSError as error:
-                    option = "--port" if name == "http" else "--tcp-port"
-                    raise Failure(f"{host}:{number}: cannot listen there ({option}): {error.strerror or error}",
-                                  EXIT_INPUT) from None
+                    raise cannot_listen(name, number, error) from None
         try:
             store = open_store(store_location)
         except StoreError as error:
@@ -140,6 +142,13 @@ def _serve(host, port, tcp_port, tcp_units, opcua_port, opcua_cert, opcua_key, s
                           worker_memory_mb=worker_memory_mb)
         try:
             service.warm()
+            for name in ("http", "tcp"):
+                sock = getattr(listeners, name)
+                try:  # only now (refused until the workers are warm); another server may have bound it too
+                    if sock is not None:
+                        sock.listen(128)
+                except OSError as error:
+                    raise cannot_listen(name, sock.getsockname()[1], error) from None
 
             def ready(addresses):
                 line = json.dumps(dict(addresses, store=store.location, workers=service.workers, pid=os.getpid()))

@@ -8,6 +8,8 @@ import os
 import signal
 import socket
 import sqlite3
+import subprocess
+import sys
 import threading
 import time
 
@@ -15,6 +17,7 @@ import httpx
 import pytest
 
 from holecli.store import open_store
+from tests.serve.conftest import descendants, wait_gone
 
 MEASURE_TIMEOUT = 120
 
@@ -211,6 +214,40 @@ def test_a_port_in_use_is_said_in_one_line_exit_3(run_serve, tmp_path):
     assert result.stderr.startswith(f"Error: 127.0.0.1:{port}: cannot listen there"), result.stderr
     assert len(result.stderr.strip().splitlines()) == 1, result.stderr
     assert result.stdout == ""
+
+
+@pytest.mark.slow
+def test_two_servers_started_on_one_port_one_serves_the_other_exits_3(serve_env, tmp_path):
+    """Both bind the port while their workers warm up (address reuse lets a socket that does not
+    listen yet share it); the one that listens second is refused: it says so, it does not crash."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    command = [sys.executable, "-m", "holecli", "serve", "--port", str(port), "--workers", "1"]
+    processes = [subprocess.Popen(command + ["--store", tmp_path / f"{name}.sqlite"], stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, text=True, env=serve_env, cwd=tmp_path)
+                 for name in ("a", "b")]
+    try:
+        assert wait_for(lambda: any(process.poll() is not None for process in processes), 90, step=0.1)
+        [loser] = [process for process in processes if process.poll() is not None]
+        [winner] = [process for process in processes if process is not loser]
+        out, err = loser.communicate(timeout=30)
+        assert loser.returncode == 3, err
+        assert err.startswith(f"Error: 127.0.0.1:{port}: cannot listen there (--port)"), err
+        assert len(err.strip().splitlines()) == 1 and out == "", err
+        children = descendants(winner.pid)
+        with httpx.Client() as client:
+            assert client.get(f"http://127.0.0.1:{port}/v1/health", timeout=30).status_code == 200
+        winner.send_signal(signal.SIGTERM)
+        out, err = winner.communicate(timeout=30)
+        assert winner.returncode == 0, err
+        assert json.loads(out.splitlines()[0])["http"] == f"http://127.0.0.1:{port}"
+        assert wait_gone(children, 10) == []
+    finally:
+        for process in processes:
+            if process.poll() is None:
+                process.kill()
+            process.communicate(timeout=30)
 
 
 @pytest.mark.parametrize("store", ["a folder", "not sqlite"])
