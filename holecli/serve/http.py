@@ -26,6 +26,10 @@ from holecli.serve.service import OPTIONS, MeasureRequest, ServiceError
 
 __all__ = ["MeasureBody", "create_app"]
 
+#: The largest JSON body: it names a scan (a path, options, meta: a few kB); parsing a larger one would
+#: hold the event loop, and with it every front end, for seconds.
+MAX_JSON_BYTES = 2**20
+
 _ERROR = {"description": "The request is refused: {error: {status, code, message}}",
           "content": {"application/json": {"schema": {"$ref": "#/components/schemas/ErrorBody"}}}}
 
@@ -140,7 +144,7 @@ def create_app(service, token=None) -> FastAPI:
                       explain: Optional[bool] = Query(None)):
         content_type = request.headers.get("content-type", "").split(";")[0].strip().lower()
         if content_type == "application/json":
-            data = await _body(request, service.max_upload_bytes)
+            data = await _body(request, MAX_JSON_BYTES, "a JSON body names a scan: send the scan itself with ?format=")
             try:
                 body = MeasureBody.model_validate_json(data)
             except ValidationError as error:
@@ -207,15 +211,15 @@ def create_app(service, token=None) -> FastAPI:
     return app
 
 
-async def _body(request, limit):
-    """The request's body, refused (413) past ``limit`` bytes without reading the rest."""
+async def _body(request, limit, why="--max-upload-mb"):
+    """The request's body, refused (413, saying ``why``) past ``limit`` bytes without reading the rest."""
     declared = request.headers.get("content-length")
     if declared is not None and declared.isdigit() and int(declared) > limit:
-        raise ServiceError(413, f"the body is larger than {limit} bytes (--max-upload-mb)")
+        raise ServiceError(413, f"the body is larger than {limit} bytes ({why})")
     chunks, size = [], 0
     async for chunk in request.stream():
         size += len(chunk)
         if size > limit:
-            raise ServiceError(413, f"the body is larger than {limit} bytes (--max-upload-mb)")
+            raise ServiceError(413, f"the body is larger than {limit} bytes ({why})")
         chunks.append(chunk)
     return b"".join(chunks)

@@ -204,6 +204,40 @@ def test_a_worker_killed_while_measuring_gets_503_and_the_pool_is_replaced(serve
     assert_no_traceback(served.stderr)
 
 
+@pytest.mark.slow
+def test_the_event_loop_answers_while_large_requests_are_handled(serve, scans):
+    """Health answers within 2 s (not seconds later) while a 10^6-point scan is measured by path and uploaded, and
+    while JSON bodies far larger than a request needs are refused (413, not parsed on the loop)."""
+    served = serve("--allow-dir", scans, "--workers", "1")
+    latencies, stop = [], threading.Event()
+
+    def poll():
+        with httpx.Client() as client:
+            while not stop.is_set():
+                started = time.perf_counter()
+                client.get(served.http + "/v1/health", timeout=30)
+                latencies.append(time.perf_counter() - started)
+                time.sleep(0.02)
+
+    poller = threading.Thread(target=poll)
+    poller.start()
+    try:
+        with httpx.Client(timeout=MEASURE_TIMEOUT) as client:
+            huge = b'{"options": {"x": [' + b"1," * 25_000_000 + b'1]}, "path": "table1.ply"}'
+            for content in (huge, (huge[start:start + 2**20] for start in range(0, len(huge), 2**20))):
+                response = client.post(served.http + "/v1/measure", content=content,
+                                       headers={"content-type": "application/json"})
+                assert response.status_code == 413, response.text
+            assert measure(client, served.http, "s1e6.ply").status_code == 200
+            response = client.post(served.http + "/v1/measure", params={"format": "ply"},
+                                   content=(scans / "s1e6.ply").read_bytes())
+            assert response.status_code == 200, response.text
+    finally:
+        stop.set()
+        poller.join(60)
+    assert len(latencies) > 20 and max(latencies) < 2.0, sorted(latencies)[-5:]
+
+
 def test_a_port_in_use_is_said_in_one_line_exit_3(run_serve, tmp_path):
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))
