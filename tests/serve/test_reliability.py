@@ -206,8 +206,8 @@ def test_a_worker_killed_while_measuring_gets_503_and_the_pool_is_replaced(serve
 
 @pytest.mark.slow
 def test_the_event_loop_answers_while_large_requests_are_handled(serve, scans):
-    """Health answers within 2 s (not seconds later) while a 10^6-point scan is measured by path and uploaded, and
-    while JSON bodies far larger than a request needs are refused (413, not parsed on the loop)."""
+    """Health answers within 2 s while a 10^6-point scan is measured by path and uploaded, and while
+    JSON bodies far larger than a request needs are refused (413, not parsed on the loop)."""
     served = serve("--allow-dir", scans, "--workers", "1")
     latencies, stop = [], threading.Event()
 

@@ -57,7 +57,8 @@ def test_with_a_token_every_route_but_health_asks_for_it(serve, scans, token_fil
     url = local(served.http)
     right = {"Authorization": f"Bearer {TOKEN}"}
     wrong_ones = [{}, {"Authorization": f"Bearer {TOKEN[:-1]}x"}, {"Authorization": TOKEN},
-                  {"Authorization": f"Basic {TOKEN}"}, {"Authorization": "Bearer"}, {"Authorization": f"Bearer {TOKEN}0"}]
+                  {"Authorization": f"Basic {TOKEN}"}, {"Authorization": "Bearer"},
+                  {"Authorization": f"Bearer {TOKEN}0"}]
     with httpx.Client(base_url=url, timeout=60) as client:
         assert client.get("/v1/health").status_code == 200
         for headers in wrong_ones:
