@@ -14,6 +14,7 @@ import contextlib
 import signal
 import socket
 
+from holecli import interrupts
 from holecli.serve.lines import close_lines, serve_lines
 
 __all__ = ["Listeners", "bind", "run"]
@@ -105,15 +106,17 @@ async def run(service, listeners, *, host, token=None, tcp_units="mm", opcua=Non
     loop = asyncio.get_running_loop()
     stopped = asyncio.Event()
 
-    def stop():
+    def stop(number):
         if stopped.is_set():
             http.force_exit = True
+            interrupts.record(number)  # a second signal cuts the requests in flight: holecli serve exits 130
         stopped.set()
         service.stopping = True  # new requests get 503 on every front end; those in flight go on
         http.should_exit = True
 
+    previous = {number: signal.getsignal(number) for number in (signal.SIGINT, signal.SIGTERM)}
     for number in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(number, stop)
+        loop.add_signal_handler(number, stop, number)
     lines = opcua_server = None
     try:
         listeners.http.listen(128)
@@ -149,3 +152,5 @@ async def run(service, listeners, *, host, token=None, tcp_units="mm", opcua=Non
                 await opcua_server.stop()
         for number in (signal.SIGINT, signal.SIGTERM):
             loop.remove_signal_handler(number)
+            if previous[number] is not None:  # holecli's handlers again: asyncio leaves SIGTERM's default (death)
+                signal.signal(number, previous[number])

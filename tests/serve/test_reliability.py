@@ -108,6 +108,60 @@ def store_location(request, tmp_path):
 
 
 @pytest.mark.slow
+def test_a_second_sigterm_cuts_the_requests_in_flight_and_exits_130(serve, scans):
+    served = serve("--allow-dir", scans, "--workers", "1")
+    answer = {}
+
+    def post():
+        with httpx.Client() as client:
+            try:
+                answer["status"] = measure(client, served.http, "s1e6.ply").status_code
+            except httpx.HTTPError as error:  # the connection closed without an answer
+                answer["status"] = error
+
+    thread = threading.Thread(target=post)
+    thread.start()
+    assert wait_for(lambda: health(served.http)["queue"] == 1, 30)
+    served.signal(signal.SIGTERM)
+    time.sleep(0.3)
+    served.signal(signal.SIGTERM)
+    assert served.wait(30) == 130
+    thread.join(MEASURE_TIMEOUT)
+    assert answer["status"] != 200
+    assert served.stderr.splitlines()[-1] == "Error: interrupted", served.stderr
+    assert served.leftovers() == []
+    assert integrity(served.store) == [("ok",)]
+
+
+def test_sigterm_while_starting_exits_130_and_leaves_nothing(serve_env, tmp_path):
+    process = subprocess.Popen([sys.executable, "-m", "holecli", "serve", "--port", "0", "--workers", "1", "--store",
+                                tmp_path / "store.sqlite"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True, env=serve_env, cwd=tmp_path)
+    try:
+        # its workers are being started (spawned, warming up): no ready line yet
+        assert wait_for(lambda: any(b"spawn_main" in _cmdline(pid) for pid, _ in descendants(process.pid)), 60)
+        children = descendants(process.pid)
+        process.send_signal(signal.SIGTERM)
+        out, err = process.communicate(timeout=30)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate(timeout=30)
+    assert process.returncode == 130, err
+    assert out == "" and err.strip() == "Error: interrupted", err
+    assert wait_gone(children, 10) == []
+    assert os.listdir(serve_env["TMPDIR"]) == []  # no uploads' folder left
+
+
+def _cmdline(pid):
+    try:
+        with open(f"/proc/{pid}/cmdline", "rb") as stream:
+            return stream.read()
+    except OSError:
+        return b""
+
+
+@pytest.mark.slow
 def test_kill_9_during_a_burst_loses_no_acknowledged_result(serve, scans, store_location):
     served = serve("--allow-dir", scans, "--workers", "2", store=store_location)
     acknowledged, lock, stop = [], threading.Lock(), threading.Event()
