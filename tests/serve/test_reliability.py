@@ -292,6 +292,36 @@ def test_the_event_loop_answers_while_large_requests_are_handled(serve, scans):
     assert len(latencies) > 20 and max(latencies) < 2.0, sorted(latencies)[-5:]
 
 
+@pytest.mark.slow
+def test_past_the_queue_a_request_gets_503_at_once_and_the_others_are_measured(serve, scans):
+    """One worker and 16 waiting places: of 30 requests sent at once, those beyond get 503 without
+    waiting, every other one is measured and stored."""
+    served = serve("--allow-dir", scans, "--workers", "1")
+    barrier, answers = threading.Barrier(30), []
+
+    def post():
+        with httpx.Client() as client:
+            client.get(served.http + "/v1/health", timeout=30)  # connected before the barrier
+            barrier.wait(30)
+            started = time.monotonic()
+            response = measure(client, served.http, "s1e5.ply")
+            answers.append((response, time.monotonic() - started))
+
+    threads = [threading.Thread(target=post) for _ in range(30)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(MEASURE_TIMEOUT)
+    refused = [seconds for response, seconds in answers if response.status_code == 503]
+    measured = [response.json()["id"] for response, _ in answers if response.status_code == 200]
+    assert len(answers) == 30 and len(refused) + len(measured) == 30, [r.text for r, _ in answers]
+    assert refused and len(measured) >= 17, (len(refused), len(measured))
+    assert max(refused) < 2.0
+    with open_store(served.store) as store:
+        assert all(store.get(identifier) is not None for identifier in measured)
+    assert health(served.http)["queue"] == 0
+
+
 def test_a_port_in_use_is_said_in_one_line_exit_3(run_serve, tmp_path):
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))
