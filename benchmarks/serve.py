@@ -1,0 +1,756 @@
+"""``holecli serve``: request latency, throughput, a soak and the store's insert rate, against the
+in-process ``holecli.measure_scan`` and a one-shot ``holecli detect`` of the same files, in one run.
+
+The scans are written by ``holecli simulate scene`` into a temporary folder (the Table I scene at the
+spacings that give about 10^4 and 10^5 points, height noise a tenth of the spacing), beside
+``sample_clouds/table1.ply`` (7,062 points). Servers are ``python -m holecli serve`` processes of this
+tree on 127.0.0.1 with ``--port 0`` (their ready line read with a deadline), a SQLite store in the
+temporary folder, stopped with SIGTERM (their exit status is checked: 0).
+
+1. Baselines. ``holecli.measure_scan(path)`` in this process, BLAS on one thread as in the workers
+   (p50/p99 wall, p50 CPU with ``time.process_time``); a one-shot ``python -m holecli detect FILE``
+   subprocess (p50 wall and CPU of a few runs).
+2. Latency. One client, sequential, against a server with ``--workers 1`` (one measurement at a
+   time, as in the in-process run, so the comparison is fair). Per scan, after warm-up requests,
+   rounds that each run the in-process measurement and then every channel once: HTTP by path (a JSON
+   body), HTTP by upload (the PLY as the raw body, ``?format=ply``), the TCP line protocol
+   (``MEASURE <path>``; when ``holecli/serve/lines.py`` exists) and OPC UA's ``Measure`` method
+   (asyncua; when ``holecli/serve/opcua.py`` exists and asyncua is installed). Interleaving puts the
+   machine's other load on every row alike. Per row: p50/p99 wall, the p50 difference to the
+   in-process p50 (goal <= 10 ms), the server's ``processing_ms`` (HTTP: receipt to stored) and the
+   CPU time of the server's process tree per request (from /proc).
+3. Throughput over HTTP by path on the 10^4 scan, 4 concurrent clients, with ``--workers 1`` and
+   ``--workers 2``: scans/s, the ratio (goal >= 1.7 on 2 cores) and the server tree's CPU per scan.
+4. Soak: ``--requests`` (10,000) requests from 8 concurrent clients over HTTP by path on
+   ``table1.ply``, against the ``--workers 2`` server: errors (goal 0), the rate, and the resident
+   memory of the server's process tree (VmRSS of the parent, its workers and multiprocessing's
+   resource tracker) after warm-up, at its peak and at the end (goal: growth < 50 MB).
+5. The store's insert rate: ``Store.add`` of a real record in a loop (``benchmarks/store.py``'s
+   ``insert_rate`` when it exists) on a SQLite file, and on PostgreSQL when ``tests/pgserver.py`` can
+   start a throwaway server.
+
+``--quick`` (the test's mode) uses scans of about 10^3 and 10^4 points, a few rounds and a short soak.
+``--json`` prints one JSON object with every figure instead of the tables.
+
+Run:  python benchmarks/serve.py [--requests 10000] [--rounds 80] [--quick] [--json] [--docs]
+
+``--docs`` writes the tables into the block ``serve`` of docs/validation/speed.md (``--docs-page PATH``: another page).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import importlib.util
+import json
+import os
+import platform
+import resource
+import selectors
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from benchmarks._docs_table import VALIDATION, add_docs_options, docs_target, recording  # noqa: E402
+
+GOAL_OVERHEAD_MS = 10.0
+GOAL_RATIO = 1.7
+GOAL_GROWTH_MB = 50.0
+TABLE1 = ROOT / "sample_clouds" / "table1.ply"
+# ``holecli simulate scene``'s default patch ([-3, 5]^2 less a 3 mm hole) at these spacings: ~10^3, 10^4, 10^5 points.
+SPACINGS = {"sim 10^3": 0.24, "sim 10^4": 0.0763, "sim 10^5": 0.0241}
+READY_SECONDS = 180.0
+STOP_SECONDS = 90.0
+CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
+
+
+def _environment():
+    """The environment of the child processes: this tree's holecli, BLAS as a user's shell leaves it."""
+    environment = dict(os.environ, PYTHONPATH=str(ROOT))
+    for name in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "OMP_NUM_THREADS"):
+        environment.pop(name, None)
+    return environment
+
+
+def _has(module):
+    try:
+        return importlib.util.find_spec(module) is not None
+    except ImportError:
+        return False
+
+
+def available_channels():
+    """The front ends this tree has: HTTP always; TCP with holecli/serve/lines.py; OPC UA with
+    holecli/serve/opcua.py and asyncua."""
+    return {"tcp": (ROOT / "holecli" / "serve" / "lines.py").exists(),
+            "opcua": (ROOT / "holecli" / "serve" / "opcua.py").exists() and _has("asyncua")}
+
+
+# -- the scans ------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Scan:
+    name: str
+    path: str
+    points: int
+    data: bytes
+
+
+def write_scans(folder, names):
+    """The simulated scans ``names`` (keys of :data:`SPACINGS`) in ``folder``, then table1.ply (copied
+    there: every file a request names lies in the server's --allow-dir)."""
+    from holecli import read_cloud
+
+    scans = []
+    for name in names:
+        spacing = SPACINGS[name]
+        path = os.path.join(folder, name.replace(" ", "_").replace("^", "e") + ".ply")
+        subprocess.run([sys.executable, "-m", "holecli", "simulate", "scene", path, "--spacing", str(spacing),
+                        "--noise-z", f"{0.1 * spacing:.6g}", "-q"], check=True, capture_output=True,
+                       env=_environment())
+        scans.append(path)
+    table1 = os.path.join(folder, "table1.ply")
+    with open(TABLE1, "rb") as source, open(table1, "wb") as copy:
+        copy.write(source.read())
+    result = []
+    for name, path in zip([*names, "table1"], [*scans, table1]):
+        with open(path, "rb") as stream:
+            data = stream.read()
+        result.append(Scan(name, path, len(read_cloud(path).points), data))
+    return result
+
+
+# -- the server -----------------------------------------------------------------------------------
+
+
+def _stat_cpu(pid):
+    """User + system CPU seconds of process ``pid`` (its own, not its children's), from /proc."""
+    with open(f"/proc/{pid}/stat", encoding="ascii") as stream:
+        fields = stream.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / CLOCK_TICKS
+
+
+def _rss_mb(pid):
+    with open(f"/proc/{pid}/status", encoding="ascii") as stream:
+        for line in stream:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024.0
+    return 0.0
+
+
+def process_tree(pid):
+    """``pid`` and its descendants (from the parent ids of /proc/*/stat)."""
+    parents = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat", encoding="ascii") as stream:
+                    parents[int(entry)] = int(stream.read().rsplit(")", 1)[1].split()[1])
+            except (OSError, ValueError, IndexError):
+                pass
+    tree, frontier = [pid], [pid]
+    while frontier:
+        frontier = [child for child, parent in parents.items() if parent in frontier]
+        tree.extend(frontier)
+    return tree
+
+
+class Server:
+    """A ``python -m holecli serve`` process on 127.0.0.1, port 0, ready when its JSON line came."""
+
+    def __init__(self, folder, store, workers, tcp=False, opcua=False):
+        command = [sys.executable, "-m", "holecli", "serve", "--host", "127.0.0.1", "--port", "0",
+                   "--allow-dir", folder, "--store", store, "--workers", str(workers), "-q"]
+        if tcp:
+            command += ["--tcp-port", "0"]
+        if opcua:
+            command += ["--opcua-port", "0"]
+        self.workers = workers
+        self.errors = tempfile.TemporaryFile()
+        self.process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=self.errors, env=_environment(),
+                                        cwd=ROOT)
+        try:
+            self.ready = json.loads(self._ready_line(READY_SECONDS))
+        except BaseException:
+            self.process.kill()
+            self.process.wait()
+            raise
+        self.http = self.ready["http"]
+        self.tcp = self.ready.get("tcp")
+        self.opcua = self.ready.get("opcua")
+        self.pids = process_tree(self.process.pid)
+
+    def _stderr(self):
+        self.errors.seek(0)
+        return self.errors.read().decode(errors="replace").strip()[-2000:]
+
+    def _ready_line(self, seconds):
+        deadline = time.monotonic() + seconds
+        line = b""
+        with selectors.DefaultSelector() as selector:
+            selector.register(self.process.stdout, selectors.EVENT_READ)
+            while not line.endswith(b"\n"):
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise RuntimeError(f"holecli serve said nothing within {seconds:g} s: {self._stderr()}")
+                if selector.select(left):
+                    chunk = os.read(self.process.stdout.fileno(), 4096)
+                    if not chunk:
+                        self.process.wait()
+                        raise RuntimeError(f"holecli serve exited ({self.process.returncode}) before it was ready: "
+                                           f"{self._stderr()}")
+                    line += chunk
+        return line.decode()
+
+    def refresh(self):
+        """Find the process tree again (a worker replaced after a crash has a new id)."""
+        self.pids = process_tree(self.process.pid)
+
+    def cpu_seconds(self):
+        total = 0.0
+        for pid in self.pids:
+            try:
+                total += _stat_cpu(pid)
+            except OSError:
+                pass
+        return total
+
+    def rss_mb(self):
+        """Resident memory of the whole tree (VmRSS of each process), MB."""
+        self.refresh()
+        total = 0.0
+        for pid in self.pids:
+            try:
+                total += _rss_mb(pid)
+            except OSError:
+                pass
+        return total
+
+    def stop(self):
+        """SIGTERM, then the exit status (0 expected)."""
+        self.process.send_signal(signal.SIGTERM)
+        try:
+            status = self.process.wait(STOP_SECONDS)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            status = self.process.wait()
+        self.process.stdout.close()
+        if status != 0:
+            print(f"holecli serve exited {status} on SIGTERM: {self._stderr()}", file=sys.stderr)
+        self.errors.close()
+        return status
+
+
+# -- the clients ----------------------------------------------------------------------------------
+
+
+class RequestFailed(RuntimeError):
+    """A request that did not get a stored measurement."""
+
+
+def http_client(server):
+    import httpx
+
+    return httpx.Client(base_url=server.http, timeout=300.0)
+
+
+def http_by_path(client, scan):
+    """POST /v1/measure with a JSON body naming the file: the answer's processing_ms."""
+    response = client.post("/v1/measure", json={"path": scan.path})
+    return _checked_http(response, scan)
+
+
+def http_by_upload(client, scan):
+    """POST /v1/measure?format=ply with the PLY as the raw body: the answer's processing_ms."""
+    response = client.post("/v1/measure", params={"format": "ply"}, content=scan.data,
+                           headers={"Content-Type": "application/octet-stream"})
+    return _checked_http(response, scan)
+
+
+def _checked_http(response, scan):
+    if response.status_code != 200:
+        raise RequestFailed(f"{scan.name}: HTTP {response.status_code}: {response.text[:300]}")
+    answer = response.json()
+    if not answer.get("stored") or answer.get("points") != scan.points:
+        raise RequestFailed(f"{scan.name}: unexpected answer {str(answer)[:300]}")
+    return answer["processing_ms"]
+
+
+class LineClient:
+    """The TCP line protocol, one kept connection: ``MEASURE <path>`` answered by one ``OK,...`` line."""
+
+    def __init__(self, address):
+        host, port = address.rsplit(":", 1)
+        self.sock = socket.create_connection((host, int(port)), timeout=300.0)
+        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.reader = self.sock.makefile("rb")
+
+    def measure(self, scan):
+        path = f'"{scan.path}"' if " " in scan.path else scan.path
+        self.sock.sendall(f"MEASURE {path}\n".encode())
+        line = self.reader.readline().decode(errors="replace").strip()
+        if not line.startswith("OK,"):
+            raise RequestFailed(f"{scan.name}: TCP answered {line[:300]!r}")
+        return None
+
+    def close(self):
+        self.reader.close()
+        self.sock.close()
+
+
+class OpcUaClient:
+    """An asyncua client on a loop of its own thread, calling ``Holecli/Measure(path, spec, meta)``."""
+
+    def __init__(self, url):
+        from holecli.serve.opcua import NAMESPACE_URI
+
+        self.loop = asyncio.new_event_loop()
+        self.thread = threading.Thread(target=self.loop.run_forever, daemon=True)
+        self.thread.start()
+        self.namespace_uri = NAMESPACE_URI
+        self._run(self._connect(url))
+
+    def _run(self, coroutine):
+        return asyncio.run_coroutine_threadsafe(coroutine, self.loop).result()
+
+    async def _connect(self, url):
+        from asyncua import Client, ua
+
+        self.ua = ua
+        self.client = Client(url, timeout=300.0)
+        await self.client.connect()
+        self.namespace = await self.client.get_namespace_index(self.namespace_uri)
+        self.holecli = self.client.get_node(ua.NodeId("Holecli", self.namespace))
+
+    def measure(self, scan):
+        async def call():
+            return await self.holecli.call_method(self.ua.QualifiedName("Measure", self.namespace), scan.path, "", "")
+
+        result_id, *_ = self._run(call())
+        if not result_id:
+            raise RequestFailed(f"{scan.name}: OPC UA Measure returned no result id")
+        return None
+
+    def close(self):
+        try:
+            self._run(self.client.disconnect())
+        finally:
+            self.loop.call_soon_threadsafe(self.loop.stop)
+            self.thread.join()
+            self.loop.close()
+
+
+# -- 1 and 2: baselines and latency ---------------------------------------------------------------
+
+
+def in_process(scan):
+    """``holecli.measure_scan`` of the scan in this process (BLAS on one thread, as in a worker)."""
+    from holecli import measure_scan
+    from holecli.threads import single_blas_thread
+
+    with single_blas_thread():
+        record = measure_scan(scan.path).record
+    if record["points"] != scan.points:
+        raise RequestFailed(f"{scan.name}: measured {record['points']} points, expected {scan.points}")
+
+
+def one_shot(scan, runs):
+    """Wall and CPU seconds (medians) of ``runs`` whole ``python -m holecli detect FILE`` processes."""
+    walls, cpus = [], []
+    for _ in range(runs):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        started = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "holecli", "detect", scan.path], check=True, capture_output=True,
+                       env=_environment())
+        walls.append(time.perf_counter() - started)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpus.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+    return {"runs": runs, "p50_ms": float(np.median(walls)) * 1e3, "cpu_p50_ms": float(np.median(cpus)) * 1e3}
+
+
+def _ms(values, q):
+    return float(np.percentile(values, q)) * 1e3 if len(values) else None
+
+
+def latency(server, scans, rounds_of, warmup, channels):
+    """Per scan: rounds of the in-process measurement and one request per channel, interleaved.
+
+    Returns
+    -------
+    baseline : dict
+        Scan name -> in-process p50/p99/cpu.
+    rows : list of dict
+        Per scan and channel: p50/p99 wall ms, server processing_ms p50, server CPU ms per request.
+    """
+    clients = {"HTTP path": http_client(server)}
+    clients["HTTP upload"] = clients["HTTP path"]
+    calls = {"HTTP path": http_by_path, "HTTP upload": http_by_upload}
+    opened = [clients["HTTP path"]]
+    try:
+        if channels["tcp"]:
+            clients["TCP path"] = LineClient(server.tcp)
+            calls["TCP path"] = LineClient.measure
+            opened.append(clients["TCP path"])
+        if channels["opcua"]:
+            clients["OPC UA path"] = OpcUaClient(server.opcua)
+            calls["OPC UA path"] = OpcUaClient.measure
+            opened.append(clients["OPC UA path"])
+        baseline, rows = {}, []
+        for scan in scans:
+            for _ in range(warmup):
+                in_process(scan)
+                for name, call in calls.items():
+                    call(clients[name], scan)
+            server.refresh()
+            walls = {name: [] for name in ["in-process", *calls]}
+            cpus = {name: [] for name in walls}
+            processing = {name: [] for name in calls}
+            for _ in range(rounds_of(scan)):
+                started, started_cpu = time.perf_counter(), time.process_time()
+                in_process(scan)
+                walls["in-process"].append(time.perf_counter() - started)
+                cpus["in-process"].append(time.process_time() - started_cpu)
+                for name, call in calls.items():
+                    server_cpu = server.cpu_seconds()
+                    started = time.perf_counter()
+                    server_ms = call(clients[name], scan)
+                    walls[name].append(time.perf_counter() - started)
+                    cpus[name].append(server.cpu_seconds() - server_cpu)
+                    if server_ms is not None:
+                        processing[name].append(server_ms / 1e3)
+            base = {"points": scan.points, "rounds": len(walls["in-process"]), "p50_ms": _ms(walls["in-process"], 50),
+                    "p99_ms": _ms(walls["in-process"], 99), "cpu_p50_ms": _ms(cpus["in-process"], 50)}
+            baseline[scan.name] = base
+            for name in calls:
+                p50 = _ms(walls[name], 50)
+                rows.append({"scan": scan.name, "points": scan.points, "channel": name, "requests": len(walls[name]),
+                             "p50_ms": p50, "p99_ms": _ms(walls[name], 99), "in_process_p50_ms": base["p50_ms"],
+                             "over_in_process_ms": p50 - base["p50_ms"],
+                             "server_processing_p50_ms": _ms(processing[name], 50),
+                             "server_cpu_ms_per_request": float(np.mean(cpus[name])) * 1e3,
+                             "pass": p50 - base["p50_ms"] <= GOAL_OVERHEAD_MS})
+        return baseline, rows
+    finally:
+        for client in opened:
+            client.close()
+
+
+# -- 3 and 4: concurrent clients ------------------------------------------------------------------
+
+
+def drive(server, scan, clients, requests, on_tick=None):
+    """``requests`` HTTP-by-path requests from ``clients`` threads, each with its own connection.
+
+    Returns
+    -------
+    dict
+        seconds, requests, errors (with the first few messages), the server tree's CPU seconds.
+    """
+    lock = threading.Lock()
+    state = {"left": requests, "errors": 0, "messages": []}
+
+    def work():
+        with http_client(server) as client:
+            while True:
+                with lock:
+                    if state["left"] <= 0:
+                        return
+                    state["left"] -= 1
+                try:
+                    http_by_path(client, scan)
+                except Exception as error:  # noqa: BLE001 - counted: the soak's goal is none
+                    with lock:
+                        state["errors"] += 1
+                        if len(state["messages"]) < 3:
+                            state["messages"].append(f"{type(error).__name__}: {error}"[:300])
+
+    server.refresh()
+    cpu = server.cpu_seconds()
+    started = time.perf_counter()
+    threads = [threading.Thread(target=work) for _ in range(clients)]
+    for thread in threads:
+        thread.start()
+    while any(thread.is_alive() for thread in threads):
+        threads[0].join(0.5)
+        if on_tick is not None:
+            on_tick()
+    for thread in threads:
+        thread.join()
+    seconds = time.perf_counter() - started
+    return {"seconds": seconds, "requests": requests, "errors": state["errors"], "messages": state["messages"],
+            "server_cpu_s": server.cpu_seconds() - cpu}
+
+
+def throughput(server, scan, clients, requests):
+    drive(server, scan, clients, 2 * clients)  # warm-up: every connection and worker busy once
+    run = drive(server, scan, clients, requests)
+    if run["errors"]:
+        raise RequestFailed(f"throughput --workers {server.workers}: {run['errors']} errors: {run['messages']}")
+    return {"workers": server.workers, "clients": clients, "requests": requests, "seconds": run["seconds"],
+            "scans_per_s": requests / run["seconds"], "server_cpu_ms_per_scan": run["server_cpu_s"] / requests * 1e3,
+            "server_cpu_cores": run["server_cpu_s"] / run["seconds"]}
+
+
+def soak(server, scan, clients, requests, warmup):
+    drive(server, scan, clients, warmup)
+    before = server.rss_mb()
+    peak = [before]
+    last = [time.monotonic()]
+
+    def sample():
+        if time.monotonic() - last[0] >= 2.0:
+            last[0] = time.monotonic()
+            peak[0] = max(peak[0], server.rss_mb())
+
+    run = drive(server, scan, clients, requests, on_tick=sample)
+    after = server.rss_mb()
+    peak[0] = max(peak[0], after)
+    return {"scan": scan.name, "points": scan.points, "workers": server.workers, "clients": clients,
+            "requests": requests, "seconds": run["seconds"], "rate_per_s": requests / run["seconds"],
+            "errors": run["errors"], "error_messages": run["messages"], "rss_before_mb": before,
+            "rss_peak_mb": peak[0], "rss_after_mb": after, "rss_growth_mb": after - before,
+            "pass": run["errors"] == 0 and after - before < GOAL_GROWTH_MB}
+
+
+# -- 5: the store ---------------------------------------------------------------------------------
+
+
+def _own_insert_rate(location, records, seconds):
+    """``Store.add`` of ``records`` (cycled) for ``seconds``: adds per second (one transaction each)."""
+    from holecli.store import open_store
+
+    with open_store(location) as store:
+        store.add(records[0], meta={"part": "P-0", "serial": "warm-up"}, processing_ms=1.0)
+        count, started = 0, time.perf_counter()
+        while time.perf_counter() - started < seconds:
+            store.add(records[count % len(records)], meta={"part": "P-1", "serial": f"S-{count}"}, processing_ms=1.0)
+            count += 1
+        return count / (time.perf_counter() - started)
+
+
+def _insert_rate_function():
+    """benchmarks/store.py's ``insert_rate`` when it exists, else :func:`_own_insert_rate`; and its name."""
+    path = ROOT / "benchmarks" / "store.py"
+    if path.exists():
+        spec = importlib.util.spec_from_file_location("benchmark_store", path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        if hasattr(module, "insert_rate"):
+            return module.insert_rate, "benchmarks/store.py insert_rate"
+    return _own_insert_rate, "Store.add in a loop"
+
+
+def _as_rate(result):
+    if isinstance(result, dict):
+        for key in ("rate", "inserts_per_s", "per_s", "rate_per_s"):
+            if key in result:
+                return float(result[key])
+        raise TypeError(f"insert_rate returned {result!r}: no rate in it")
+    return float(result)
+
+
+def store_rates(folder, records, seconds):
+    """Inserts per second on SQLite (a file in ``folder``) and on a throwaway PostgreSQL when one starts."""
+    insert_rate, how = _insert_rate_function()
+    rows = [{"engine": "SQLite (WAL, synchronous FULL)", "how": how,
+             "inserts_per_s": _as_rate(insert_rate(os.path.join(folder, "insert-rate.sqlite"), records, seconds))}]
+    if (ROOT / "tests" / "pgserver.py").exists() and _has("psycopg"):
+        from tests.pgserver import NoPostgres, fresh_database, postgres_server
+
+        try:
+            with postgres_server() as url, fresh_database(url) as database:
+                rows.append({"engine": "PostgreSQL (fsync on, local)", "how": how,
+                             "inserts_per_s": _as_rate(insert_rate(database, records, seconds))})
+        except (NoPostgres, RuntimeError) as error:
+            rows.append({"engine": "PostgreSQL", "how": how, "inserts_per_s": None, "skipped": str(error)[:200]})
+    else:
+        rows.append({"engine": "PostgreSQL", "how": how, "inserts_per_s": None,
+                     "skipped": "tests/pgserver.py or psycopg not in this tree"})
+    return rows
+
+
+# -- the run --------------------------------------------------------------------------------------
+
+
+def _number(value, spec):
+    return format(value, spec) if value is not None else "-"
+
+
+def _print_baselines(figures, out):
+    print("1. Baselines: holecli.measure_scan in this process (BLAS on one thread, as in a worker; measured in "
+          "the latency rounds below), and whole `python -m holecli detect FILE` processes", file=out)
+    print(f"{'scan':<9} {'points':>7} {'rounds':>6} {'p50 ms':>7} {'p99 ms':>7} {'cpu p50 ms':>10}   "
+          f"{'detect runs':>11} {'p50 ms':>7} {'cpu p50 ms':>10}", file=out)
+    for name, base in figures["baseline"].items():
+        shot = figures["one_shot"][name]
+        print(f"{name:<9} {base['points']:>7,} {base['rounds']:>6} {base['p50_ms']:>7.1f} {base['p99_ms']:>7.1f} "
+              f"{base['cpu_p50_ms']:>10.1f}   {shot['runs']:>11} {shot['p50_ms']:>7.0f} {shot['cpu_p50_ms']:>10.0f}",
+              file=out)
+
+
+def _print_latency(figures, out):
+    missing = [name for name, present in figures["channels"].items() if not present]
+    print(f"\n2. Latency: one client, sequential, a server with --workers 1, after {figures['settings']['warmup']} "
+          f"warm-up requests per channel; goal p50 <= in-process p50 + {GOAL_OVERHEAD_MS:g} ms"
+          + (f" (not in this tree: {', '.join(missing)})" if missing else ""), file=out)
+    print(f"{'scan':<9} {'channel':<12} {'n':>4} {'p50 ms':>7} {'p99 ms':>7} {'in-proc':>7} {'+ ms':>6} "
+          f"{'server ms':>9} {'srv cpu ms':>10}  goal", file=out)
+    for row in figures["latency"]:
+        print(f"{row['scan']:<9} {row['channel']:<12} {row['requests']:>4} {row['p50_ms']:>7.1f} {row['p99_ms']:>7.1f} "
+              f"{row['in_process_p50_ms']:>7.1f} {row['over_in_process_ms']:>+6.1f} "
+              f"{_number(row['server_processing_p50_ms'], '9.1f'):>9} {row['server_cpu_ms_per_request']:>10.1f}  "
+              f"{'PASS' if row['pass'] else 'FAIL'}", file=out)
+    print("(server ms: the answer's processing_ms, receipt to stored, p50; srv cpu ms: CPU of the server's process "
+          "tree per request, /proc)", file=out)
+
+
+def _print_throughput(figures, out):
+    runs = figures["throughput"]["runs"]
+    one = runs[0]
+    print(f"\n3. Throughput: {one['clients']} concurrent clients over HTTP by path, {one['requests']} requests on "
+          f"{figures['throughput']['scan']} ({figures['throughput']['points']:,} points)", file=out)
+    print(f"{'workers':>7} {'s':>7} {'scans/s':>8} {'srv cpu ms/scan':>15} {'srv cores busy':>14}", file=out)
+    for run in runs:
+        print(f"{run['workers']:>7} {run['seconds']:>7.2f} {run['scans_per_s']:>8.2f} {run['server_cpu_ms_per_scan']:>15.1f} "
+              f"{run['server_cpu_cores']:>14.2f}", file=out)
+    ratio = figures["throughput"]["ratio"]
+    print(f"ratio --workers 2 / --workers 1: {ratio:.2f} (goal >= {GOAL_RATIO}): {'PASS' if ratio >= GOAL_RATIO else 'FAIL'}",
+          file=out)
+
+
+def _print_soak(figures, out):
+    soaked = figures["soak"]
+    print(f"\n4. Soak: {soaked['requests']:,} requests from {soaked['clients']} concurrent clients over HTTP by path on "
+          f"{soaked['scan']} ({soaked['points']:,} points), --workers {soaked['workers']}", file=out)
+    print(f"{soaked['seconds']:.1f} s, {soaked['rate_per_s']:.1f} requests/s, errors {soaked['errors']} (goal 0)"
+          + (f": {soaked['error_messages']}" if soaked["errors"] else ""), file=out)
+    print(f"server RSS (parent + workers + resource tracker): {soaked['rss_before_mb']:.1f} MB after warm-up, peak "
+          f"{soaked['rss_peak_mb']:.1f}, after {soaked['rss_after_mb']:.1f}: growth {soaked['rss_growth_mb']:+.1f} MB "
+          f"(goal < {GOAL_GROWTH_MB:g}): {'PASS' if soaked['pass'] else 'FAIL'}", file=out)
+
+
+def _print_store(figures, out):
+    print(f"\n5. The store's insert rate: one add (a measurement, its holes and characteristics) per transaction, "
+          f"committed; a real record of table1.ply, {figures['settings']['store_seconds']:g} s each", file=out)
+    for row in figures["store"]:
+        rate = f"{row['inserts_per_s']:.0f} inserts/s" if row["inserts_per_s"] is not None else \
+            f"not measured ({row.get('skipped')})"
+        print(f"{row['engine']:<32} {rate}  [{row['how']}]", file=out)
+
+
+def _print_stops(figures, out):
+    stops = ", ".join(f"--workers {workers}: exit {status}" for workers, status in figures["stops"])
+    print(f"\nservers stopped with SIGTERM: {stops}", file=out)
+
+
+def run(args, progress):
+    """Every figure, printed section by section to ``progress`` (None: silent) as they come."""
+    channels = available_channels()
+    names = ["sim 10^3", "sim 10^4"] if args.quick else ["sim 10^4", "sim 10^5"]
+    figures = {"machine": {"cores": len(os.sched_getaffinity(0)), "python": platform.python_version(),
+                           "load_average": os.getloadavg()},
+               "channels": dict({"http": True}, **channels),
+               "settings": {"quick": args.quick, "rounds": args.rounds, "large_rounds": args.large_rounds,
+                            "warmup": args.warmup, "one_shot_runs": args.one_shot_runs,
+                            "throughput_requests": args.throughput_requests, "soak_requests": args.requests,
+                            "store_seconds": args.store_seconds}}
+    import holecli
+
+    figures["holecli_version"] = holecli.__version__
+    with tempfile.TemporaryDirectory(prefix="holecli-bench-serve-") as folder:
+        scans = write_scans(folder, names)
+        by_name = {scan.name: scan for scan in scans}
+        small = by_name["sim 10^4"]
+        if progress:
+            print(f"holecli serve benchmark: {figures['machine']['cores']} cores, Python {figures['machine']['python']}, "
+                  f"holecli {figures['holecli_version']}; scans: "
+                  + ", ".join(f"{scan.name} {scan.points:,} points" for scan in scans), file=progress)
+        figures["one_shot"] = {scan.name: one_shot(scan, args.one_shot_runs) for scan in scans}
+        stops = []
+        server = Server(folder, os.path.join(folder, "latency.sqlite"), 1, tcp=channels["tcp"], opcua=channels["opcua"])
+        try:
+            largest = max(scan.points for scan in scans if scan.name != "table1")
+
+            def rounds_of(scan):
+                return args.large_rounds if scan.points == largest and not args.quick else args.rounds
+
+            figures["baseline"], figures["latency"] = latency(server, scans, rounds_of, args.warmup, channels)
+            if progress:
+                _print_baselines(figures, progress)
+                _print_latency(figures, progress)
+            one = throughput(server, small, 4, args.throughput_requests)
+        finally:
+            stops.append((1, server.stop()))
+        server = Server(folder, os.path.join(folder, "soak.sqlite"), 2)
+        try:
+            two = throughput(server, small, 4, args.throughput_requests)
+            figures["throughput"] = {"scan": small.name, "points": small.points, "runs": [one, two],
+                                     "ratio": two["scans_per_s"] / one["scans_per_s"]}
+            figures["throughput"]["pass"] = figures["throughput"]["ratio"] >= GOAL_RATIO
+            if progress:
+                _print_throughput(figures, progress)
+            figures["soak"] = soak(server, by_name["table1"], 8, args.requests, warmup=min(200, args.requests))
+            if progress:
+                _print_soak(figures, progress)
+        finally:
+            stops.append((2, server.stop()))
+        figures["stops"] = stops
+        from holecli import measure_scan
+
+        record = measure_scan(by_name["table1"].path).record
+        figures["store"] = store_rates(folder, [record], args.store_seconds)
+        if progress:
+            _print_store(figures, progress)
+            _print_stops(figures, progress)
+    figures["goals"] = {"latency": all(row["pass"] for row in figures["latency"]),
+                        "throughput": figures["throughput"]["pass"], "soak": figures["soak"]["pass"],
+                        "clean_stops": all(status == 0 for _, status in stops)}
+    if progress:
+        print("goals: " + ", ".join(f"{name} {'PASS' if ok else 'FAIL'}" for name, ok in figures["goals"].items()),
+              file=progress)
+    return figures
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--requests", type=int, default=None, help="soak requests (default 10000; --quick 40)")
+    parser.add_argument("--rounds", type=int, default=None, help="latency rounds per scan (default 80; --quick 3)")
+    parser.add_argument("--large-rounds", type=int, default=25, help="latency rounds of the 10^5 scan (default 25)")
+    parser.add_argument("--quick", action="store_true", help="small scans, few rounds, a short soak (for the test)")
+    parser.add_argument("--json", action="store_true", help="print one JSON object with every figure instead of tables")
+    add_docs_options(parser, VALIDATION / "speed.md")
+    args = parser.parse_args(argv)
+    args.requests = args.requests if args.requests is not None else (40 if args.quick else 10_000)
+    args.rounds = args.rounds if args.rounds is not None else (3 if args.quick else 80)
+    args.warmup = 2 if args.quick else 5
+    args.one_shot_runs = 1 if args.quick else 5
+    args.throughput_requests = 16 if args.quick else 160
+    args.store_seconds = 0.5 if args.quick else 2.0
+    if min(args.requests, args.rounds, args.large_rounds) < 1:
+        parser.error("--requests, --rounds and --large-rounds must be at least 1")
+    docs = docs_target(parser, args, argv, "serve.py", ["serve"])
+    if args.json:
+        figures = run(args, progress=None)
+        print(json.dumps(figures, indent=1))
+    else:
+        with recording() as printed:
+            figures = run(args, progress=sys.stdout)
+        if docs:
+            docs.write("serve", printed.text)
+    return 0 if figures["goals"]["clean_stops"] else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
