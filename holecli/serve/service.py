@@ -203,7 +203,8 @@ def number_of(value, error):
 
 
 def checked_meta(meta) -> dict:
-    """The request's ``meta``: word keys, string values of at most 200 characters.
+    """The request's ``meta``: word keys, string values of at most 200 characters; every key of
+    :data:`META_KEYS` present (None when not given), as the store gives it back.
 
     Raises
     ------
@@ -214,7 +215,7 @@ def checked_meta(meta) -> dict:
         raise ServiceError(400, "meta: must be an object of strings")
     if len(meta) > MAX_META_KEYS:
         raise ServiceError(400, f"meta: more than {MAX_META_KEYS} keys")
-    checked = {}
+    checked = dict.fromkeys(META_KEYS)
     for key, value in meta.items():
         if not isinstance(key, str) or not key.isidentifier() or len(key) > 40:
             raise ServiceError(400, f"meta: {str(key)[:40]!r} is not a key (a word of at most 40 characters)")

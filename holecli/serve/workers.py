@@ -124,7 +124,9 @@ def measure_job(path, how, timeout):
                          status=408)
     except MeasureError as error:
         status = 413 if isinstance(error.__cause__, MemoryError) else 422
-        return JobResult(error=str(error), status=status)
+        # a reader's message names the file it opened: the service's real path, or its copy of an
+        # upload; the client is told the name it gave
+        return JobResult(error=str(error).replace(path, name), status=status)
     except MemoryError:
         return JobResult(error=f"{name}: the scan needs more memory than a worker may use (--worker-memory-mb)",
                          status=413)
