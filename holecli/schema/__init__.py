@@ -12,7 +12,7 @@ import json
 from importlib import resources
 
 SCHEMA_FILE = "record.schema.json"
-KINDS = ("detect_record", "batch_record", "batch_error", "batch_line")
+KINDS = ("detect_record", "batch_record", "batch_error", "batch_line", "served_record")
 
 
 def record_schema(kind=None) -> dict:
@@ -20,7 +20,7 @@ def record_schema(kind=None) -> dict:
 
     Parameters
     ----------
-    kind : {"detect_record", "batch_record", "batch_error", "batch_line"}, optional
+    kind : {"detect_record", "batch_record", "batch_error", "batch_line", "served_record"}, optional
         Root the schema at that definition; by default it accepts any of them.
 
     Returns

@@ -74,6 +74,10 @@ def test_measure_by_path_answers_the_stored_record(server):
     record = answer.json()
     assert record["file"] == "table1.ply" and record["stored"] is True and len(record["holes"]) == 1
     assert client.get(f"/v1/results/{record['id']}").json() == record
+    jsonschema = pytest.importorskip("jsonschema")
+    from holecli.schema import record_schema
+
+    jsonschema.Draft202012Validator(record_schema("served_record")).validate(record)
     listed = client.get("/v1/results", params={"part": "P1", "serial": "7"}).json()
     assert [summary["id"] for summary in listed] == [record["id"]]
 

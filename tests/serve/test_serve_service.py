@@ -65,6 +65,10 @@ def test_a_path_is_measured_into_the_detect_record_and_stored(service, cell):
     assert answer["file"] == "table1.ply" and answer["stored"] is True
     assert answer["meta"] == {"part": "P-7", "serial": "S1", "cell": None, "operator": None}
     assert len(answer["id"]) == 32 and answer["received"].endswith("Z") and answer["processing_ms"] > 0
+    jsonschema = pytest.importorskip("jsonschema")
+    from holecli.schema import record_schema
+
+    jsonschema.Draft202012Validator(record_schema("served_record")).validate(answer)
     stored = asyncio.run(service.result(answer["id"]))
     assert json.loads(json.dumps(stored)) == json.loads(json.dumps(answer))
     found = asyncio.run(service.results(part="P-7", serial="S1"))
@@ -75,7 +79,7 @@ def test_an_upload_is_measured_as_the_file_would_be(service, cell):
     data = (cell / "scans" / "table1.ply").read_bytes()
     answer = measure(service, upload=data, format="ply")
     by_path = measure(service, path="table1.ply")
-    assert answer["file"] == "upload.ply"
+    assert answer["file"] == "upload.ply" and "path" not in answer
     assert answer["holes"][0]["diameter"] == by_path["holes"][0]["diameter"]
     assert list(Path(service._uploads).iterdir()) == []  # the upload's copy is gone
 
