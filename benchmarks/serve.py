@@ -537,16 +537,19 @@ def soak(server, scan, clients, requests, warmup):
 
 
 def _own_insert_rate(location, records, seconds):
-    """``Store.add`` of ``records`` (cycled) for ``seconds``: adds per second (one transaction each)."""
+    """``Store.add`` of ``records`` (in turn) for ``seconds``, one transaction each: ``per_second``,
+    ``p50_ms`` and ``p99_ms`` of one add (what benchmarks/store.py's ``insert_rate`` gives)."""
     from holecli.store import open_store
 
+    latencies = []
     with open_store(location) as store:
-        store.add(records[0], meta={"part": "P-0", "serial": "warm-up"}, processing_ms=1.0)
-        count, started = 0, time.perf_counter()
-        while time.perf_counter() - started < seconds:
-            store.add(records[count % len(records)], meta={"part": "P-1", "serial": f"S-{count}"}, processing_ms=1.0)
-            count += 1
-        return count / (time.perf_counter() - started)
+        started = time.perf_counter()
+        while not latencies or time.perf_counter() - started < seconds:
+            before = time.perf_counter()
+            store.add(records[len(latencies) % len(records)], meta={"part": "bench", "serial": str(len(latencies))})
+            latencies.append(time.perf_counter() - before)
+        elapsed = time.perf_counter() - started
+    return {"per_second": len(latencies) / elapsed, "p50_ms": _ms(latencies, 50), "p99_ms": _ms(latencies, 99)}
 
 
 def _insert_rate_function():
@@ -561,27 +564,24 @@ def _insert_rate_function():
     return _own_insert_rate, "Store.add in a loop"
 
 
-def _as_rate(result):
-    if isinstance(result, dict):
-        for key in ("rate", "inserts_per_s", "per_s", "rate_per_s"):
-            if key in result:
-                return float(result[key])
-        raise TypeError(f"insert_rate returned {result!r}: no rate in it")
-    return float(result)
+def _rate(result):
+    """The figures of an ``insert_rate`` result."""
+    return {"inserts_per_s": float(result["per_second"]), "add_p50_ms": result.get("p50_ms"),
+            "add_p99_ms": result.get("p99_ms")}
 
 
 def store_rates(folder, records, seconds):
     """Inserts per second on SQLite (a file in ``folder``) and on a throwaway PostgreSQL when one starts."""
     insert_rate, how = _insert_rate_function()
-    rows = [{"engine": "SQLite (WAL, synchronous FULL)", "how": how,
-             "inserts_per_s": _as_rate(insert_rate(os.path.join(folder, "insert-rate.sqlite"), records, seconds))}]
+    rows = [dict({"engine": "SQLite (WAL, synchronous FULL)", "how": how},
+                 **_rate(insert_rate(os.path.join(folder, "insert-rate.sqlite"), records, seconds)))]
     if (ROOT / "tests" / "pgserver.py").exists() and _has("psycopg"):
         from tests.pgserver import NoPostgres, fresh_database, postgres_server
 
         try:
             with postgres_server() as url, fresh_database(url) as database:
-                rows.append({"engine": "PostgreSQL (fsync on, local)", "how": how,
-                             "inserts_per_s": _as_rate(insert_rate(database, records, seconds))})
+                rows.append(dict({"engine": "PostgreSQL (fsync on, local)", "how": how},
+                                 **_rate(insert_rate(database, records, seconds))))
         except (NoPostgres, RuntimeError) as error:
             rows.append({"engine": "PostgreSQL", "how": how, "inserts_per_s": None, "skipped": str(error)[:200]})
     else:
@@ -661,7 +661,8 @@ def _print_store(figures, out):
     print(f"\n5. The store's insert rate: one add (a measurement, its holes and characteristics) per transaction, "
           f"committed; a real record of table1.ply, {figures['settings']['store_seconds']:g} s each", file=out)
     for row in figures["store"]:
-        rate = f"{row['inserts_per_s']:.0f} inserts/s" if row["inserts_per_s"] is not None else \
+        rate = f"{row['inserts_per_s']:6.0f} inserts/s, one add p50 {_number(row.get('add_p50_ms'), '.2f')} ms, " \
+               f"p99 {_number(row.get('add_p99_ms'), '.2f')} ms" if row["inserts_per_s"] is not None else \
             f"not measured ({row.get('skipped')})"
         print(f"{row['engine']:<32} {rate}  [{row['how']}]", file=out)
 
