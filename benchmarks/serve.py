@@ -1,5 +1,7 @@
-"""``holecli serve``: request latency, throughput, a soak and the store's insert rate, against the
-in-process ``holecli.measure_scan`` and a one-shot ``holecli detect`` of the same files, in one run.
+"""``holecli serve``'s request latency, throughput, soak and store insert rate, beside in-process measuring.
+
+All in one run, against the in-process ``holecli.measure_scan`` and a one-shot ``holecli detect`` of the
+same files.
 
 The scans are written by ``holecli simulate scene`` into a temporary folder (the Table I scene at the
 spacings that give about 10^4 and 10^5 points, height noise a tenth of the spacing), beside
