@@ -18,5 +18,4 @@ with httpx.Client(base_url=url, timeout=120) as client:
     record = answer.json()
     for hole in record["holes"]:
         x, y, z = hole["center"]
-        print(f"{record['id'][:8]} hole {hole['index']}: center {x:.3f} {y:.3f} {z:.3f}, "
-              f"diameter {hole['diameter']:.4f} {record.get('units') or ''}")
+        print(f"{record['id'][:8]} hole {hole['index']}: center {x:.3f} {y:.3f} {z:.3f}, diameter {hole['diameter']:.4f}")

@@ -30,7 +30,7 @@ SERVE_EXIT_CODES_HELP = (
 @click.option("--tcp-port", type=click.IntRange(0, 65535), default=None, metavar="PORT",
               help="Also answer the line protocol on this TCP port (0: a free one; LMI Gocator's ASCII channel is 8190).")
 @click.option("--tcp-units", type=click.Choice(["mm", "um"]), default="mm", show_default=True,
-              help="The line protocol's lengths: decimals in the record's unit, or integer micrometres.")
+              help="The line protocol's lengths: decimal millimetres (4 decimals), or integer micrometres.")
 @click.option("--opcua-port", type=click.IntRange(0, 65535), default=None, metavar="PORT",
               help="Also serve OPC UA on this port (0: a free one; the usual is 4840). Needs the extra opcua (asyncua).")
 @click.option("--store", "store_location", default="results.sqlite", show_default=True, metavar="FILE|URL",

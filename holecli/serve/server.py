@@ -14,6 +14,8 @@ import contextlib
 import signal
 import socket
 
+from holecli.serve.lines import close_lines, serve_lines
+
 __all__ = ["Listeners", "bind", "run"]
 
 
@@ -121,8 +123,6 @@ async def run(service, listeners, *, host, token=None, tcp_units="mm", opcua_por
             await asyncio.sleep(0.01)
         addresses = {"http": _url("http", host, listeners.http.getsockname()[1]), "tcp": None, "opcua": None}
         if listeners.tcp is not None:
-            from holecli.serve.lines import serve_lines
-
             lines = await serve_lines(service, sock=listeners.tcp, units=tcp_units, token=token)
             addresses["tcp"] = "%s:%d" % (host, listeners.tcp.getsockname()[1])
         if opcua_port is not None:
@@ -137,9 +137,10 @@ async def run(service, listeners, *, host, token=None, tcp_units="mm", opcua_por
     finally:
         service.stopping = True
         if lines is not None:
-            lines.close()
+            # answers the requests in flight, closes the idle connections (asyncio.Server.wait_closed
+            # does not wait for its connections in Python 3.11)
             with contextlib.suppress(Exception):
-                await asyncio.wait_for(lines.wait_closed(), graceful_seconds)
+                await close_lines(lines, graceful_seconds)
         if opcua is not None:
             with contextlib.suppress(Exception):
                 await opcua.stop()

@@ -184,6 +184,8 @@ class WorkerPool:
         outer = Future()
 
         def relay(done):
+            if outer.cancelled():  # the request was given up (its client went, the service stops)
+                return
             try:
                 outer.set_result(done.result())
             except BrokenProcessPool:
