@@ -467,7 +467,8 @@ def drive(server, scan, clients, requests, on_tick=None):
     Returns
     -------
     dict
-        seconds, requests, errors (with the first few messages), the server tree's CPU seconds.
+        seconds, requests, errors (with the first few messages), the server tree's CPU seconds and this
+        process's (the clients').
     """
     lock = threading.Lock()
     state = {"left": requests, "errors": 0, "messages": []}
@@ -488,7 +489,7 @@ def drive(server, scan, clients, requests, on_tick=None):
                             state["messages"].append(f"{type(error).__name__}: {error}"[:300])
 
     server.refresh()
-    cpu = server.cpu_seconds()
+    cpu, client_cpu = server.cpu_seconds(), time.process_time()
     started = time.perf_counter()
     threads = [threading.Thread(target=work) for _ in range(clients)]
     for thread in threads:
@@ -501,7 +502,7 @@ def drive(server, scan, clients, requests, on_tick=None):
         thread.join()
     seconds = time.perf_counter() - started
     return {"seconds": seconds, "requests": requests, "errors": state["errors"], "messages": state["messages"],
-            "server_cpu_s": server.cpu_seconds() - cpu}
+            "server_cpu_s": server.cpu_seconds() - cpu, "client_cpu_s": time.process_time() - client_cpu}
 
 
 def throughput(server, scan, clients, requests):
@@ -511,7 +512,8 @@ def throughput(server, scan, clients, requests):
         raise RequestFailed(f"throughput --workers {server.workers}: {run['errors']} errors: {run['messages']}")
     return {"workers": server.workers, "clients": clients, "requests": requests, "seconds": run["seconds"],
             "scans_per_s": requests / run["seconds"], "server_cpu_ms_per_scan": run["server_cpu_s"] / requests * 1e3,
-            "server_cpu_cores": run["server_cpu_s"] / run["seconds"], "load_1min": os.getloadavg()[0]}
+            "server_cpu_cores": run["server_cpu_s"] / run["seconds"],
+            "client_cpu_ms_per_scan": run["client_cpu_s"] / requests * 1e3, "load_1min": os.getloadavg()[0]}
 
 
 def soak(server, scan, clients, requests, warmup):
@@ -638,14 +640,16 @@ def _print_throughput(figures, out):
     one = runs[0]
     print(f"\n3. Throughput: {one['clients']} concurrent clients over HTTP by path, {one['requests']} requests on "
           f"{figures['throughput']['scan']} ({figures['throughput']['points']:,} points)", file=out)
-    print(f"{'workers':>7} {'s':>7} {'scans/s':>8} {'srv cpu ms/scan':>15} {'srv cores busy':>14} {'load 1 min':>10}",
-          file=out)
+    print(f"{'workers':>7} {'s':>7} {'scans/s':>8} {'srv cpu ms/scan':>15} {'srv cores busy':>14} "
+          f"{'client cpu ms/scan':>18} {'load 1 min':>10}", file=out)
     for run in runs:
         print(f"{run['workers']:>7} {run['seconds']:>7.2f} {run['scans_per_s']:>8.2f} {run['server_cpu_ms_per_scan']:>15.1f} "
-              f"{run['server_cpu_cores']:>14.2f} {run['load_1min']:>10.2f}", file=out)
+              f"{run['server_cpu_cores']:>14.2f} {run['client_cpu_ms_per_scan']:>18.1f} {run['load_1min']:>10.2f}", file=out)
     ratio = figures["throughput"]["ratio"]
     print(f"ratio --workers 2 / --workers 1: {ratio:.2f} (goal >= {GOAL_RATIO}): {'PASS' if ratio >= GOAL_RATIO else 'FAIL'}",
           file=out)
+    print("(srv cores busy: the server tree's CPU seconds per second, 2.00 = both cores; client cpu: this process's, "
+          "the 4 clients', on the same cores; load 1 min: the machine's load average after the run)", file=out)
 
 
 def _print_soak(figures, out):
