@@ -165,3 +165,27 @@ def fifo_reader():
         return finish
 
     return start
+
+
+@pytest.fixture(scope="session")
+def postgres_url():
+    """The URL of a throwaway PostgreSQL server for the session (:mod:`tests.pgserver`, fsync on);
+    skipped only when this machine has no PostgreSQL (no ``initdb``): any other failure to start it
+    is an error."""
+    from tests.pgserver import NoPostgres, postgres_bindir, postgres_server
+
+    try:
+        postgres_bindir()
+    except NoPostgres as reason:
+        pytest.skip(str(reason))
+    with postgres_server() as url:
+        yield url
+
+
+@pytest.fixture
+def postgres_store_url(postgres_url):
+    """The URL of a new, empty database of the session's PostgreSQL server, for one test."""
+    from tests.pgserver import fresh_database
+
+    with fresh_database(postgres_url) as url:
+        yield url

@@ -8,8 +8,10 @@ record as it comes and keeps the display (:mod:`holecli.cli.progress`) up to dat
 from __future__ import annotations
 
 import os
+import re
 import sys
 import time
+from contextlib import ExitStack
 
 import click
 
@@ -142,6 +144,14 @@ def e57_units_overridden(files, units):
 @click.option("--overwrite", is_flag=True,
               help="Replace an --output that is not empty (without it, or --resume, such a file is refused and "
                    "left as it is).")
+@click.option("--store", "store_location", metavar="LOCATION", default=None,
+              help="Also add each record (error records too) to the results store LOCATION as it is written: an "
+                   "SQLite file (created when missing) or postgresql://... (needs pip install 'holecli[postgres]'); "
+                   "with --resume, the records already in --output are not added again.")
+@click.option("--meta", "meta_pairs", metavar="KEY=VALUE", multiple=True, callback=lambda context, parameter, value:
+              parse_meta(value),
+              help="With --store: metadata of every record stored (part, serial, cell, operator, or another word; "
+                   "VALUE at most 200 characters). Repeat for each key.")
 @click.option("--plot", "plot_dir", type=click.Path(path_type=str), default=None, metavar="PLOTDIR",
               help="Also draw each scan's holes into PLOTDIR/<scan stem>.png (created; a stem met again gets -2, -3, "
                    "...), as holecli plot does, with the verdict when tolerances are given; PLOTDIR is never "
@@ -158,7 +168,8 @@ def e57_units_overridden(files, units):
 @registration_option_decorators(plain_name=False)
 @fail_on_warning_option
 @verbosity_option_decorators
-def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output, jobs, resume, overwrite, plot_dir, explain, file_timeout,
+def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output, jobs, resume, overwrite, store_location,
+          meta_pairs, plot_dir, explain, file_timeout,
           scan_index,
           units, output_units,
           method, view_dir, min_diameter, max_holes, full_only, gauge_depth, spec_file, decision_rule, coverage_factor,
@@ -185,6 +196,7 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
       holecli batch scans/ -q -o results.jsonl
       holecli batch scans/ --spec part.toml -o shift.jsonl --plot shift_plots/
       holecli batch cell/R1.ply cell/R3.ply --spec part.toml --registration registration.json
+      holecli batch scans/ --spec part.toml --store results.sqlite --meta part=P7 --meta cell=C2
     """
     check_verbosity(quiet, verbose)
     # --output-units without --units is checked on the files found, in the body (all E57 is fine)
@@ -211,16 +223,24 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
         # resuming reads each earlier file's verdict from the whole header's columns
         raise click.UsageError("--resume needs the whole CSV (it reads the earlier files' verdicts from its columns): "
                                "drop --fields")
+    if meta_pairs and store_location is None:
+        raise click.UsageError("--meta needs --store (the metadata is stored with each record)")
     if output == "-":  # stdout, as without --output
         output = None
 
     def body(stop):
+        with ExitStack() as stack:
+            return measure_batch(stop, stack)
+
+    def measure_batch(stop, stack):
         from holecli import batch as batching
         from holecli.io import SUPPORTED_EXTENSIONS
 
+        store = None
         # the output never replaces the spec or a file named to be measured (issue 23, item 4)
+        store_file = None if store_location is None or is_database_url(store_location) else store_location
         refuse_same_files([("--spec", spec_file), ("--registration", registration_file),
-                           *(("PATH", path) for path in paths)], [("-o/--output", output)])
+                           *(("PATH", path) for path in paths)], [("-o/--output", output), ("--store", store_file)])
         spec = with_decision(read_spec(spec_file) if spec_file is not None else nominal, decision)
         require_gauge_depth(spec, gauge_depth, spec_file)
         spec = inspection_from_options(spec, spec_file, registration_file, name_pairs)
@@ -231,7 +251,9 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
         unlistable = []
         try:
             files = batching.find_scans(paths, recursive=recursive, pattern=pattern,
-                                        exclude=[output] if output else (), input_format=input_format,
+                                        # (the store's file and its WAL are never measured either)
+                                        exclude=([output] if output else []) + store_files(store_file),
+                                        input_format=input_format,
                                         # its PNGs are never measured (with --input-format they would be)
                                         exclude_folders=[plot_dir] if plot_dir is not None else (),
                                         unlistable=unlistable)
@@ -259,6 +281,8 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
         # lengths on the command line are in the output unit: the pipeline wants the file's
         options_now = dict(options, min_diameter=units_now.to_file_units(min_diameter),
                            gauge_depth=units_now.to_file_units(gauge_depth)) if method != "paper" else options
+        if store_location is not None:  # before the output is opened (and emptied): nothing is measured without it
+            store = stack.enter_context(open_results_store(store_location))
         plots = None
         if plot_dir is not None:  # before the output is opened (and emptied): nothing is measured without it
             from holecli.cli.plot import make_plot_folder
@@ -293,13 +317,113 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
                              units=units_now if units_now.file or units_now.output else None, quiet=quiet,
                              verbose=verbose, fail_on_warning=fail_on_warning,
                              plots=None if plots is None else {path: plots[path] for path in todo},
-                             file_timeout=file_timeout, unlisted=unlisted, fields=fields)
+                             file_timeout=file_timeout, unlisted=unlisted, fields=fields,
+                             store=store, meta=meta_pairs)
         finally:
             if output_file is not None:
                 output_file.close()
 
     with StopRequests() as stop:
         sys.exit(run_guarded(body, stop))
+
+
+def parse_meta(pairs) -> dict:
+    """The ``--meta KEY=VALUE`` options as a dict (:func:`holecli.store.schema.check_meta`'s rules).
+
+    Parameters
+    ----------
+    pairs : tuple of str
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    click.BadParameter
+        For a pair without ``=``, a KEY that is not a word or given twice, a VALUE over 200 characters.
+    """
+    if not pairs:
+        return {}
+    from holecli.store.schema import check_meta
+
+    meta = {}
+    for pair in pairs:
+        key, equals, value = pair.partition("=")
+        if not equals or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", key):
+            raise click.BadParameter(f"{pair!r} is not KEY=VALUE with KEY a word (letters, digits, _), e.g. part=P7",
+                                     param_hint="'--meta'")
+        if key in meta:
+            raise click.BadParameter(f"{key} is given twice", param_hint="'--meta'")
+        meta[key] = value
+    try:
+        check_meta(meta)
+    except ValueError as error:
+        raise click.BadParameter(str(error), param_hint="'--meta'") from None
+    return meta
+
+
+def is_database_url(location) -> bool:
+    """Whether a ``--store`` LOCATION names a PostgreSQL database rather than an SQLite file."""
+    from holecli.store import POSTGRES_SCHEMES
+
+    return location.lower().startswith(POSTGRES_SCHEMES)
+
+
+def store_files(path) -> list:
+    """An SQLite store's file and the WAL files SQLite keeps beside it (none for None)."""
+    return [] if path is None else [path, path + "-wal", path + "-shm"]
+
+
+def open_results_store(location):
+    """The results store of ``--store`` (:func:`holecli.store.open_store`), open.
+
+    Raises
+    ------
+    Failure
+        With the input-error code, naming the store, when it cannot be opened.
+    """
+    from holecli.store import StoreError, open_store
+
+    try:
+        return open_store(location)
+    except StoreError as error:  # psycopg missing for a postgresql:// store too
+        raise Failure(str(error), EXIT_INPUT) from None
+
+
+def store_record(store, record, meta):
+    """Add a batch record to the results store (source ``batch``, ``processing_ms`` its
+    ``timing.elapsed_ms``); a record that cannot be JSON (a NaN: a bug) is stored, and should be
+    written, as its error record (:func:`unwritable_record`).
+
+    Returns
+    -------
+    dict
+        The record stored.
+
+    Raises
+    ------
+    Failure
+        With the input-error code, when the store cannot add it.
+    """
+    from holecli.store import StoreError
+
+    elapsed = (record.get("timing") or {}).get("elapsed_ms")
+    try:
+        try:
+            store.add(record, meta=meta, source="batch", processing_ms=elapsed)
+        except ValueError as error:
+            record = unwritable_record(record, error)
+            store.add(record, meta=meta, source="batch")
+    except StoreError as error:
+        raise Failure(str(error), EXIT_INPUT) from None
+    return record
+
+
+def unwritable_record(record, error):
+    """The error record written instead of a record that cannot be JSON (a NaN in it: a bug)."""
+    return {"file": record["file"], "error": f"{record['file']}: internal error (a bug: please "
+                                             f"report it): the record cannot be written: {error}"}
 
 
 def _run_provenance(batching, method, view_dir, min_diameter, max_holes, full_only, gauge_depth, input_format,
@@ -319,7 +443,7 @@ def _run_provenance(batching, method, view_dir, min_diameter, max_holes, full_on
 
 def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False, scan=None,
               units=None, *, quiet=False, verbose=False, fail_on_warning=None, plots=None, file_timeout=None,
-              unlisted=(), fields=None):
+              unlisted=(), fields=None, store=None, meta=None):
     """The measuring loop of ``holecli batch``: records out, progress and summary on stderr.
 
     Parameters
@@ -369,6 +493,10 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         The error records of the subfolders that could not be listed, written first.
     fields : tuple of str, optional
         ``--fields``: the CSV's columns (default :data:`holecli.report.BATCH_CSV_COLUMNS`).
+    store : holecli.store.Store, optional
+        ``--store``: each record is added to it (committed) before it is written.
+    meta : dict, optional
+        ``--meta``: the metadata stored with each record.
 
     Returns
     -------
@@ -381,7 +509,7 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
     Raises
     ------
     Failure
-        With the input-error code, when a record cannot be written.
+        With the input-error code, when a record cannot be written or stored.
     BrokenPipeError
         When the reader of stdout went away before the first record (handled by :func:`run_guarded`).
     """
@@ -425,11 +553,12 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
     with display, closing(records):
         for record in records:
             try:
+                if store is not None:  # stored first: a record in the output is in the store (--resume)
+                    record = store_record(store, record, meta)
                 try:
                     writer.write(record)
                 except ValueError as error:  # a NaN in the record: a bug, but the batch goes on
-                    record = {"file": record["file"], "error": f"{record['file']}: internal error (a bug: please "
-                                                              f"report it): the record cannot be written: {error}"}
+                    record = unwritable_record(record, error)
                     writer.write(record)
             except BrokenPipeError:
                 # The reader of the output went away (`| head -1`): stop as when interrupted (the

@@ -51,12 +51,12 @@ from typing import Mapping, Optional, Union
 
 from holecli.errors import HoleCliError
 from holecli.serve.service import MeasureRequest, ServiceError
+from holecli.store.schema import hole_verdict_word, verdict_word
 from holecli.units import UNITS
 
 __all__ = ["COMMANDS", "DECIMALS", "IDLE_TIMEOUT", "LINE_TIMEOUT", "LINE_UNITS", "MAX_CONNECTIONS", "MAX_LINE",
            "MESSAGE_MAX", "NORMAL_DECIMALS", "Auth", "Help", "LineError", "Measure", "Ping", "Result", "Version",
-           "answer", "close_lines", "decode_line", "format_answer", "format_error", "hole_verdict",
-           "option_value", "parse_line", "record_verdict", "serve_lines"]
+           "answer", "close_lines", "decode_line", "format_answer", "format_error", "option_value", "parse_line", "serve_lines"]
 
 # The units of the answers' lengths: decimal millimetres, or integer micrometres.
 LINE_UNITS = ("mm", "um")
@@ -365,50 +365,6 @@ def _unquote(word: str) -> str:
     return "".join(out)
 
 
-def hole_verdict(hole: Mapping) -> str:
-    """The verdict word of one hole of a record.
-
-    ``unchecked`` when the hole was not checked (no tolerance given, or none applies to it:
-    ``in_tolerance`` absent or null); ``pass`` when in tolerance; else ``fail`` when a check failed,
-    ``undecided`` when the checks that did not pass are only undecided (the value within the
-    measurement's uncertainty of a limit).
-
-    Examples
-    --------
-    >>> hole_verdict({"in_tolerance": False, "failed_checks": [], "undecided_checks": ["diameter"]})
-    'undecided'
-    """
-    checked = hole.get("in_tolerance")
-    if checked is None:
-        return "unchecked"
-    if checked:
-        return "pass"
-    if not hole.get("failed_checks") and hole.get("undecided_checks"):
-        return "undecided"
-    return "fail"
-
-
-def record_verdict(record: Mapping) -> str:
-    """The verdict word of a record, as the results store files it.
-
-    ``unchecked`` without a ``verdict``; ``pass`` when in tolerance; ``fail`` when a hole is out of
-    tolerance or a specified hole is missing; else ``undecided``.
-
-    Examples
-    --------
-    >>> record_verdict({"verdict": {"in_tolerance": False, "out_of_tolerance": 0, "missing": ["B2"]}})
-    'fail'
-    """
-    verdict = record.get("verdict")
-    if verdict is None:
-        return "unchecked"
-    if verdict.get("in_tolerance"):
-        return "pass"
-    if verdict.get("out_of_tolerance") or verdict.get("missing"):
-        return "fail"
-    return "undecided"
-
-
 def format_answer(answer: Mapping, units: str = "mm") -> str:
     """The ``OK`` line of a measurement (without its line end).
 
@@ -449,8 +405,8 @@ def format_answer(answer: Mapping, units: str = "mm") -> str:
         fields.extend(_length(value * to_mm, units) for value in hole["center"])
         fields.append(_length(hole["diameter"] * to_mm, units))
         fields.extend(_component(value, units) for value in hole["normal"])
-        fields.append(hole_verdict(hole))
-    fields.append(record_verdict(answer))
+        fields.append(hole_verdict_word(hole))
+    fields.append(verdict_word(answer))
     return ",".join(fields)
 
 

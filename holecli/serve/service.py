@@ -25,6 +25,7 @@ from holecli.io.formats import INPUT_FORMATS
 from holecli.serve.security import AccessError, confine
 from holecli.serve.specs import SpecLibrary, SpecLookupError
 from holecli.serve.workers import WorkerDied, WorkerPool
+from holecli.store.schema import META_COLUMNS, check_meta, utc_text
 
 __all__ = ["META_KEYS", "OPTIONS", "MeasureRequest", "Service", "ServiceError", "utc_now"]
 
@@ -44,9 +45,7 @@ OPTIONS = {
 }
 
 #: The metadata keys a measurement is filed under (any other word key is kept too).
-META_KEYS = ("part", "serial", "cell", "operator")
-MAX_META_VALUE = 200
-MAX_META_KEYS = 20
+META_KEYS = META_COLUMNS
 _UNITS = ("mm", "m", "in")
 
 
@@ -111,8 +110,9 @@ class MeasureRequest:
 
 
 def utc_now() -> str:
-    """Now, ISO-8601 in UTC with milliseconds: ``2026-12-03T22:41:07.123Z``."""
-    return datetime.now(timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+    """Now, as the store writes moments (:func:`holecli.store.schema.utc_text`):
+    ``2026-12-03T22:41:07.123Z``."""
+    return utc_text(datetime.now(timezone.utc))
 
 
 def detection_keywords(options) -> dict:
@@ -203,28 +203,19 @@ def number_of(value, error):
 
 
 def checked_meta(meta) -> dict:
-    """The request's ``meta``: word keys, string values of at most 200 characters; every key of
-    :data:`META_KEYS` present (None when not given), as the store gives it back.
+    """The request's ``meta`` as the store files it (:func:`holecli.store.schema.check_meta`).
 
     Raises
     ------
     ServiceError
-        400.
+        400, when the store would refuse it.
     """
     if not isinstance(meta, Mapping):
         raise ServiceError(400, "meta: must be an object of strings")
-    if len(meta) > MAX_META_KEYS:
-        raise ServiceError(400, f"meta: more than {MAX_META_KEYS} keys")
-    checked = dict.fromkeys(META_KEYS)
-    for key, value in meta.items():
-        if not isinstance(key, str) or not key.isidentifier() or len(key) > 40:
-            raise ServiceError(400, f"meta: {str(key)[:40]!r} is not a key (a word of at most 40 characters)")
-        if value is None:
-            continue
-        if not isinstance(value, str) or len(value) > MAX_META_VALUE or any(ord(c) < 32 for c in value):
-            raise ServiceError(400, f"meta.{key}: must be a line of text of at most {MAX_META_VALUE} characters")
-        checked[key] = value
-    return checked
+    try:
+        return check_meta(meta)
+    except ValueError as error:
+        raise ServiceError(400, str(error)) from None
 
 
 class Service:

@@ -12,18 +12,17 @@ verdict. The tables are :mod:`holecli.store.schema`'s, so statistical process co
 Examples
 --------
 >>> import os, tempfile
->>> folder = tempfile.mkdtemp()
->>> with open_store(os.path.join(folder, "results.sqlite")) as store:
+>>> with tempfile.TemporaryDirectory() as folder, open_store(os.path.join(folder, "results.sqlite")) as store:
 ...     id = store.add({"file": "a.ply", "holes": []}, meta={"part": "P7"})
-...     [summary["verdict"] for summary in store.find(part="P7")]
-['unchecked']
+...     print([summary["verdict"] for summary in store.find(part="P7")], store.count())
+['unchecked'] 1
 """
 
 from __future__ import annotations
 
 import os
 
-from holecli.store.base import Store, StoreError
+from holecli.store.base import Store, StoreError, redacted
 from holecli.store.sqlite import SQLiteStore
 
 POSTGRES_SCHEMES = ("postgresql://", "postgres://")
@@ -56,7 +55,10 @@ def open_store(location) -> Store:
     text = os.fspath(location)
     if isinstance(text, str) and text.lower().startswith(POSTGRES_SCHEMES):
         # psycopg is imported only for a PostgreSQL store (an optional extra, and 150 ms)
-        from holecli.store.postgres import PostgresStore
-
+        try:
+            from holecli.store.postgres import PostgresStore
+        except ImportError as error:
+            raise StoreError(f"{redacted(text)}: a PostgreSQL store needs psycopg 3: pip install 'holecli[postgres]' "
+                             f"({error})") from None
         return PostgresStore(text)
     return SQLiteStore(text)

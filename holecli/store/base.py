@@ -8,6 +8,7 @@ the rows themselves come from :mod:`holecli.store.schema`.
 from __future__ import annotations
 
 import datetime
+import re
 import uuid
 
 from holecli.errors import HoleCliError
@@ -200,3 +201,15 @@ def check_version(location, version):
     if number > schema.SCHEMA_VERSION:
         raise StoreError(f"{location}: the results store has schema version {number}, newer than this holecli's "
                          f"({schema.SCHEMA_VERSION}): use a newer holecli; the store was left as it is")
+
+
+def redacted(url) -> str:
+    """``url`` with its password (in the user part or a ``password=`` parameter) shown as ``***``.
+
+    Examples
+    --------
+    >>> redacted("postgresql://cell:s3cret@db.local:5432/results?sslmode=require&password=x")
+    'postgresql://cell:***@db.local:5432/results?sslmode=require&password=***'
+    """
+    url = re.sub(r"(://[^:/@?#]*:)[^@/?#]*@", r"\1***@", url)
+    return re.sub(r"(?i)([?&]password=)[^&#]*", r"\1***", url)

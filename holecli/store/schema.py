@@ -29,6 +29,9 @@ META_COLUMNS = ("part", "serial", "cell", "operator")
 """The metadata keys that have columns of their own (any other key is kept in ``meta`` only)."""
 
 META_VALUE_MAX = 200
+
+META_KEYS_MAX = 20
+"""The most metadata keys a measurement may have."""
 """The longest metadata value, in characters."""
 
 # Each column: (name, kind, constraint). The kinds are mapped to each engine's types by TYPES.
@@ -188,6 +191,37 @@ def verdict_word(record) -> str:
     return "undecided"
 
 
+def hole_verdict_word(hole) -> str:
+    """The verdict of one hole of a record in one word (as the line protocol and OPC UA give it).
+
+    Parameters
+    ----------
+    hole : dict
+        A hole of a ``detect`` record.
+
+    Returns
+    -------
+    {"unchecked", "pass", "fail", "undecided"}
+        ``unchecked`` when the hole was not checked (no tolerances, or none applies to it:
+        ``in_tolerance`` absent or null); ``pass`` when in tolerance; ``undecided`` when the checks
+        that did not pass are only undecided (a value within the measurement's uncertainty of a
+        limit); else ``fail``.
+
+    Examples
+    --------
+    >>> hole_verdict_word({"in_tolerance": False, "failed_checks": [], "undecided_checks": ["diameter"]})
+    'undecided'
+    """
+    checked = hole.get("in_tolerance")
+    if checked is None:
+        return "unchecked"
+    if checked:
+        return "pass"
+    if not hole.get("failed_checks") and hole.get("undecided_checks"):
+        return "undecided"
+    return "fail"
+
+
 def record_json(record) -> str:
     """The JSON text a record is stored as: compact, ASCII (a file name that is not UTF-8 keeps its
     escaped bytes), no NaN. ``json.loads`` of it gives the record back, floats exactly.
@@ -207,7 +241,8 @@ def check_meta(meta) -> dict:
     Parameters
     ----------
     meta : Mapping or None
-        Keys are words (letters, digits, ``_``, not starting with a digit); values strings of at most
+        At most :data:`META_KEYS_MAX` keys, each a word of at most 40 characters (letters, digits,
+        ``_``, not starting with a digit); values one line of text (no control character) of at most
         :data:`META_VALUE_MAX` characters, or None.
 
     Returns
@@ -220,13 +255,17 @@ def check_meta(meta) -> dict:
         For a key that is not a word or a value that is not such a string.
     """
     checked = dict.fromkeys(META_COLUMNS)
+    if len(meta or {}) > META_KEYS_MAX:
+        raise ValueError(f"meta: more than {META_KEYS_MAX} keys ({len(meta)})")
     for key, value in (meta or {}).items():
-        if not isinstance(key, str) or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", key):
-            raise ValueError(f"meta key {key!r} is not a word (letters, digits, _)")
+        if not isinstance(key, str) or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]{0,39}", key):
+            raise ValueError(f"meta key {str(key)[:40]!r} is not a word (letters, digits, _; at most 40)")
         if value is not None and not isinstance(value, str):
             raise ValueError(f"meta {key}: a string is expected, got {type(value).__name__}")
         if value is not None and len(value) > META_VALUE_MAX:
             raise ValueError(f"meta {key}: longer than {META_VALUE_MAX} characters ({len(value)})")
+        if value is not None and any(ord(character) < 32 or ord(character) == 127 for character in value):
+            raise ValueError(f"meta {key}: a control character (a line break, ...) in it")
         checked[key] = value
     return checked
 
@@ -431,6 +470,11 @@ def characteristic_rows(record, measurement_id) -> list:
     return rows
 
 
+SUMMARY_KEYS = ("id", "received", "file", "part", "serial", "cell", "operator", "spec", "verdict", "holes",
+                "processing_ms")
+"""The keys of a summary of :meth:`holecli.store.Store.find`, in order."""
+
+
 def summary(row) -> dict:
     """The summary :meth:`holecli.store.Store.find` gives of a measurement row.
 
@@ -445,11 +489,6 @@ def summary(row) -> dict:
     dict
     """
     return {key: row[key] for key in SUMMARY_KEYS}
-
-
-SUMMARY_KEYS = ("id", "received", "file", "part", "serial", "cell", "operator", "spec", "verdict", "holes",
-                "processing_ms")
-"""The keys of a summary of :meth:`holecli.store.Store.find`, in order."""
 
 
 def stored_answer(record_text, *, id, received, processing_ms, meta_text) -> dict:

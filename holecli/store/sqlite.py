@@ -47,6 +47,7 @@ class SQLiteStore(Store):
         existed = os.path.lexists(self.path)
         if existed:
             self._check_header()
+        self._check_writable(existed)
         try:
             self._connection = sqlite3.connect(self.path, timeout=BUSY_TIMEOUT_S, isolation_level=None,
                                                check_same_thread=False)
@@ -73,6 +74,17 @@ class SQLiteStore(Store):
         if head and head != _HEADER:
             raise StoreError(f"{self.location}: not a holecli results store (not an SQLite database); "
                              f"it was left as it is")
+
+    def _check_writable(self, existed):
+        """Refuse a store file, or a folder, this process cannot write (SQLite writes its WAL beside it):
+        said now, not at the first add."""
+        folder = os.path.dirname(os.path.abspath(self.path))
+        if existed and not os.access(self.path, os.W_OK):
+            raise StoreError(f"{self.location}: cannot open the results store: the file cannot be written "
+                             f"(permission denied)")
+        if os.path.isdir(folder) and not os.access(folder, os.W_OK | os.X_OK):
+            raise StoreError(f"{self.location}: cannot open the results store: its folder {folder} cannot be written "
+                             f"(permission denied)")
 
     def _open(self, existed):
         """Check an existing database is a store of ours, then set the pragmas and create the tables."""
