@@ -22,7 +22,10 @@ temporary folder, stopped with SIGTERM (their exit status is checked: 0).
    in-process p50 (goal <= 10 ms), the server's ``processing_ms`` (HTTP: receipt to stored) and the
    CPU time of the server's process tree per request (from /proc).
 3. Throughput over HTTP by path on the 10^4 scan, 4 concurrent clients, with ``--workers 1`` and
-   ``--workers 2``: scans/s, the ratio (goal >= 1.7 on 2 cores) and the server tree's CPU per scan.
+   ``--workers 2``: scans/s, the ratio (goal >= 1.7 on 2 cores), the server tree's CPU per scan and the
+   clients'. Beside it the machine's own ratio: 1 and 2 warm processes measuring the scan in a loop,
+   started together, no service. The best of 2 alternating runs of each (the machine's other load
+   varies), as ``benchmarks/batch_speed.py`` does.
 4. Soak: ``--requests`` (10,000) requests from 8 concurrent clients over HTTP by path on
    ``table1.ply``, against the ``--workers 2`` server: errors (goal 0), the rate, and the resident
    memory of the server's process tree (VmRSS of the parent, its workers and multiprocessing's
@@ -43,6 +46,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import importlib.util
 import json
 import os
@@ -242,6 +246,8 @@ class Server:
 
     def stop(self):
         """SIGTERM, then the exit status (0 expected)."""
+        if self.process.returncode is not None:
+            return self.process.returncode
         self.process.send_signal(signal.SIGTERM)
         try:
             status = self.process.wait(STOP_SECONDS)
@@ -462,7 +468,8 @@ def latency(server, scans, rounds_of, warmup, channels):
 
 
 def drive(server, scan, clients, requests, on_tick=None):
-    """``requests`` HTTP-by-path requests from ``clients`` threads, each with its own connection.
+    """``requests`` HTTP-by-path requests from a thread per client of ``clients`` (made beforehand, so
+    that their start is not counted).
 
     Returns
     -------
@@ -473,25 +480,24 @@ def drive(server, scan, clients, requests, on_tick=None):
     lock = threading.Lock()
     state = {"left": requests, "errors": 0, "messages": []}
 
-    def work():
-        with http_client(server) as client:
-            while True:
+    def work(client):
+        while True:
+            with lock:
+                if state["left"] <= 0:
+                    return
+                state["left"] -= 1
+            try:
+                http_by_path(client, scan)
+            except Exception as error:  # noqa: BLE001 - counted: the soak's goal is none
                 with lock:
-                    if state["left"] <= 0:
-                        return
-                    state["left"] -= 1
-                try:
-                    http_by_path(client, scan)
-                except Exception as error:  # noqa: BLE001 - counted: the soak's goal is none
-                    with lock:
-                        state["errors"] += 1
-                        if len(state["messages"]) < 3:
-                            state["messages"].append(f"{type(error).__name__}: {error}"[:300])
+                    state["errors"] += 1
+                    if len(state["messages"]) < 3:
+                        state["messages"].append(f"{type(error).__name__}: {error}"[:300])
 
     server.refresh()
     cpu, client_cpu = server.cpu_seconds(), time.process_time()
     started = time.perf_counter()
-    threads = [threading.Thread(target=work) for _ in range(clients)]
+    threads = [threading.Thread(target=work, args=(client,)) for client in clients]
     for thread in threads:
         thread.start()
     while any(thread.is_alive() for thread in threads):
@@ -505,32 +511,103 @@ def drive(server, scan, clients, requests, on_tick=None):
             "server_cpu_s": server.cpu_seconds() - cpu, "client_cpu_s": time.process_time() - client_cpu}
 
 
-def throughput(server, scan, clients, requests):
-    drive(server, scan, clients, 2 * clients)  # warm-up: every connection and worker busy once
-    run = drive(server, scan, clients, requests)
+CEILING = r"""
+import json, sys, time
+sys.path.insert(0, sys.argv[1])
+from holecli import measure_scan
+from holecli.threads import single_blas_thread
+path, count = sys.argv[2], int(sys.argv[3])
+with single_blas_thread():
+    for _ in range(3):
+        measure_scan(path)
+    print("ready", flush=True)
+    sys.stdin.readline()  # every process starts when all are ready
+    started, cpu = time.perf_counter(), time.process_time()
+    for _ in range(count):
+        measure_scan(path)
+    print(json.dumps({"seconds": time.perf_counter() - started, "cpu": time.process_time() - cpu}), flush=True)
+"""
+
+
+def in_process_throughput(scan, processes, count):
+    """The machine's own rate without the service: ``processes`` warm processes each measuring the scan
+    ``count`` times in a loop, started together (scans/s summed; CPU ms per scan)."""
+    children = [subprocess.Popen([sys.executable, "-c", CEILING, str(ROOT), scan.path, str(count)], stdin=subprocess.PIPE,
+                                 stdout=subprocess.PIPE, text=True, env=_environment()) for _ in range(processes)]
+    try:
+        for child in children:
+            if child.stdout.readline().strip() != "ready":
+                raise RuntimeError("an in-process throughput child failed to start")
+        for child in children:
+            child.stdin.write("\n")
+            child.stdin.flush()
+        results = [json.loads(child.stdout.readline()) for child in children]
+    finally:
+        for child in children:
+            child.stdin.close()
+            child.stdout.close()
+            child.wait()
+    return {"processes": processes, "scans": processes * count,
+            "scans_per_s": sum(count / result["seconds"] for result in results),
+            "cpu_ms_per_scan": sum(result["cpu"] for result in results) / (processes * count) * 1e3,
+            "load_1min": os.getloadavg()[0]}
+
+
+def throughput_runs(one, two, scan, requests, repeats, count):
+    """The best of ``repeats`` alternating runs of: the in-process rate with 1 and 2 processes, the
+    service with ``one`` (--workers 1) and ``two`` (--workers 2)."""
+    runs = {"in-process 1": [], "in-process 2": [], "serve 1": [], "serve 2": []}
+    for _ in range(repeats):
+        runs["in-process 1"].append(in_process_throughput(scan, 1, count))
+        runs["in-process 2"].append(in_process_throughput(scan, 2, count))
+        runs["serve 1"].append(throughput(one, scan, 4, requests))
+        runs["serve 2"].append(throughput(two, scan, 4, requests))
+    best = {name: max(values, key=lambda run: run["scans_per_s"]) for name, values in runs.items()}
+    ratio = best["serve 2"]["scans_per_s"] / best["serve 1"]["scans_per_s"]
+    return {"scan": scan.name, "points": scan.points, "repeats": repeats, "runs": [best["serve 1"], best["serve 2"]],
+            "in_process": [best["in-process 1"], best["in-process 2"]],
+            "all_scans_per_s": {name: [run["scans_per_s"] for run in values] for name, values in runs.items()},
+            "ratio": ratio, "in_process_ratio": best["in-process 2"]["scans_per_s"] / best["in-process 1"]["scans_per_s"],
+            "pass": ratio >= GOAL_RATIO}
+
+
+def _clients(server, count):
+    import contextlib
+
+    stack = contextlib.ExitStack()
+    return stack, [stack.enter_context(http_client(server)) for _ in range(count)]
+
+
+def throughput(server, scan, count, requests):
+    stack, clients = _clients(server, count)
+    with stack:
+        drive(server, scan, clients, 2 * count)  # warm-up: every connection and worker busy once
+        run = drive(server, scan, clients, requests)
     if run["errors"]:
         raise RequestFailed(f"throughput --workers {server.workers}: {run['errors']} errors: {run['messages']}")
-    return {"workers": server.workers, "clients": clients, "requests": requests, "seconds": run["seconds"],
+    return {"workers": server.workers, "clients": count, "requests": requests, "seconds": run["seconds"],
             "scans_per_s": requests / run["seconds"], "server_cpu_ms_per_scan": run["server_cpu_s"] / requests * 1e3,
             "server_cpu_cores": run["server_cpu_s"] / run["seconds"],
             "client_cpu_ms_per_scan": run["client_cpu_s"] / requests * 1e3, "load_1min": os.getloadavg()[0]}
 
 
-def soak(server, scan, clients, requests, warmup):
-    drive(server, scan, clients, warmup)
-    before = server.rss_mb()
-    peak = [before]
-    last = [time.monotonic()]
+def soak(server, scan, count, requests, warmup):
+    stack, clients = _clients(server, count)
+    with stack:
+        drive(server, scan, clients, warmup)
+        before = server.rss_mb()
+        peak = [before]
+        last = [time.monotonic()]
 
-    def sample():
-        if time.monotonic() - last[0] >= 2.0:
-            last[0] = time.monotonic()
-            peak[0] = max(peak[0], server.rss_mb())
+        def sample():
+            if time.monotonic() - last[0] >= 2.0:
+                last[0] = time.monotonic()
+                peak[0] = max(peak[0], server.rss_mb())
 
-    run = drive(server, scan, clients, requests, on_tick=sample)
-    after = server.rss_mb()
+        run = drive(server, scan, clients, requests, on_tick=sample)
+        after = server.rss_mb()
     peak[0] = max(peak[0], after)
-    return {"scan": scan.name, "points": scan.points, "workers": server.workers, "clients": clients,
+    return {"scan": scan.name, "points": scan.points, "workers": server.workers, "clients": count,
             "requests": requests, "seconds": run["seconds"], "rate_per_s": requests / run["seconds"],
             "errors": run["errors"], "error_messages": run["messages"], "rss_before_mb": before,
             "rss_peak_mb": peak[0], "rss_after_mb": after, "rss_growth_mb": after - before,
@@ -636,20 +713,29 @@ def _print_latency(figures, out):
 
 
 def _print_throughput(figures, out):
-    runs = figures["throughput"]["runs"]
-    one = runs[0]
-    print(f"\n3. Throughput: {one['clients']} concurrent clients over HTTP by path, {one['requests']} requests on "
-          f"{figures['throughput']['scan']} ({figures['throughput']['points']:,} points)", file=out)
-    print(f"{'workers':>7} {'s':>7} {'scans/s':>8} {'srv cpu ms/scan':>15} {'srv cores busy':>14} "
-          f"{'client cpu ms/scan':>18} {'load 1 min':>10}", file=out)
+    figure = figures["throughput"]
+    runs = figure["runs"]
+    print(f"\n3. Throughput on {figure['scan']} ({figure['points']:,} points), the best of {figure['repeats']} "
+          f"alternating runs: the service with {runs[0]['clients']} concurrent clients over HTTP by path "
+          f"({runs[0]['requests']} requests), and beside it the machine's own rate: warm processes measuring "
+          "the scan in a loop, no service", file=out)
+    print(f"{'run':<22} {'scans/s':>8} {'cpu ms/scan':>11} {'srv cores busy':>14} {'client cpu ms/scan':>18} "
+          f"{'load 1 min':>10}", file=out)
+    for run in figure["in_process"]:
+        print(f"{'in-process, ' + str(run['processes']) + ' process' + 'es' * (run['processes'] > 1):<22} "
+              f"{run['scans_per_s']:>8.2f} {run['cpu_ms_per_scan']:>11.1f} {'':>14} {'':>18} {run['load_1min']:>10.2f}",
+              file=out)
     for run in runs:
-        print(f"{run['workers']:>7} {run['seconds']:>7.2f} {run['scans_per_s']:>8.2f} {run['server_cpu_ms_per_scan']:>15.1f} "
+        print(f"{'serve --workers ' + str(run['workers']):<22} {run['scans_per_s']:>8.2f} {run['server_cpu_ms_per_scan']:>11.1f} "
               f"{run['server_cpu_cores']:>14.2f} {run['client_cpu_ms_per_scan']:>18.1f} {run['load_1min']:>10.2f}", file=out)
-    ratio = figures["throughput"]["ratio"]
-    print(f"ratio --workers 2 / --workers 1: {ratio:.2f} (goal >= {GOAL_RATIO}): {'PASS' if ratio >= GOAL_RATIO else 'FAIL'}",
+    ratio = figure["ratio"]
+    print(f"ratio --workers 2 / --workers 1: {ratio:.2f} (goal >= {GOAL_RATIO}): {'PASS' if ratio >= GOAL_RATIO else 'FAIL'}; "
+          f"the machine's own, 2 processes / 1: {figure['in_process_ratio']:.2f}", file=out)
+    print("(cpu ms/scan: the server tree's CPU per scan for serve; srv cores busy: its CPU seconds per second, 2.00 = "
+          "both cores; client cpu: this process's, the 4 clients', on the same cores; load 1 min: the machine's load "
+          "average after the run; all runs: " + "; ".join(f"{name} " + ", ".join(f"{rate:.1f}" for rate in rates)
+                                                            for name, rates in figure["all_scans_per_s"].items()) + ")",
           file=out)
-    print("(srv cores busy: the server tree's CPU seconds per second, 2.00 = both cores; client cpu: this process's, "
-          "the 4 clients', on the same cores; load 1 min: the machine's load average after the run)", file=out)
 
 
 def _print_soak(figures, out):
@@ -687,7 +773,8 @@ def run(args, progress):
                "channels": dict({"http": True}, **channels),
                "settings": {"quick": args.quick, "rounds": args.rounds, "large_rounds": args.large_rounds,
                             "warmup": args.warmup, "one_shot_runs": args.one_shot_runs,
-                            "throughput_requests": args.throughput_requests, "soak_requests": args.requests,
+                            "throughput_requests": args.throughput_requests,
+                            "throughput_repeats": args.throughput_repeats, "soak_requests": args.requests,
                             "store_seconds": args.store_seconds}}
     import holecli
 
@@ -702,34 +789,32 @@ def run(args, progress):
                   + ", ".join(f"{scan.name} {scan.points:,} points" for scan in scans), file=progress)
         figures["one_shot"] = {scan.name: one_shot(scan, args.one_shot_runs) for scan in scans}
         stops = []
-        server = Server(folder, os.path.join(folder, "latency.sqlite"), 1, tcp=channels["tcp"], opcua=channels["opcua"])
-        try:
+        with contextlib.ExitStack() as servers:
+            def started(workers, store, **fronts):
+                server = Server(folder, os.path.join(folder, store), workers, **fronts)
+                servers.callback(lambda: stops.append((workers, server.stop())))
+                return server
+
+            one = started(1, "latency.sqlite", tcp=channels["tcp"], opcua=channels["opcua"])
             largest = max(scan.points for scan in scans if scan.name != "table1")
 
             def rounds_of(scan):
                 return args.large_rounds if scan.points == largest and not args.quick else args.rounds
 
-            figures["baseline"], figures["latency"] = latency(server, scans, rounds_of, args.warmup, channels)
+            figures["baseline"], figures["latency"] = latency(one, scans, rounds_of, args.warmup, channels)
             if progress:
                 _print_baselines(figures, progress)
                 _print_latency(figures, progress)
-            one = throughput(server, small, 4, args.throughput_requests)
-        finally:
-            stops.append((1, server.stop()))
-        server = Server(folder, os.path.join(folder, "soak.sqlite"), 2)
-        try:
-            two = throughput(server, small, 4, args.throughput_requests)
-            figures["throughput"] = {"scan": small.name, "points": small.points, "runs": [one, two],
-                                     "ratio": two["scans_per_s"] / one["scans_per_s"]}
-            figures["throughput"]["pass"] = figures["throughput"]["ratio"] >= GOAL_RATIO
+            two = started(2, "soak.sqlite")
+            figures["throughput"] = throughput_runs(one, two, small, args.throughput_requests, args.throughput_repeats,
+                                                    args.throughput_requests // 4)
             if progress:
                 _print_throughput(figures, progress)
-            figures["soak"] = soak(server, by_name["table1"], 8, args.requests, warmup=min(200, args.requests))
+            one.stop()
+            figures["soak"] = soak(two, by_name["table1"], 8, args.requests, warmup=min(200, args.requests))
             if progress:
                 _print_soak(figures, progress)
-        finally:
-            stops.append((2, server.stop()))
-        figures["stops"] = stops
+        figures["stops"] = sorted(stops)
         from holecli import measure_scan
 
         record = measure_scan(by_name["table1"].path).record
@@ -760,6 +845,7 @@ def main(argv=None):
     args.warmup = 2 if args.quick else 5
     args.one_shot_runs = 1 if args.quick else 5
     args.throughput_requests = 16 if args.quick else 160
+    args.throughput_repeats = 1 if args.quick else 2
     args.store_seconds = 0.5 if args.quick else 2.0
     if min(args.requests, args.rounds, args.large_rounds) < 1:
         parser.error("--requests, --rounds and --large-rounds must be at least 1")

@@ -51,7 +51,8 @@ def test_a_quick_run_gives_every_figure_and_stops_its_servers_cleanly(figures):
         for key in ("outside_service_p50_ms", "worker_measuring_p50_ms"):
             assert (row[key] is not None) == row["channel"].startswith("HTTP")
     assert [run["workers"] for run in figures["throughput"]["runs"]] == [1, 2]
-    assert all(run["scans_per_s"] > 0 for run in figures["throughput"]["runs"])
+    assert [run["processes"] for run in figures["throughput"]["in_process"]] == [1, 2]
+    assert all(run["scans_per_s"] > 0 for run in figures["throughput"]["runs"] + figures["throughput"]["in_process"])
     soak = figures["soak"]
     assert soak["requests"] == 16 and soak["errors"] == 0 and soak["rss_before_mb"] > 0
     assert figures["store"][0]["engine"].startswith("SQLite") and figures["store"][0]["inserts_per_s"] > 0
@@ -69,7 +70,8 @@ def test_the_tables_print_every_section_of_the_figures(bench, figures):
                     "servers stopped with SIGTERM: --workers 1: exit 0, --workers 2: exit 0"):
         assert heading in text
     assert text.count("PASS") + text.count("FAIL") == len(figures["latency"]) + 2
-    assert "ratio --workers 2 / --workers 1" in text and "growth" in text
+    assert "ratio --workers 2 / --workers 1" in text and "the machine's own, 2 processes / 1" in text
+    assert "in-process, 2 processes" in text and "serve --workers 2" in text and "growth" in text
 
 
 def test_a_docs_page_without_the_block_is_refused_before_anything_runs(bench, tmp_path, capsys):
