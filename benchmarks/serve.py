@@ -16,11 +16,12 @@ temporary folder, stopped with SIGTERM (their exit status is checked: 0).
    time, as in the in-process run, so the comparison is fair). Per scan, after warm-up requests,
    rounds that each run the in-process measurement and then every channel once: HTTP by path (a JSON
    body), HTTP by upload (the PLY as the raw body, ``?format=ply``), the TCP line protocol
-   (``MEASURE <path>``; when ``holecli/serve/lines.py`` exists) and OPC UA's ``Measure`` method
-   (asyncua; when ``holecli/serve/opcua.py`` exists and asyncua is installed). Interleaving puts the
-   machine's other load on every row alike. Per row: p50/p99 wall, the p50 difference to the
-   in-process p50 (goal <= 10 ms), the server's ``processing_ms`` (HTTP: receipt to stored) and the
-   CPU time of the server's process tree per request (from /proc).
+   (``MEASURE <path>``) and OPC UA's ``Measure`` method (when asyncua, the extra ``opcua``, is
+   installed). Interleaving puts the machine's other load on every row alike. Per row: p50/p99 wall,
+   the p50 difference to the in-process p50 (goal <= 10 ms), the CPU time of the server's process
+   tree per request (from /proc) less the in-process CPU, and for HTTP where the time went: the
+   worker's measuring time (the record's ``timing.elapsed_ms``), the service's (``processing_ms``:
+   receipt to stored) and the rest (the front end, the connection, the client).
 3. Throughput over HTTP by path on the 10^4 scan, 4 concurrent clients, with ``--workers 1`` and
    ``--workers 2``: scans/s, the ratio (goal >= 1.7 on 2 cores), the server tree's CPU per scan and the
    clients'. Beside it the machine's own ratio: 1 and 2 warm processes measuring the scan in a loop,
@@ -30,9 +31,8 @@ temporary folder, stopped with SIGTERM (their exit status is checked: 0).
    ``table1.ply``, against the ``--workers 2`` server: errors (goal 0), the rate, and the resident
    memory of the server's process tree (VmRSS of the parent, its workers and multiprocessing's
    resource tracker) after warm-up, at its peak and at the end (goal: growth < 50 MB).
-5. The store's insert rate: ``Store.add`` of a real record in a loop (``benchmarks/store.py``'s
-   ``insert_rate`` when it exists) on a SQLite file, and on PostgreSQL when ``tests/pgserver.py`` can
-   start a throwaway server.
+5. The store's insert rate: ``benchmarks/store.py``'s ``insert_rate`` of its real records on a SQLite
+   file, and on PostgreSQL when ``tests/pgserver.py`` can start a throwaway server.
 
 ``--quick`` (the test's mode) uses scans of about 10^3 and 10^4 points, a few rounds and a short soak.
 ``--json`` prints one JSON object with every figure instead of the tables.
@@ -97,10 +97,8 @@ def _has(module):
 
 
 def available_channels():
-    """The front ends this tree has: HTTP always; TCP with holecli/serve/lines.py; OPC UA with
-    holecli/serve/opcua.py and asyncua."""
-    return {"tcp": (ROOT / "holecli" / "serve" / "lines.py").exists(),
-            "opcua": (ROOT / "holecli" / "serve" / "opcua.py").exists() and _has("asyncua")}
+    """The front ends measured: HTTP and TCP always; OPC UA when its extra (asyncua) is installed."""
+    return {"tcp": True, "opcua": _has("asyncua")}
 
 
 # -- the scans ------------------------------------------------------------------------------------
@@ -617,58 +615,29 @@ def soak(server, scan, count, requests, warmup):
 # -- 5: the store ---------------------------------------------------------------------------------
 
 
-def _own_insert_rate(location, records, seconds):
-    """``Store.add`` of ``records`` (in turn) for ``seconds``, one transaction each: ``per_second``,
-    ``p50_ms`` and ``p99_ms`` of one add (what benchmarks/store.py's ``insert_rate`` gives)."""
-    from holecli.store import open_store
+def store_rates(folder, seconds):
+    """Inserts per second (benchmarks/store.py's ``insert_rate`` of its real records) on a SQLite file in
+    ``folder`` and on a throwaway PostgreSQL server (tests/pgserver.py) when one starts."""
+    from benchmarks.store import insert_rate, real_records
 
-    latencies = []
-    with open_store(location) as store:
-        started = time.perf_counter()
-        while not latencies or time.perf_counter() - started < seconds:
-            before = time.perf_counter()
-            store.add(records[len(latencies) % len(records)], meta={"part": "bench", "serial": str(len(latencies))})
-            latencies.append(time.perf_counter() - before)
-        elapsed = time.perf_counter() - started
-    return {"per_second": len(latencies) / elapsed, "p50_ms": _ms(latencies, 50), "p99_ms": _ms(latencies, 99)}
+    records = real_records()
+    rows = [dict({"engine": "SQLite (WAL, synchronous FULL)"},
+                 **_rate(insert_rate(os.path.join(folder, "insert-rate.sqlite"), records, seconds)))]
+    if not _has("psycopg"):
+        return rows + [{"engine": "PostgreSQL", "inserts_per_s": None, "skipped": "psycopg is not installed"}]
+    from tests.pgserver import NoPostgres, fresh_database, postgres_server
 
-
-def _insert_rate_function():
-    """benchmarks/store.py's ``insert_rate`` when it exists, else :func:`_own_insert_rate`; and its name."""
-    path = ROOT / "benchmarks" / "store.py"
-    if path.exists():
-        spec = importlib.util.spec_from_file_location("benchmark_store", path)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        if hasattr(module, "insert_rate"):
-            return module.insert_rate, "benchmarks/store.py insert_rate"
-    return _own_insert_rate, "Store.add in a loop"
+    try:
+        with postgres_server() as url, fresh_database(url) as database:
+            rows.append(dict({"engine": "PostgreSQL (fsync on, local)"}, **_rate(insert_rate(database, records, seconds))))
+    except (NoPostgres, RuntimeError) as error:
+        rows.append({"engine": "PostgreSQL", "inserts_per_s": None, "skipped": str(error)[:200]})
+    return rows
 
 
 def _rate(result):
     """The figures of an ``insert_rate`` result."""
-    return {"inserts_per_s": float(result["per_second"]), "add_p50_ms": result.get("p50_ms"),
-            "add_p99_ms": result.get("p99_ms")}
-
-
-def store_rates(folder, records, seconds):
-    """Inserts per second on SQLite (a file in ``folder``) and on a throwaway PostgreSQL when one starts."""
-    insert_rate, how = _insert_rate_function()
-    rows = [dict({"engine": "SQLite (WAL, synchronous FULL)", "how": how},
-                 **_rate(insert_rate(os.path.join(folder, "insert-rate.sqlite"), records, seconds)))]
-    if (ROOT / "tests" / "pgserver.py").exists() and _has("psycopg"):
-        from tests.pgserver import NoPostgres, fresh_database, postgres_server
-
-        try:
-            with postgres_server() as url, fresh_database(url) as database:
-                rows.append(dict({"engine": "PostgreSQL (fsync on, local)", "how": how},
-                                 **_rate(insert_rate(database, records, seconds))))
-        except (NoPostgres, RuntimeError) as error:
-            rows.append({"engine": "PostgreSQL", "how": how, "inserts_per_s": None, "skipped": str(error)[:200]})
-    else:
-        rows.append({"engine": "PostgreSQL", "how": how, "inserts_per_s": None,
-                     "skipped": "tests/pgserver.py or psycopg not in this tree"})
-    return rows
+    return {"inserts_per_s": float(result["per_second"]), "add_p50_ms": result["p50_ms"], "add_p99_ms": result["p99_ms"]}
 
 
 # -- the run --------------------------------------------------------------------------------------
@@ -694,7 +663,7 @@ def _print_latency(figures, out):
     missing = [name for name, present in figures["channels"].items() if not present]
     print(f"\n2. Latency: one client, sequential, a server with --workers 1, after {figures['settings']['warmup']} "
           f"warm-up requests per channel; goal p50 <= in-process p50 + {GOAL_OVERHEAD_MS:g} ms"
-          + (f" (not in this tree: {', '.join(missing)})" if missing else ""), file=out)
+          + (" (OPC UA not measured: asyncua, the extra opcua, is not installed)" if missing else ""), file=out)
     print(f"{'scan':<9} {'channel':<12} {'n':>4} {'p50 ms':>7} {'p99 ms':>7} {'in-proc':>7} {'+ ms':>6} "
           f"{'worker ms':>9} {'server ms':>9} {'front ms':>8} {'srv cpu ms':>10} {'cpu + ms':>8}  goal", file=out)
     for row in figures["latency"]:
@@ -750,13 +719,14 @@ def _print_soak(figures, out):
 
 
 def _print_store(figures, out):
-    print(f"\n5. The store's insert rate: one add (a measurement, its holes and characteristics) per transaction, "
-          f"committed; a real record of table1.ply, {figures['settings']['store_seconds']:g} s each", file=out)
+    print(f"\n5. The store's insert rate (benchmarks/store.py's insert_rate): one add (a measurement, its holes and "
+          f"characteristics) per transaction, committed; panel.ply checked against its tolerances and table1.ply in "
+          f"turn, {figures['settings']['store_seconds']:g} s each", file=out)
     for row in figures["store"]:
         rate = f"{row['inserts_per_s']:6.0f} inserts/s, one add p50 {_number(row.get('add_p50_ms'), '.2f')} ms, " \
                f"p99 {_number(row.get('add_p99_ms'), '.2f')} ms" if row["inserts_per_s"] is not None else \
             f"not measured ({row.get('skipped')})"
-        print(f"{row['engine']:<32} {rate}  [{row['how']}]", file=out)
+        print(f"{row['engine']:<32} {rate}", file=out)
 
 
 def _print_stops(figures, out):
@@ -815,10 +785,7 @@ def run(args, progress):
             if progress:
                 _print_soak(figures, progress)
         figures["stops"] = sorted(stops)
-        from holecli import measure_scan
-
-        record = measure_scan(by_name["table1"].path).record
-        figures["store"] = store_rates(folder, [record], args.store_seconds)
+        figures["store"] = store_rates(folder, args.store_seconds)
         if progress:
             _print_store(figures, progress)
             _print_stops(figures, progress)
