@@ -17,5 +17,4 @@ with httpx.Client(base_url=url, timeout=120) as client:
         sys.exit(f"{scan}: {answer.json()['error']['message']} ({answer.status_code})")
     record = answer.json()
     for hole in record["holes"]:
-        x, y, z = hole["center"]
-        print(f"{record['id'][:8]} hole {hole['index']}: center {x:.3f} {y:.3f} {z:.3f}, diameter {hole['diameter']:.4f}")
+        print(record["id"][:8], hole["index"], [round(c, 3) for c in hole["center"]], round(hole["diameter"], 4))

@@ -28,17 +28,27 @@ SERVE_EXIT_CODES_HELP = (
 @click.option("--port", type=click.IntRange(0, 65535), default=8000, show_default=True,
               help="The HTTP port (0: a free one, said on stdout when ready).")
 @click.option("--tcp-port", type=click.IntRange(0, 65535), default=None, metavar="PORT",
-              help="Also answer the line protocol on this TCP port (0: a free one; LMI Gocator's ASCII channel is 8190).")
+              help="Also answer the line protocol on this TCP port (0: a free one; LMI Gocator's ASCII channel is "
+                   "8190).")
 @click.option("--tcp-units", type=click.Choice(["mm", "um"]), default="mm", show_default=True,
               help="The line protocol's lengths: decimal millimetres (4 decimals), or integer micrometres.")
 @click.option("--opcua-port", type=click.IntRange(0, 65535), default=None, metavar="PORT",
-              help="Also serve OPC UA on this port (0: a free one; the usual is 4840). Needs the extra opcua (asyncua).")
+              help="Also serve OPC UA on this port (0: a free one; the usual is 4840). Needs the extra opcua "
+                   "(asyncua).")
+@click.option("--opcua-cert", type=click.Path(exists=True, dir_okay=False, path_type=str), default=None,
+              metavar="PEM",
+              help="The OPC UA server's certificate: its endpoint then offers Basic256Sha256 (signed and encrypted) "
+                   "only; needed, with --opcua-key and --token-file, beyond the loopback interface.")
+@click.option("--opcua-key", type=click.Path(exists=True, dir_okay=False, path_type=str), default=None,
+              metavar="PEM",
+              help="The private key of --opcua-cert.")
 @click.option("--store", "store_location", default="results.sqlite", show_default=True, metavar="FILE|URL",
               help="Where every answered measurement is committed before the answer leaves: a SQLite file, or "
                    "postgresql://USER@HOST/DB (the extra postgres).")
 @click.option("--spec-dir", type=click.Path(exists=True, file_okay=False, path_type=str), default=None,
               help="The named specs (NAME.toml) and registrations (NAME.json) a request may name.")
-@click.option("--allow-dir", "allow_dirs", multiple=True, type=click.Path(exists=True, file_okay=False, path_type=str),
+@click.option("--allow-dir", "allow_dirs", multiple=True,
+              type=click.Path(exists=True, file_okay=False, path_type=str),
               help="A folder whose scans a request may name (repeatable); without one, scans must be uploaded.")
 @click.option("--token-file", type=click.Path(exists=True, dir_okay=False, path_type=str), default=None,
               help="A file (mode 600) whose first line is the bearer token every request must carry.")
@@ -51,8 +61,8 @@ SERVE_EXIT_CODES_HELP = (
 @click.option("--worker-memory-mb", type=Decimal(min=0, min_open=True), default=4096, show_default=True,
               help="The memory a worker may add to its size when ready (a larger scan gets 413).")
 @click.option("--quiet", "-q", is_flag=True, help="Say nothing on stderr but errors.")
-def serve(host, port, tcp_port, tcp_units, opcua_port, store_location, spec_dir, allow_dirs, token_file, workers,
-          max_upload_mb, request_timeout, worker_memory_mb, quiet):
+def serve(host, port, tcp_port, tcp_units, opcua_port, opcua_cert, opcua_key, store_location, spec_dir, allow_dirs,
+          token_file, workers, max_upload_mb, request_timeout, worker_memory_mb, quiet):
     """Measure scans on request, as a service of the cell: HTTP, a line protocol over TCP, OPC UA.
 
     One process loads once and answers: POST /v1/measure (a file it may read, or the scan itself),
@@ -67,13 +77,13 @@ def serve(host, port, tcp_port, tcp_units, opcua_port, store_location, spec_dir,
       holecli serve --tcp-port 8190 --store postgresql://holecli@db/cell7
       curl -s localhost:8000/v1/measure -H 'Content-Type: application/json' -d '{"path": "hole7.ply"}'
     """
-    run_guarded(_serve, host, port, tcp_port, tcp_units, opcua_port, store_location, spec_dir, allow_dirs, token_file,
-                workers, max_upload_mb, request_timeout, worker_memory_mb, quiet)
+    run_guarded(_serve, host, port, tcp_port, tcp_units, opcua_port, opcua_cert, opcua_key, store_location, spec_dir,
+                allow_dirs, token_file, workers, max_upload_mb, request_timeout, worker_memory_mb, quiet)
     sys.exit(EXIT_OK)
 
 
-def _serve(host, port, tcp_port, tcp_units, opcua_port, store_location, spec_dir, allow_dirs, token_file, workers,
-           max_upload_mb, request_timeout, worker_memory_mb, quiet):
+def _serve(host, port, tcp_port, tcp_units, opcua_port, opcua_cert, opcua_key, store_location, spec_dir, allow_dirs,
+           token_file, workers, max_upload_mb, request_timeout, worker_memory_mb, quiet):
     import asyncio
 
     from holecli.batch.discover import default_jobs
@@ -89,9 +99,20 @@ def _serve(host, port, tcp_port, tcp_units, opcua_port, store_location, spec_dir
         except (OSError, ValueError) as error:
             raise Failure(str(error) if isinstance(error, ValueError) else f"{token_file}: {error.strerror or error}",
                           EXIT_INPUT) from None
-    if opcua_port is not None and not is_loopback(host):
-        raise click.UsageError("OPC UA is served without encryption: it binds to the loopback interface only "
-                               "(drop --opcua-port, or --host 127.0.0.1)")
+    opcua = None
+    if opcua_port is not None:
+        try:
+            from holecli.serve.opcua import OpcUaBindError, check_bind
+        except ImportError as error:
+            raise Failure(f"--opcua-port needs the extra opcua (pip install 'holecli[opcua]'): {error}", EXIT_INPUT) \
+                from None
+        try:  # (port 0, a free one, is chosen later: any port passes here)
+            check_bind(host, opcua_port or 4840, token=token, certificate=opcua_cert, private_key=opcua_key)
+        except OpcUaBindError as error:
+            raise click.UsageError(str(error)) from None
+        opcua = {"port": opcua_port, "certificate": opcua_cert, "private_key": opcua_key}
+    elif opcua_cert is not None or opcua_key is not None:
+        raise click.UsageError("--opcua-cert and --opcua-key are for --opcua-port")
     try:
         from holecli.serve import server
         from holecli.serve.service import Service
@@ -107,8 +128,9 @@ def _serve(host, port, tcp_port, tcp_units, opcua_port, store_location, spec_dir
                 try:
                     setattr(listeners, name, server.bind(host, number))
                 except OSError as error:
-                    raise Failure(f"{host}:{number}: cannot listen there ({'--port' if name == 'http' else '--tcp-port'}): "
-                                  f"{error.strerror or error}", EXIT_INPUT) from None
+                    option = "--port" if name == "http" else "--tcp-port"
+                    raise Failure(f"{host}:{number}: cannot listen there ({option}): {error.strerror or error}",
+                                  EXIT_INPUT) from None
         try:
             store = open_store(store_location)
         except StoreError as error:
@@ -128,7 +150,7 @@ def _serve(host, port, tcp_port, tcp_units, opcua_port, store_location, spec_dir
                     click.echo(f"holecli serve: {shown}; store {store.location}; {service.workers} workers", err=True)
 
             asyncio.run(server.run(service, listeners, host=host, token=token, tcp_units=tcp_units,
-                                   opcua_port=opcua_port, ready=ready, graceful_seconds=request_timeout + 5))
+                                   opcua=opcua, ready=ready, graceful_seconds=request_timeout + 5))
         finally:
             service.close()
     finally:

@@ -38,8 +38,8 @@ class MeasureBody(BaseModel):
                       min_length=1, max_length=4096)
     format: Optional[Literal[INPUT_FORMATS]] = Field(  # type: ignore[valid-type]
         None, description="Read the file in this format, whatever its extension.")
-    options: Dict[str, Any] = Field(default_factory=dict,
-                                    description="Detection options: " + "; ".join(f"{k}: {v}" for k, v in OPTIONS.items()))
+    options: Dict[str, Any] = Field(
+        default_factory=dict, description="Detection options: " + "; ".join(f"{k}: {v}" for k, v in OPTIONS.items()))
     spec: Optional[str] = Field(None, description="A spec name in --spec-dir (NAME.toml).", max_length=100)
     registration: Optional[str] = Field(None, description="A registration name in --spec-dir (NAME.json).",
                                         max_length=100)

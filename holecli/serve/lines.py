@@ -56,7 +56,8 @@ from holecli.units import UNITS
 
 __all__ = ["COMMANDS", "DECIMALS", "IDLE_TIMEOUT", "LINE_TIMEOUT", "LINE_UNITS", "MAX_CONNECTIONS", "MAX_LINE",
            "MESSAGE_MAX", "NORMAL_DECIMALS", "Auth", "Help", "LineError", "Measure", "Ping", "Result", "Version",
-           "answer", "close_lines", "decode_line", "format_answer", "format_error", "option_value", "parse_line", "serve_lines"]
+           "answer", "close_lines", "decode_line", "format_answer", "format_error", "option_value", "parse_line",
+           "serve_lines"]
 
 # The units of the answers' lengths: decimal millimetres, or integer micrometres.
 LINE_UNITS = ("mm", "um")
@@ -208,7 +209,8 @@ def decode_line(raw: bytes) -> str:
         raise LineError(400, f"the line is not UTF-8 (byte {error.start})") from None
     control = _CONTROL.search(text)
     if control:
-        raise LineError(400, f"control character 0x{ord(control.group()):02x} at character {control.start()} of the line")
+        raise LineError(400, f"control character 0x{ord(control.group()):02x} at character {control.start()} "
+                             "of the line")
     return text
 
 

@@ -26,7 +26,6 @@ class Listeners:
     def __init__(self):
         self.http = None
         self.tcp = None
-        self.opcua_port = None
 
     def close(self):
         for sock in (self.http, self.tcp):
@@ -67,7 +66,7 @@ def _url(scheme, host, port):
     return f"{scheme}://{shown}:{port}"
 
 
-async def run(service, listeners, *, host, token=None, tcp_units="mm", opcua_port=None, ready=None,
+async def run(service, listeners, *, host, token=None, tcp_units="mm", opcua=None, ready=None,
               graceful_seconds=65.0):
     """Serve ``service`` until SIGTERM or SIGINT, then answer what is in flight and return.
 
@@ -77,11 +76,14 @@ async def run(service, listeners, *, host, token=None, tcp_units="mm", opcua_por
     listeners : Listeners
         ``http`` bound (always), ``tcp`` bound or None.
     host : str
-        Where OPC UA binds (its port ``opcua_port``; 0: a free one; None: no OPC UA).
+        Where OPC UA binds.
     token : str, optional
-        The bearer token HTTP asks for (and the line protocol's ``AUTH``).
+        The bearer token HTTP asks for (and the line protocol's ``AUTH``, OPC UA's login password).
     tcp_units : {"mm", "um"}
         How the line protocol writes lengths.
+    opcua : dict, optional
+        Serve OPC UA: ``port`` (0: a free one), ``certificate`` and ``private_key`` (PEM files, or None;
+        see :func:`holecli.serve.opcua.start_opcua`).
     ready : callable, optional
         Called with ``{"http": URL, "tcp": "HOST:PORT" or None, "opcua": URL or None}`` once every
         front end listens.
@@ -112,7 +114,7 @@ async def run(service, listeners, *, host, token=None, tcp_units="mm", opcua_por
 
     for number in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(number, stop)
-    lines = opcua = None
+    lines = opcua_server = None
     try:
         listeners.http.listen(128)
         http_task = asyncio.create_task(http.serve(sockets=[listeners.http]))
@@ -125,12 +127,13 @@ async def run(service, listeners, *, host, token=None, tcp_units="mm", opcua_por
         if listeners.tcp is not None:
             lines = await serve_lines(service, sock=listeners.tcp, units=tcp_units, token=token)
             addresses["tcp"] = "%s:%d" % (host, listeners.tcp.getsockname()[1])
-        if opcua_port is not None:
-            from holecli.serve.opcua import start_opcua
+        if opcua is not None:
+            from holecli.serve.opcua import endpoint_url, start_opcua
 
-            port = opcua_port or _free_port(host)
-            opcua = await start_opcua(service, host, port)
-            addresses["opcua"] = _url("opc.tcp", host, port) + "/holecli/"
+            port = opcua["port"] or _free_port(host)
+            opcua_server = await start_opcua(service, host, port, token=token, certificate=opcua.get("certificate"),
+                                             private_key=opcua.get("private_key"))
+            addresses["opcua"] = endpoint_url(host, port)
         if ready is not None:
             ready(addresses)
         await http_task  # returns once a signal stopped it and its requests in flight were answered
@@ -141,8 +144,8 @@ async def run(service, listeners, *, host, token=None, tcp_units="mm", opcua_por
             # does not wait for its connections in Python 3.11)
             with contextlib.suppress(Exception):
                 await close_lines(lines, graceful_seconds)
-        if opcua is not None:
+        if opcua_server is not None:
             with contextlib.suppress(Exception):
-                await opcua.stop()
+                await opcua_server.stop()
         for number in (signal.SIGINT, signal.SIGTERM):
             loop.remove_signal_handler(number)

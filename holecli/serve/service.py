@@ -178,9 +178,7 @@ def detection_keywords(options) -> dict:
             keywords[name] = direction
         elif name == "columns":
             value = options[name]
-            if not isinstance(value, (list, tuple)) or len(value) != 3 or not all(
-                    (isinstance(item, str) and 0 < len(item) <= 100) or (isinstance(item, int) and not isinstance(item, bool)
-                                                                         and 0 <= item < 10**6) for item in value):
+            if not isinstance(value, (list, tuple)) or len(value) != 3 or not all(map(_column, value)):
                 raise bad(name)
             keywords[name] = tuple(value)
         elif name in ("units", "output_units"):
@@ -194,6 +192,13 @@ def detection_keywords(options) -> dict:
     if units:
         keywords["units"] = UnitChoice(**units)
     return keywords
+
+
+def _column(item):
+    """Whether ``item`` names a column of a text table: a name, or a 0-based number."""
+    if isinstance(item, str):
+        return 0 < len(item) <= 100
+    return isinstance(item, int) and not isinstance(item, bool) and 0 <= item < 10**6
 
 
 def number_of(value, error):

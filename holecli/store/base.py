@@ -185,6 +185,35 @@ class Store:
         return name
 
 
+def is_a_store(location, tables, version, what) -> bool:
+    """Whether a database holds a results store (True), or nothing yet (False: create the tables).
+
+    Parameters
+    ----------
+    location : str
+        What the messages call the store.
+    tables : set of str
+        The tables the database holds.
+    version : str or None
+        Its ``store_info`` schema version, None when it has none.
+    what : str
+        What the messages call a database of the engine ("an SQLite database", "a database").
+
+    Raises
+    ------
+    StoreError
+        A database with other tables (not a store); a store of a newer schema (:func:`check_version`).
+    """
+    if tables and version is None:
+        shown = ", ".join(sorted(tables)[:5]) + (", ..." if len(tables) > 5 else "")
+        raise StoreError(f"{location}: not a holecli results store ({what} with other tables: {shown}); "
+                         f"it was left as it is")
+    if version is not None:
+        check_version(location, version)
+        return True
+    return False
+
+
 def check_version(location, version):
     """Refuse a store whose schema version is newer than :data:`holecli.store.schema.SCHEMA_VERSION`
     (or not a version at all).

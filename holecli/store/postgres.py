@@ -17,7 +17,7 @@ from psycopg.rows import dict_row
 
 from holecli import __version__
 from holecli.store import schema
-from holecli.store.base import Store, StoreError, check_version, redacted
+from holecli.store.base import Store, StoreError, is_a_store, redacted
 
 CONNECT_TIMEOUT_S = 10
 """How long opening a connection may take, seconds."""
@@ -70,12 +70,7 @@ class PostgresStore(Store):
         if "store_info" in tables:
             found = connection.execute("SELECT value FROM store_info WHERE key = 'schema_version'").fetchone()
             version = None if found is None else found["value"]
-        if tables and version is None:
-            shown = ", ".join(sorted(tables)[:5]) + (", ..." if len(tables) > 5 else "")
-            raise StoreError(f"{self.location}: not a holecli results store (a database with other tables: {shown}); "
-                             f"it was left as it is")
-        if version is not None:
-            check_version(self.location, version)
+        if is_a_store(self.location, tables, version, "a database"):
             return
         with connection.transaction():
             connection.execute("SELECT pg_advisory_xact_lock(%s)", (_CREATE_LOCK,))

@@ -14,7 +14,7 @@ import sqlite3
 
 from holecli import __version__
 from holecli.store import schema
-from holecli.store.base import Store, StoreError, check_version
+from holecli.store.base import Store, StoreError, is_a_store
 
 BUSY_TIMEOUT_S = 30.0
 """How long an add waits for another writer of the same file, seconds."""
@@ -95,18 +95,13 @@ class SQLiteStore(Store):
         if "store_info" in tables:
             found = connection.execute("SELECT value FROM store_info WHERE key = 'schema_version'").fetchone()
             version = None if found is None else found[0]
-        if tables and version is None:
-            shown = ", ".join(sorted(tables)[:5]) + (", ..." if len(tables) > 5 else "")
-            raise StoreError(f"{self.location}: not a holecli results store (an SQLite database with other tables: "
-                             f"{shown}); it was left as it is")
-        if version is not None:
-            check_version(self.location, version)
+        existing = is_a_store(self.location, tables, version, "an SQLite database")
         connection.execute("PRAGMA foreign_keys = ON")
         mode = connection.execute("PRAGMA journal_mode = WAL").fetchone()[0]
         if str(mode).lower() != "wal":
             raise StoreError(f"{self.location}: the file system does not allow SQLite's WAL mode (journal mode {mode})")
         connection.execute("PRAGMA synchronous = FULL")
-        if version is None:
+        if not existing:
             self._create()
 
     def _create(self):

@@ -14,7 +14,7 @@ SERVICE_LIBRARIES = ("fastapi", "uvicorn", "starlette", "prometheus_client", "ps
 def test_help_names_every_front_end_and_limit(run):
     result = run("serve", "--help")
     assert result.exit_code == 0
-    for option in ("--host", "--port", "--tcp-port", "--tcp-units", "--opcua-port", "--store", "--spec-dir",
+    for option in ("--host", "--port", "--tcp-port", "--tcp-units", "--opcua-port", "--opcua-cert", "--opcua-key", "--store", "--spec-dir",
                    "--allow-dir", "--token-file", "--workers", "--max-upload-mb", "--request-timeout",
                    "--worker-memory-mb"):
         assert option in result.stdout
@@ -27,6 +27,18 @@ def test_a_bind_beyond_loopback_needs_a_token(holecli_process, tmp_path):
     assert re.fullmatch(r"Error: --host 0\.0\.0\.0 is beyond the loopback interface: give --token-file.*\n",
                         result.stderr.splitlines(keepends=True)[-1])
     assert not (tmp_path / "r.sqlite").exists()
+
+
+def test_opcua_beyond_loopback_needs_a_certificate_and_a_token(holecli_process, tmp_path):
+    token = tmp_path / "token"
+    token.write_text("0123456789abcdef0123\n")
+    token.chmod(0o600)
+    result = holecli_process("serve", "--host", "0.0.0.0", "--token-file", token, "--opcua-port", 4840,
+                             "--store", tmp_path / "r.sqlite")
+    assert result.returncode == cli.EXIT_USAGE
+    assert "needs a server certificate and key" in result.stderr.splitlines()[-1]
+    result = holecli_process("serve", "--opcua-cert", token, "--store", tmp_path / "r.sqlite")
+    assert result.returncode == cli.EXIT_USAGE and "--opcua-cert and --opcua-key are for --opcua-port" in result.stderr
 
 
 def test_a_token_file_others_can_read_is_refused(holecli_process, tmp_path):
