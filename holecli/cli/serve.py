@@ -16,8 +16,10 @@ SERVE_EXIT_CODES_HELP = (
     "\b\nExit codes:\n"
     "  0  stopped by SIGTERM or Ctrl-C, after answering the requests in flight\n"
     "  1  internal error (a bug)\n"
-    "  2  usage error (a bind beyond the loopback interface without --token-file, ...)\n"
-    "  3  cannot start: the store cannot be opened, a port is in use, a folder or the token file cannot be read\n"
+    "  2  usage error (a bind beyond the loopback interface without --token-file; a --token-file, --allow-dir or\n"
+    "     --spec-dir that does not exist)\n"
+    "  3  cannot start: the store cannot be opened, a port is in use, the token file is unreadable, readable by\n"
+    "     others or its token shorter than 16 characters\n"
     "  130  a second SIGTERM or Ctrl-C while stopping, or one while starting"
 )
 
