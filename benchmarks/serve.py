@@ -754,7 +754,7 @@ def run(args, progress):
         by_name = {scan.name: scan for scan in scans}
         small = by_name["sim 10^4"]
         if progress:
-            print(f"holecli serve benchmark: {figures['machine']['cores']} cores, Python {figures['machine']['python']}, "
+            print(f"The benchmark of holecli serve: {figures['machine']['cores']} cores, Python {figures['machine']['python']}, "
                   f"holecli {figures['holecli_version']}, load average {figures['machine']['load_average'][0]:.2f}; scans: "
                   + ", ".join(f"{scan.name} {scan.points:,} points" for scan in scans), file=progress)
         figures["one_shot"] = {scan.name: one_shot(scan, args.one_shot_runs) for scan in scans}
