@@ -92,6 +92,19 @@ _PUBLISHED_IDS_KEPT = 64  # answers published recently, so that one answer fires
 _log = logging.getLogger(__name__)
 
 
+class AnswersToClients(logging.Filter):
+    """Drops asyncua's log of each Bad status it answers a client with ("sending service fault
+    response ...", at ERROR): the client's own business (a Publish for the subscription it has just
+    deleted while disconnecting: BadNoSubscription), not a fault of the service, and it went to the
+    service's stderr."""
+
+    def filter(self, record):
+        return not str(record.msg).startswith("sending service fault response")
+
+
+_PROCESSOR_LOG = logging.getLogger("asyncua.server.uaprocessor")
+
+
 class OpcUaBindError(HoleCliError, ValueError):
     """The OPC UA server was asked to listen beyond the loopback interface without security, or on no port."""
 
@@ -137,6 +150,8 @@ async def start_opcua(service, host, port, *, token=None, certificate=None, priv
         See :func:`check_bind`.
     """
     check_bind(host, port, token=token, certificate=certificate, private_key=private_key)
+    if not any(isinstance(item, AnswersToClients) for item in _PROCESSOR_LOG.filters):
+        _PROCESSOR_LOG.addFilter(AnswersToClients())
     server = _Server(user_manager=_TokenUsers(token) if token is not None else None)
     await server.init()
     server.allow_remote_admin(False)  # asyncua's default lets a user named admin change the address space

@@ -379,3 +379,17 @@ def test_parse_meta_refuses(text, match):
     with pytest.raises(ServiceError, match=match) as raised:
         _parse_meta(text)
     assert raised.value.status == 400
+
+
+def test_the_faults_answered_to_clients_stay_out_of_the_services_log():
+    import logging
+
+    from holecli.serve.opcua import AnswersToClients
+
+    def record(message, *args):
+        return logging.LogRecord("asyncua.server.uaprocessor", logging.ERROR, __file__, 1, message, args, None)
+
+    keep = AnswersToClients().filter
+    assert not keep(record("sending service fault response: %s (%s)", "no subscription", "BadNoSubscription"))
+    assert keep(record("Error while processing message"))
+
