@@ -40,7 +40,7 @@ from cryptography.x509.oid import ExtendedKeyUsageOID
 from holecli.errors import HoleCliError
 from holecli.serve.security import is_loopback
 from holecli.serve.service import MeasureRequest, ServiceError
-from holecli.store.schema import verdict_word
+from holecli.store.schema import hole_verdict_word, verdict_word
 
 __all__ = ["APPLICATION_URI", "ENDPOINT_PATH", "NAMESPACE_URI", "STATUS_OF_ERROR", "MeasureClient", "OpcUaBindError",
            "call_measure", "check_bind", "endpoint_url", "start_opcua"]
@@ -438,16 +438,6 @@ def _parse_meta(text):
     return meta
 
 
-def _hole_verdict(hole):
-    """The verdict word of one hole: unchecked (no tolerance applied to it), pass, fail, undecided."""
-    in_tolerance = hole.get("in_tolerance")
-    if in_tolerance is None:
-        return "unchecked"
-    if in_tolerance:
-        return "pass"
-    return "fail" if hole.get("failed_checks") or not hole.get("undecided_checks") else "undecided"
-
-
 def _last_result_values(answer):
     """LastResult's variable name -> its Variant for ``answer``."""
     holes = answer.get("holes", ())
@@ -469,7 +459,7 @@ def _last_result_values(answer):
               "NormalX": [float(hole["normal"][0]) for hole in holes],
               "NormalY": [float(hole["normal"][1]) for hole in holes],
               "NormalZ": [float(hole["normal"][2]) for hole in holes],
-              "HoleVerdict": [_hole_verdict(hole) for hole in holes]}
+              "HoleVerdict": [hole_verdict_word(hole) for hole in holes]}
     values = {name: ua.Variant(value, _SCALARS[name][0]) for name, value in scalars.items()}
     values.update({name: ua.Variant(value, _ARRAYS[name][0]) for name, value in arrays.items()})
     return values

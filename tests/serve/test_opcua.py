@@ -24,7 +24,7 @@ from cryptography.hazmat.primitives import serialization  # noqa: E402
 from cryptography.x509.oid import ExtendedKeyUsageOID  # noqa: E402
 
 from holecli.serve.opcua import (APPLICATION_URI, NAMESPACE_URI, MeasureClient, OpcUaBindError,  # noqa: E402
-                                 _hole_verdict, _parse_meta, _throwaway_certificate, check_bind, endpoint_url,
+                                 _last_result_values, _parse_meta, _throwaway_certificate, check_bind, endpoint_url,
                                  start_opcua)
 from holecli.serve.service import MeasureRequest, Service, ServiceError  # noqa: E402
 from holecli.store import open_store  # noqa: E402
@@ -362,7 +362,9 @@ def test_throwaway_certificate_names_the_application():
     ({"in_tolerance": False, "failed_checks": [], "undecided_checks": []}, "fail"),
 ])
 def test_hole_verdict(hole, verdict):
-    assert _hole_verdict(hole) == verdict
+    # LastResult/HoleVerdict gives each hole's word of holecli.store.schema.hole_verdict_word
+    answer = {"id": "a" * 32, "holes": [dict(hole, center=[0.0, 0.0, 0.0], diameter=3.0, normal=[0.0, 0.0, 1.0])]}
+    assert _last_result_values(answer)["HoleVerdict"].Value == [verdict]
 
 
 @pytest.mark.parametrize("text, meta", [
