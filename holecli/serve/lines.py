@@ -41,7 +41,6 @@ The pure parts (:func:`decode_line`, :func:`parse_line`, :func:`format_answer`,
 from __future__ import annotations
 
 import asyncio
-import hmac
 import logging
 import math
 import re
@@ -50,6 +49,7 @@ from dataclasses import dataclass, field
 from typing import Mapping, Optional, Union
 
 from holecli.errors import HoleCliError
+from holecli.serve.security import is_the_token
 from holecli.serve.service import MeasureRequest, ServiceError
 from holecli.store.schema import hole_verdict_word, verdict_word
 from holecli.units import UNITS
@@ -579,7 +579,7 @@ class _Channel:
             if command is None:
                 return None
             if isinstance(command, Auth):
-                if self.token is not None and not hmac.compare_digest(command.token.encode(), self.token.encode()):
+                if self.token is not None and not is_the_token(command.token, self.token):
                     raise _Closing(format_error(401, "wrong token"))
                 session["authorized"] = True
                 return "OK,AUTH"

@@ -24,7 +24,6 @@ import asyncio
 import collections
 import contextlib
 import datetime
-import hmac
 import ipaddress
 import json
 import logging
@@ -38,7 +37,7 @@ from cryptography.hazmat.primitives import serialization
 from cryptography.x509.oid import ExtendedKeyUsageOID
 
 from holecli.errors import HoleCliError
-from holecli.serve.security import is_loopback
+from holecli.serve.security import is_loopback, is_the_token
 from holecli.serve.service import MeasureRequest, ServiceError
 from holecli.store.schema import hole_verdict_word, verdict_word
 
@@ -207,13 +206,12 @@ class _TokenUsers:
     """asyncua's user manager: a session logs in with any user name and the service's token as password."""
 
     def __init__(self, token):
-        self._token = token.encode()
+        self._token = token
 
     def get_user(self, iserver, username=None, password=None, certificate=None):
         if password is None:
             return None
-        given = password.encode() if isinstance(password, str) else bytes(password)
-        return User(role=UserRole.User, name=username) if hmac.compare_digest(given, self._token) else None
+        return User(role=UserRole.User, name=username) if is_the_token(password, self._token) else None
 
 
 def _key_format(path):

@@ -10,7 +10,7 @@ import hmac
 import ipaddress
 import os
 
-__all__ = ["AccessError", "confine", "is_loopback", "read_token", "token_matches"]
+__all__ = ["AccessError", "confine", "is_loopback", "is_the_token", "read_token", "token_matches"]
 
 
 class AccessError(Exception):
@@ -94,10 +94,17 @@ def read_token(path) -> str:
     return token
 
 
+def is_the_token(given, token) -> bool:
+    """Whether ``given`` (str or bytes: the line protocol's ``AUTH``, an OPC UA password) is ``token``,
+    compared in constant time."""
+    given = given.encode() if isinstance(given, str) else bytes(given)
+    return hmac.compare_digest(given, token.encode())
+
+
 def token_matches(header, token) -> bool:
     """Whether the ``Authorization`` header ``header`` is ``Bearer <token>`` (compared in constant time)."""
     if token is None:
         return True
     if not header or not header.startswith("Bearer "):
         return False
-    return hmac.compare_digest(header[len("Bearer "):].strip().encode(), token.encode())
+    return is_the_token(header[len("Bearer "):].strip(), token)

@@ -4,7 +4,7 @@ import os
 
 import pytest
 
-from holecli.serve.security import AccessError, confine, is_loopback, read_token, token_matches
+from holecli.serve.security import AccessError, confine, is_loopback, is_the_token, read_token, token_matches
 
 
 @pytest.fixture
@@ -97,3 +97,9 @@ def test_the_bearer_header_must_carry_the_token():
     assert not token_matches(token, token)
     assert not token_matches(None, token)
     assert token_matches(None, None)  # no token asked for
+
+
+def test_a_token_given_as_text_or_bytes():
+    token = "0123456789abcdef0123"
+    assert is_the_token(token, token) and is_the_token(token.encode(), token)
+    assert not is_the_token(token[:-1], token) and not is_the_token(b"", token)
