@@ -44,19 +44,7 @@ def _start_worker(options, spec, preload, parent, explain=False, timeout=None, r
     """Pool initializer: runs once in every worker process (``parent``: the batch's process id;
     ``explain``: records with their ``rejected`` list; ``timeout``: seconds per file, or None;
     ``reading``: the ``scan`` and ``units`` keyword arguments of :func:`measure_record` that are given)."""
-    # The parent handles Ctrl-C and SIGTERM and then ends the workers; a worker must not die of the
-    # terminal's SIGINT on its own (it would break the pool and lose its record).
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    _die_with_parent(parent)
-    if timeout:
-        import resource
-
-        # A worker killed by its CPU limit (SIGXCPU) dumps no core: the file gets its error record.
-        try:
-            resource.setrlimit(resource.RLIMIT_CORE, (0, resource.getrlimit(resource.RLIMIT_CORE)[1]))
-        except (ValueError, OSError):
-            pass
+    become_worker(parent, no_core_dumps=bool(timeout))
     for descriptor in PARENT_ONLY_DESCRIPTORS:
         try:
             os.close(descriptor)
@@ -70,6 +58,27 @@ def _start_worker(options, spec, preload, parent, explain=False, timeout=None, r
         except (ImportError, OSError):
             pass  # the file that needs it reports the problem itself
     _WORKER.update(options=options, spec=spec, explain=explain, timeout=timeout, reading=reading or {})
+
+
+def become_worker(parent, no_core_dumps=False):
+    """What a worker process does first, a batch's or ``holecli serve``'s: ignore Ctrl-C and take
+    SIGTERM's default, die with ``parent`` (:func:`_die_with_parent`) and, with ``no_core_dumps``, dump
+    no core when its CPU limit kills it (:func:`_time_limit`).
+
+    The parent handles Ctrl-C and SIGTERM and then ends its workers; a worker must not die of the
+    terminal's SIGINT on its own (it would break the pool and lose its record). A worker killed by its
+    CPU limit (SIGXCPU) gets an error record or answer instead, and a core file would be litter.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _die_with_parent(parent)
+    if no_core_dumps:
+        import resource
+
+        try:
+            resource.setrlimit(resource.RLIMIT_CORE, (0, resource.getrlimit(resource.RLIMIT_CORE)[1]))
+        except (ValueError, OSError):
+            pass
 
 
 def _die_with_parent(parent):

@@ -17,13 +17,11 @@ A worker that dies (a crash in a library, the CPU limit, the out-of-memory kille
 from __future__ import annotations
 
 import os
-import signal
 import threading
 import time
 
 __all__ = ["JobResult", "WorkerDied", "WorkerPool", "measure_job"]
 
-_WORKER = {}
 
 
 class WorkerDied(Exception):
@@ -38,17 +36,11 @@ class JobResult(dict):
 
 def _start_worker(parent, memory_mb):
     """Pool initializer: runs once in every worker (``parent``: the service's process id)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    from holecli.batch.pool import _die_with_parent
-
-    _die_with_parent(parent)
     import resource
 
-    try:  # a worker killed by its CPU limit (SIGXCPU) dumps no core
-        resource.setrlimit(resource.RLIMIT_CORE, (0, resource.getrlimit(resource.RLIMIT_CORE)[1]))
-    except (ValueError, OSError):
-        pass
+    from holecli.batch.pool import become_worker
+
+    become_worker(parent, no_core_dumps=True)  # a job may meet its CPU limit (--request-timeout)
     _warm_up()
     if memory_mb:
         # What this worker may add to its warm size: the address space it holds now (the libraries'
@@ -60,7 +52,6 @@ def _start_worker(parent, memory_mb):
                 resource.setrlimit(resource.RLIMIT_AS, (limit, resource.getrlimit(resource.RLIMIT_AS)[1]))
             except (ValueError, OSError):
                 pass
-    _WORKER["ready"] = True
 
 
 def _warm_up():
