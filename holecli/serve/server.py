@@ -75,7 +75,8 @@ async def run(service, listeners, *, host, token=None, tcp_units="mm", opcua=Non
     ----------
     service : holecli.serve.service.Service
     listeners : Listeners
-        ``http`` bound (always), ``tcp`` bound or None.
+        ``http`` listening (always), ``tcp`` listening or None: bound before the workers started,
+        listening once they are warm (``holecli serve`` does both).
     host : str
         Where OPC UA binds.
     token : str, optional
@@ -119,7 +120,6 @@ async def run(service, listeners, *, host, token=None, tcp_units="mm", opcua=Non
         loop.add_signal_handler(number, stop, number)
     lines = opcua_server = None
     try:
-        listeners.http.listen(128)
         http_task = asyncio.create_task(http.serve(sockets=[listeners.http]))
         while not http.started:
             if http_task.done():

@@ -197,10 +197,6 @@ class WorkerPool:
         self.restarts += 1
         threading.Thread(target=old.shutdown, kwargs={"wait": True, "cancel_futures": True}, daemon=True).start()
 
-    def processes(self):
-        """The worker processes' ids."""
-        return sorted((getattr(self._executor, "_processes", None) or {}).keys())
-
     def close(self, wait=True):
         """Stop the workers (after their jobs when ``wait``; killed otherwise)."""
         if not wait:
