@@ -9,13 +9,11 @@ commit is on disk). A connection lost (a restarted server) is opened again at th
 
 from __future__ import annotations
 
-import datetime
 
 import psycopg
 from psycopg.conninfo import conninfo_to_dict
 from psycopg.rows import dict_row
 
-from holecli import __version__
 from holecli.store import schema
 from holecli.store.base import Store, StoreError, is_a_store, redacted
 
@@ -76,11 +74,9 @@ class PostgresStore(Store):
             connection.execute("SELECT pg_advisory_xact_lock(%s)", (_CREATE_LOCK,))
             for statement in schema.ddl("postgres"):
                 connection.execute(statement)
-            created = schema.utc_text(datetime.datetime.now(datetime.timezone.utc))
             with connection.cursor() as cursor:
                 cursor.executemany("INSERT INTO store_info (key, value) VALUES (%s, %s) ON CONFLICT (key) DO NOTHING",
-                                   [("schema_version", str(schema.SCHEMA_VERSION)), ("created", created),
-                                    ("holecli_version", __version__)])
+                                   schema.store_info_rows())
 
     def _connected(self):
         """The connection, opened again when the server dropped it."""

@@ -19,6 +19,8 @@ import datetime
 import json
 import re
 
+from holecli import __version__
+
 SCHEMA_VERSION = 1
 """The version of the tables below; a store with a newer one is refused."""
 
@@ -109,6 +111,14 @@ TYPES = {
     "postgres": {"text": "text", "timestamp": "timestamptz", "json": "json", "real": "double precision",
                  "integer": "integer", "bigint": "bigint", "smallint": "smallint"},
 }
+
+
+def store_info_rows() -> list:
+    """The ``store_info`` rows of a store created now: ``(key, value)`` for ``schema_version``,
+    ``created`` (:func:`utc_text` of now) and ``holecli_version``."""
+    return [("schema_version", str(SCHEMA_VERSION)),
+            ("created", utc_text(datetime.datetime.now(datetime.timezone.utc))),
+            ("holecli_version", __version__)]
 
 
 def ddl(engine) -> list:

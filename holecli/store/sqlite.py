@@ -8,11 +8,9 @@ one ``BEGIN IMMEDIATE ... COMMIT``; another process adding to the same file wait
 
 from __future__ import annotations
 
-import datetime
 import os
 import sqlite3
 
-from holecli import __version__
 from holecli.store import schema
 from holecli.store.base import Store, StoreError, is_a_store
 
@@ -111,10 +109,8 @@ class SQLiteStore(Store):
         try:
             for statement in schema.ddl("sqlite"):
                 connection.execute(statement)
-            created = schema.utc_text(datetime.datetime.now(datetime.timezone.utc))
             connection.executemany("INSERT OR IGNORE INTO store_info (key, value) VALUES (?, ?)",
-                                   [("schema_version", str(schema.SCHEMA_VERSION)), ("created", created),
-                                    ("holecli_version", __version__)])
+                                   schema.store_info_rows())
             connection.execute("COMMIT")
         except BaseException:
             connection.execute("ROLLBACK")
