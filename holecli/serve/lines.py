@@ -52,7 +52,7 @@ from holecli.errors import HoleCliError
 from holecli.serve.security import is_the_token
 from holecli.serve.service import MeasureRequest, ServiceError
 from holecli.store.schema import hole_verdict_word, verdict_word
-from holecli.units import UNITS
+from holecli.units import UNITS, scale_factor
 
 __all__ = ["COMMANDS", "DECIMALS", "IDLE_TIMEOUT", "LINE_TIMEOUT", "LINE_UNITS", "MAX_CONNECTIONS", "MAX_LINE",
            "MESSAGE_MAX", "NORMAL_DECIMALS", "Auth", "Help", "LineError", "Measure", "Ping", "Result", "Version",
@@ -400,7 +400,7 @@ def format_answer(answer: Mapping, units: str = "mm") -> str:
     unit = answer.get("units")
     if unit is not None and unit not in UNITS:
         raise ValueError(f"the record's units {unit!r} are not one of {', '.join(UNITS)}")
-    to_mm = UNITS[unit] if unit is not None else 1.0
+    to_mm = scale_factor(unit, "mm") if unit is not None else 1.0
     holes = answer.get("holes") or []
     fields = ["OK", str(answer["id"]), str(len(holes))]
     for hole in holes:
