@@ -330,7 +330,7 @@ def _measurement_section(measurement, pictures) -> str:
         out.append(_hole_rows(hole, index, by_hole.get(index, ()), measurement.units))
     for characteristic in missing:
         out.append(f'<tr class="row-missing"><td>{_e(characteristic.hole)}</td><td>presence</td>'
-                   '<td colspan="5"></td><td class="decision missing">MISSING</td><td></td>'
+                   + '<td class="num">&ndash;</td>' * 5 + '<td class="decision missing">MISSING</td><td></td>'
                    f'<td class="reason">{_e(_reason(characteristic.reason))}</td><td></td></tr>\n')
     if not holes and not missing:
         out.append('<tr><td colspan="11" class="note">No hole found in this scan.</td></tr>\n')
