@@ -76,11 +76,14 @@ _FIT_LEGEND = ('<p class="note">Fit pictures: the nominal circle dashed grey, th
                'decision\'s colour with its centre dot. Deviations are magnified (&times; each picture\'s '
                'factor); the centre offset is drawn to the right: the record keeps its size, not its '
                'direction.</p>')
+#: The Western Electric rules (holecli.quality.spc.western_electric), as the list of a chart's violations says them.
+_RULE_WORDS = {1: "a point beyond 3 sigma", 2: "2 of 3 beyond 2 sigma on one side",
+               3: "4 of 5 beyond 1 sigma on one side", 4: "8 in a row on one side of the centre line"}
 _DECISION_WORDS = {"pass": "PASS", "fail": "FAIL", "undecided": "UNDECIDED", "missing": "MISSING",
                    "unchecked": "UNCHECKED", "error": "ERROR"}
 _VERDICTS = ("pass", "fail", "undecided", "unchecked", "error")
 _TUR_GOOD = 4.0
-_MAX_LISTED = 20           # violations listed in words per chart; the rest counted
+_MAX_LISTED = 10           # violations listed in words per chart; the rest counted
 _MAX_INPUTS = 12           # input files named in the header; the rest counted
 _MARKED_POINTS = 150       # a chart of at most this many points draws each with its tooltip
 _FIT_RADIUS = 34.0         # the nominal circle's radius in a fit picture, px
@@ -523,7 +526,10 @@ def _chart_figure(chart, name, positions, labels, tolerance, unit, digits) -> st
            f'{" (" + _e(unit) + ")" if unit else ""}</figcaption>{svg}']
     violations = chart.violations
     if violations:
-        out.append(f'<p>{len(violations)} run-rule violation(s):</p><ul class="violations">')
+        rules = Counter(int(violation.rule) for violation in violations)
+        out.append(f'<p>{len(violations)} run-rule violation(s): '
+                   + "; ".join(f"rule {rule} ({_RULE_WORDS.get(rule, 'rule ' + str(rule))}): {count}"
+                               for rule, count in sorted(rules.items())) + '</p><ul class="violations">')
         for violation in violations[:_MAX_LISTED]:
             index = int(violation.index)
             where = f"No. {positions[index]:.0f}" if index < len(positions) else f"point {index + 1}"

@@ -11,6 +11,7 @@ from html.parser import HTMLParser
 import pytest
 
 import holecli
+from holecli.quality import spc
 from holecli.quality.html import CONTENT_SECURITY_POLICY, REASON_WORDS, html_report, tur_words
 from holecli.quality.lot import Lot, lot_from_records
 
@@ -264,8 +265,6 @@ def test_a_chart_per_characteristic_key(dom, lot):
 
 
 def test_the_capability_table_holds_the_indices_and_intervals(dom, lot):
-    from holecli.quality import spc
-
     number = lot.keys.index(("C1", "diameter"))
     section = dom.find("section", id=f"k-{number}")
     values = [c.measured for c in lot.series(("C1", "diameter"))]
@@ -409,6 +408,7 @@ def test_run_rule_violations_are_marked_and_listed(records):
     individuals = section.find("figure", "individuals")
     marked = individuals.find_all("circle", "violation")
     assert [c.find("title").text for c in marked] == ["rule 1: beyond the upper control limit"]
+    assert "1 run-rule violation(s): rule 1 (a point beyond 3 sigma): 1" in individuals.text
     assert "No. 15 (p14): rule 1, beyond the upper control limit" in individuals.find("ul", "violations").text
 
 
