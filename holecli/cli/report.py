@@ -54,6 +54,10 @@ _FORMAT_BY_EXTENSION = {".html": "html", ".htm": "html", ".qif": "qif", ".xml": 
 @click.option("--title", default=None, help="The HTML report's title [default: 'Inspection report' and the parts].")
 @click.option("--no-pictures", is_flag=True,
               help="HTML: leave out the picture of each hole (the tables and charts stay).")
+@click.option("--scan-pictures", type=click.IntRange(min=0), default=50, show_default=True, metavar="N",
+              help="HTML: also draw, for up to N holes that failed, are undecided or carry a warning, the points "
+                   "of the scan around the hole (read again from the record's file, where it still is), so that "
+                   "a chip, a burr or lubricant can be told from a bad hole; 0: none.")
 @click.option("--order", type=click.Choice(("read", "name")), default="read", show_default=True,
               help="The measurement order of the charts: as read (the lines of RESULTS in turn, a store's by "
                    "the time received) or by the scans' file names (batch --jobs N writes its lines in the "
@@ -61,8 +65,8 @@ _FORMAT_BY_EXTENSION = {".html": "html", ".htm": "html", ".qif": "qif", ".xml": 
 @click.option("--part-number", default=None,
               help="fai and qif: the part number where the records' metadata has none.")
 @verbosity_option_decorators
-def report(results, store_location, part, serial, since, until, fmt, output, title, no_pictures, order, part_number,
-           quiet, verbose):
+def report(results, store_location, part, serial, since, until, fmt, output, title, no_pictures, scan_pictures, order,
+           part_number, quiet, verbose):
     """Report a lot of measurements: detect/batch JSON Lines RESULTS (- reads stdin; an indented
     detect --format json record too), or a results store's measurements (--store).
 
@@ -122,7 +126,11 @@ def report(results, store_location, part, serial, since, until, fmt, output, tit
             lot = lot_from_records(entries)
         except ValueError as error:
             raise Failure(str(error), EXIT_INPUT) from None
-        content = render(lot, fmt, title=title, pictures=not no_pictures, part_number=part_number, inputs=inputs)
+        views = {}
+        if fmt == "html" and not no_pictures and scan_pictures:
+            views = scan_views(lot, scan_pictures)
+        content = render(lot, fmt, title=title, pictures=not no_pictures, part_number=part_number, inputs=inputs,
+                         scan_views=views)
         emit(content, output, "the report")
         if not quiet:
             summary = lot.summary()
@@ -135,12 +143,12 @@ def report(results, store_location, part, serial, since, until, fmt, output, tit
     raise SystemExit(EXIT_OK)
 
 
-def render(lot, fmt, *, title=None, pictures=True, part_number=None, inputs=()):
+def render(lot, fmt, *, title=None, pictures=True, part_number=None, inputs=(), scan_views=None):
     """The report of ``lot`` in ``fmt``: text (html, fai, csv) or bytes (qif)."""
     if fmt == "html":
         from holecli.quality.html import html_report
 
-        return html_report(lot, title=title, pictures=pictures, inputs=list(inputs))
+        return html_report(lot, title=title, pictures=pictures, inputs=list(inputs), scan_views=scan_views or {})
     if fmt == "qif":
         from holecli.quality.qif import qif_document
 
@@ -150,6 +158,62 @@ def render(lot, fmt, *, title=None, pictures=True, part_number=None, inputs=()):
     if fmt == "fai":
         return tables.csv_text(tables.fai_table(lot, part_number=part_number))
     return tables.csv_text(tables.characteristic_table(lot))
+
+
+def scan_views(lot, limit) -> dict:
+    """The pictures of the scan around the doubtful holes: those with a check that failed or is undecided,
+    or with a warning, in measurement order, at most ``limit``.
+
+    Each scan is read again from its record's ``path`` (batch) or ``file``, once for all its holes.
+
+    Returns
+    -------
+    dict
+        ``{(measurement order, hole index): view}``: :func:`holecli.quality.scan_views.hole_view`'s dict,
+        or ``{"unavailable": why}`` when the scan cannot be read any more, is not the record's, or
+        matplotlib (the extra ``plot``) is missing.
+    """
+    from holecli.errors import HoleCliError
+    from holecli.io import read_cloud
+    from holecli.quality.scan_views import hole_view
+    from holecli.units import scale_factor
+
+    wanted = []
+    for m in lot.measurements:
+        holes = m.record.get("holes") or []
+        doubtful = {c.hole_index for c in m.characteristics if c.decision in ("fail", "undecided") and c.hole_index
+                    is not None}
+        doubtful |= {hole.get("index", n) for n, hole in enumerate(holes) if isinstance(hole, dict) and hole.get("warnings")}
+        wanted.extend((m, index) for index in sorted(doubtful))
+    views, clouds = {}, {}
+    for m, index in wanted[:limit]:
+        hole = next((h for n, h in enumerate(m.record["holes"]) if h.get("index", n) == index), None)
+        if hole is None:
+            continue
+        file = m.record.get("path") or m.record.get("file")
+        if file not in clouds:
+            clouds.clear()  # a measurement's holes come together: one scan in memory at a time
+            try:
+                cloud = read_cloud(file)
+                factor = 1.0
+                if m.record.get("units") and cloud.units and cloud.units != m.record["units"]:
+                    factor = scale_factor(cloud.units, m.record["units"])
+                clouds[file] = (cloud.points * factor, None)
+            except (HoleCliError, OSError, ValueError) as error:
+                clouds[file] = (None, f"the scan {m.record.get('file')} cannot be read now ({error})")
+        points, why = clouds[file]
+        if points is None:
+            views[(m.order, index)] = {"unavailable": why}
+            continue
+        spacing = (m.record.get("scales") or {}).get("point_spacing")
+        try:
+            view = hole_view(points, hole, spacing=spacing)
+        except ImportError:
+            return {key: {"unavailable": "pictures of the scan need matplotlib: pip install 'holecli[plot]'"}
+                    for key in [(m.order, index) for m, index in wanted[:limit]]}
+        views[(m.order, index)] = view or {"unavailable": f"the scan {m.record.get('file')} holds no point around "
+                                                         f"this hole (it is not the scan this record measured)"}
+    return views
 
 
 def read_results(path) -> list:
