@@ -193,3 +193,29 @@ def test_a_service_answer_keeps_its_metadata(run, shift_lot, tmp_path):
     (tmp_path / "answers.jsonl").write_text(json.dumps(answer) + "\n")
     table = rows(run("report", tmp_path / "answers.jsonl", "--format", "csv").stdout)
     assert {(row["part"], row["serial"], row["label"], row["id"]) for row in table} == {("P7", "SN-9", "SN-9", "a" * 32)}
+
+
+def test_the_scan_is_drawn_around_the_doubtful_holes_only(shift_lot, tmp_path):
+    pytest.importorskip("matplotlib")
+    from holecli.cli.report import read_results, scan_views
+    from holecli.quality.lot import lot_from_records
+
+    lot = lot_from_records(read_results(str(shift_lot["jsonl"])))
+    views = scan_views(lot, 50)
+    labels = {(lot.measurements[order].label, lot.measurements[order].record["holes"][index]["name"])
+              for order, index in views}
+    assert labels == {("part_002", "C1")}  # the oversize hole; the missing L1 has no hole to draw
+    (view,) = views.values()
+    assert view["png"].startswith(b"\x89PNG") and view["pixels_seen"] > 100
+    assert scan_views(lot, 0) == {}
+
+
+def test_a_scan_that_is_gone_is_said_so(shift_lot, tmp_path):
+    from holecli.cli.report import scan_views
+    from holecli.quality.lot import lot_from_records
+
+    record = json.loads(shift_lot["jsonl"].read_text().splitlines()[1])  # part_002
+    record["file"] = record["path"] = str(tmp_path / "gone.ply")
+    lot = lot_from_records([{"record": record, "source": "x:1"}])
+    (view,) = scan_views(lot, 5).values()
+    assert view["unavailable"].startswith(f"the scan {tmp_path / 'gone.ply'} cannot be read now (")
