@@ -439,8 +439,8 @@ def _beyond_limits(points, lower, upper):
 
 
 def _values(values, name):
-    """``values`` as a 1-D float array of at least 2 finite values, else ValueError."""
-    array = np.asarray(values, dtype=float)
+    """``values`` as a new 1-D float array (a chart keeps it) of at least 2 finite values, else ValueError."""
+    array = np.array(values, dtype=float)
     if array.ndim != 1:
         raise ValueError(f"{name} must be a 1-D array, got {array.ndim} dimension(s)")
     if array.size < 2:

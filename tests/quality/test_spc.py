@@ -413,7 +413,10 @@ def test_capability_refuses_bad_input(values, lower, upper, kwargs, match):
 
 
 def test_charts_are_frozen_records():
-    i_chart, _ = individuals_charts([1.0, 2.0, 1.5])
+    values = np.array([1.0, 2.0, 1.5])
+    i_chart, _ = individuals_charts(values)
     assert isinstance(i_chart, ControlChart)
+    values[0] = 99.0  # the chart keeps its own copy of the values
+    assert i_chart.points[0] == 1.0
     with pytest.raises(AttributeError):
         i_chart.center = 0.0
