@@ -10,20 +10,23 @@ what an inspector reads on the shop floor's PC or on paper:
   the deviation, the expanded uncertainty U, the decision (coloured and said in a word), the amount out
   of tolerance of a fail, the reason in plain words and the hole's warnings beside it, so that a fail
   caused by chips or lubricant in the hole can be told from a bad hole; optionally a *fit picture* per
-  hole, drawn from the record alone (nominal and measured circle, the deviations magnified);
+  hole, drawn from the record alone (nominal and measured circle, the deviations magnified), and where
+  the caller gives one (``holecli report`` does for the doubtful holes) a picture of the scan around
+  the hole (:mod:`holecli.quality.scan_views`);
 - per characteristic over the lot: the individuals and moving-range charts in measurement order
   (:func:`holecli.quality.spc.individuals_charts`, the Western Electric run rules marked and listed),
   X-bar/R charts where holes of a part share a nominal and tolerance, a histogram against the
   tolerance, the capability indices with their confidence intervals and the test-uncertainty ratio
   said plainly.
 
-The page holds no script and loads nothing: inline CSS and inline SVG only, under a
+The page holds no script and loads nothing: inline CSS, inline SVG and ``data:`` PNGs only, under a
 Content-Security-Policy that forbids everything else (:data:`CONTENT_SECURITY_POLICY`). Every string
 taken from a record is escaped.
 """
 
 from __future__ import annotations
 
+import base64
 import datetime as _datetime
 import html
 import math
@@ -79,6 +82,10 @@ _FIT_LEGEND = ('<p class="note">Fit pictures: the nominal circle dashed grey, th
 #: The Western Electric rules (holecli.quality.spc.western_electric), as the list of a chart's violations says them.
 _RULE_WORDS = {1: "a point beyond 3 sigma", 2: "2 of 3 beyond 2 sigma on one side",
                3: "4 of 5 beyond 1 sigma on one side", 4: "8 in a row on one side of the centre line"}
+_SCAN_LEGEND = ('<p class="note">Scan pictures: the points around the hole seen along its axis, coloured by their '
+                'height: the surface white, what stands above it (a burr, a chip, lubricant) red, what lies below '
+                'it (the countersink, the bore) blue, no point (the open hole) grey. A fail with red on the rim '
+                'or grey gaps may be debris or a bad scan rather than a bad hole.</p>')
 _DECISION_WORDS = {"pass": "PASS", "fail": "FAIL", "undecided": "UNDECIDED", "missing": "MISSING",
                    "unchecked": "UNCHECKED", "error": "ERROR"}
 _VERDICTS = ("pass", "fail", "undecided", "unchecked", "error")
@@ -129,6 +136,7 @@ figure { margin: 0; }
 figure.fit { width: 150px; font-size: 11px; border: 1px solid var(--line); padding: 3px; }
 figure.fit figcaption { overflow-wrap: anywhere; }
 svg { display: block; }
+img.scan { display: block; image-rendering: pixelated; }
 svg text { font: 10px "DejaVu Sans", Arial, sans-serif; fill: var(--ink); }
 svg .frame { fill: #fff; stroke: #8c959f; }
 svg .grid { stroke: #eaeef2; }
@@ -163,7 +171,7 @@ ul.violations { margin: 2px 0 8px; }
 """
 
 
-def html_report(lot, *, title=None, pictures=True, generated=None) -> str:
+def html_report(lot, *, title=None, pictures=True, generated=None, inputs=None, scan_views=None) -> str:
     """The inspection report of ``lot`` as one self-contained HTML5 page.
 
     Parameters
@@ -176,6 +184,14 @@ def html_report(lot, *, title=None, pictures=True, generated=None) -> str:
         Draw a fit picture per hole (the cost of the page's size and most of its time).
     generated : datetime.datetime or str, optional
         When the report was made, as the header says it; default now (UTC).
+    inputs : sequence of str, optional
+        What was read, as the header names it (the RESULTS files, the store and its filters); default
+        the files of the measurements' sources.
+    scan_views : dict, optional
+        Pictures of the scan around some holes, ``{(measurement order, hole index): view}`` with
+        ``view`` :func:`holecli.quality.scan_views.hole_view`'s dict (``png``, ``half_width``,
+        ``limit``) or ``{"unavailable": why}``: each shown beside its hole, the PNG inline (a ``data:``
+        image, which the page's policy allows).
 
     Returns
     -------
@@ -191,13 +207,13 @@ def html_report(lot, *, title=None, pictures=True, generated=None) -> str:
            f'<meta http-equiv="Content-Security-Policy" content="{_e(CONTENT_SECURITY_POLICY)}">\n'
            '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
            f'<title>{_e(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n']
-    out.append(_header(lot, title, str(generated)))
+    out.append(_header(lot, title, str(generated), inputs))
     out.append(_summary(lot))
     out.append('<section id="measurements">\n<h2>Measurements</h2>\n')
     if not lot.measurements:
         out.append('<p class="note">No measurements.</p>\n')
     for measurement in lot.measurements:
-        out.append(_measurement_section(measurement, pictures))
+        out.append(_measurement_section(measurement, pictures, scan_views or {}))
     out.append('</section>\n')
     out.append(_trends(lot))
     out.append(_subgroups(lot))
@@ -242,8 +258,11 @@ def tur_words(ratio) -> tuple[str, str]:
 # The page's parts
 
 
-def _header(lot, title, generated) -> str:
-    files = list(dict.fromkeys(_input_of(m.source) for m in lot.measurements))
+def _header(lot, title, generated, inputs) -> str:
+    if inputs is None:
+        files = list(dict.fromkeys(_input_of(m.source) for m in lot.measurements))
+    else:
+        files = [str(name) for name in inputs]
     shown = ", ".join(_e(f) for f in files[:_MAX_INPUTS])
     if len(files) > _MAX_INPUTS:
         shown += f" and {len(files) - _MAX_INPUTS} more"
@@ -302,7 +321,7 @@ def _rejection_cause(measurement) -> str:
     return ", ".join(f"{c.hole} {'missing' if c.decision == 'missing' else _name(c.name)}" for c in failed)
 
 
-def _measurement_section(measurement, pictures) -> str:
+def _measurement_section(measurement, pictures, scan_views) -> str:
     record = measurement.record
     verdict = measurement.verdict
     out = [f'<section class="measurement" id="m-{measurement.order}">\n'
@@ -338,10 +357,17 @@ def _measurement_section(measurement, pictures) -> str:
     if not holes and not missing:
         out.append('<tr><td colspan="11" class="note">No hole found in this scan.</td></tr>\n')
     out.append('</tbody></table>\n')
-    if pictures and holes:
-        out.append(_FIT_LEGEND + '<div class="fits">')
+    views = {index: scan_views[(measurement.order, index)] for index in
+             (hole.get("index", position) for position, hole in enumerate(holes))
+             if (measurement.order, index) in scan_views}
+    if (pictures or views) and holes:
+        out.append((_FIT_LEGEND if pictures else "") + (_SCAN_LEGEND if views else "") + '<div class="fits">')
         for position, hole in enumerate(holes):
-            out.append(_fit_figure(hole, position))
+            index = hole.get("index", position)
+            if pictures:
+                out.append(_fit_figure(hole, position))
+            if index in views:
+                out.append(_scan_figure(hole, index, views[index], measurement.units))
         out.append('</div>\n')
     return "".join(out) + '</section>\n'
 
@@ -669,6 +695,22 @@ def _fit_figure(hole, position) -> str:
     caption.extend(_e(note) for note in notes)
     caption.extend(_e(_warning_phrase(code)) for code in _warning_codes(hole))
     return f'<figure class="fit">{svg}<figcaption>{"<br>".join(caption)}</figcaption></figure>'
+
+
+def _scan_figure(hole, index, view, units) -> str:
+    """The picture of the scan around a hole (a PNG made by holecli.quality.scan_views), inline."""
+    name = _e(hole.get("name") or f"#{index}")
+    png = view.get("png") if isinstance(view, dict) else None
+    if not isinstance(png, (bytes, bytearray)) or not png.startswith(b"\x89PNG"):
+        why = view.get("unavailable", "no picture") if isinstance(view, dict) else "no picture"
+        return (f'<figure class="fit scan"><p class="note">The scan around {name}: {_e(why)}</p>'
+                f'<figcaption><b>{name}</b> &middot; the scan</figcaption></figure>')
+    unit = f" {_e(units)}" if units else ""
+    data = base64.b64encode(bytes(png)).decode("ascii")
+    return (f'<figure class="fit scan"><img class="scan" width="140" height="140" alt="the scan around hole {name}" '
+            f'src="data:image/png;base64,{data}"><figcaption><b>{name}</b> &middot; the scan, '
+            f'&plusmn;{_number(view.get("half_width"), 3)}{unit} about the centre; full colour at a height of '
+            f'&plusmn;{_number(view.get("limit"), 3)}{unit}</figcaption></figure>')
 
 
 def _fit_picture(hole):

@@ -1,5 +1,6 @@
 """holecli.quality.html: the inspection report of a real lot's batch records, parsed back."""
 
+import base64
 import copy
 import json
 import os
@@ -174,7 +175,7 @@ def test_the_page_is_well_formed_and_self_contained(page, dom):
     for node in dom.iter():
         for name, value in node.attrs.items():
             if name in ("src", "href", "xlink:href", "action", "srcset"):
-                assert value.startswith("#"), (node.tag, name, value)
+                assert value.startswith(("#", "data:image/png;base64,")), (node.tag, name, value)
             assert not name.startswith("on"), (node.tag, name)
     css = dom.find("style").text
     assert "url(" not in css and "@import" not in css
@@ -434,3 +435,30 @@ def test_every_string_of_a_record_is_escaped(records):
     assert escaped.replace('"', "&quot;").replace("'", "&#x27;") in page
     texts = [node.text for node in dom.iter() if node.tag in ("td", "dd", "li", "b", "p", "h3")]
     assert any(hostile in text for text in texts)
+
+
+def test_the_header_names_the_inputs_given(lot):
+    dom = _parse(html_report(lot, generated=GENERATED, inputs=["shift.jsonl", "late.jsonl"]))
+    meta = dom.find("header").find("dl")
+    said = dict(zip((dt.text for dt in meta.find_all("dt")), (dd.text for dd in meta.find_all("dd"))))
+    assert said["Inputs"] == "shift.jsonl, late.jsonl"
+
+
+def test_the_scan_around_a_doubtful_hole_is_shown_inline(lot, tmp_path):
+    pytest.importorskip("matplotlib", reason="the scan's pictures are drawn with matplotlib (the extra plot)")
+    from holecli.cli.report import scan_views
+
+    views = scan_views(lot, 50)  # the oversize C1 of part_002, read again from its scan
+    assert set(views) == {(1, 1)}
+    gone = {(2, 0): {"unavailable": "the scan <gone>.ply cannot be read now"}}
+    page = html_report(lot, generated=GENERATED, scan_views={**views, **gone})
+    dom = _parse(page)
+    (image,) = dom.find_all("img")
+    assert image.attrs["src"].startswith("data:image/png;base64,") and "scan" in image.classes
+    assert base64.b64decode(image.attrs["src"].split(",", 1)[1]) == views[(1, 1)]["png"]
+    figure = dom.find("section", id="m-1").find("figure", "scan")
+    assert figure.find("b").text == "C1" and figure.find("img") is image
+    assert "the scan <gone>.ply cannot be read now" in dom.find("section", id="m-2").find("figure", "scan").text
+    assert "Scan pictures:" in dom.find("section", id="m-1").text
+    no_fits = _parse(html_report(lot, generated=GENERATED, pictures=False, scan_views=views))
+    assert len(no_fits.find_all("figure", "fit")) == 1  # the scan's picture alone

@@ -5,6 +5,7 @@ DOM after rendering (the tables and charts are there), and a page with a deliber
 console check must catch (so that its silence on the report means something).
 """
 
+import importlib.util
 import json
 import os
 import re
@@ -56,9 +57,14 @@ def report(repo_root, tmp_path_factory):
     lines = (folder / "shift.jsonl").read_text().splitlines()
     records = sorted((json.loads(line) for line in lines), key=lambda record: record["file"])
     lot = lot_from_records({"record": r, "source": f"shift.jsonl:{n}"} for n, r in enumerate(records, 1))
+    views = {}
+    if importlib.util.find_spec("matplotlib") is not None:  # the scan's pictures: the extra plot
+        from holecli.cli.report import scan_views
+
+        views = scan_views(lot, 50)
     path = folder / "report.html"
-    path.write_text(html_report(lot, title="Panel lot"), encoding="utf-8")
-    return path, lot
+    path.write_text(html_report(lot, title="Panel lot", scan_views=views), encoding="utf-8")
+    return path, lot, views
 
 
 class _Census(HTMLParser):
@@ -80,7 +86,7 @@ class _Census(HTMLParser):
 
 def test_the_report_renders_to_a_painted_png_without_console_errors(report, tmp_path):
     image = pytest.importorskip("PIL.Image", reason="Pillow (the plot extra) reads the screenshot")
-    path, _ = report
+    path, _, _ = report
     png = tmp_path / "page.png"
     run = _chromium(path.as_uri(), tmp_path / "profile", f"--screenshot={png}", "--window-size=1280,2000")
     assert run.returncode == 0, run.stderr[-2000:]
@@ -98,17 +104,19 @@ def test_the_report_renders_to_a_painted_png_without_console_errors(report, tmp_
 
 
 def test_the_rendered_dom_holds_the_tables_and_charts(report, tmp_path):
-    path, lot = report
+    path, lot, views = report
     run = _chromium(path.as_uri(), tmp_path / "profile", "--dump-dom")
     assert run.returncode == 0, run.stderr[-2000:]
     assert _console_lines(run.stderr) == []
     census = _Census()
     census.feed(run.stdout)
     assert census.tags.get("script", 0) == 0
+    assert census.tags.get("img", 0) == len(views)  # the scan's pictures: data: PNGs the policy allows
     assert census.classes[("table", "holes")] == len(lot.measurements) == 4
     assert census.classes[("section", "key")] == len(lot.keys)
     assert census.classes[("figure", "individuals")] == census.classes[("figure", "moving_range")] == len(lot.keys)
-    assert census.classes[("figure", "fit")] == sum(len(m.record["holes"]) for m in lot.measurements)
+    assert census.attributes[("figure", "fit")] == sum(len(m.record["holes"]) for m in lot.measurements)
+    assert census.attributes.get(("figure", "fit scan"), 0) == len(views)
     assert census.tags["svg"] >= 3 * len(lot.keys) + 15
     assert census.tags["polyline"] >= 2 * len(lot.keys)
     assert census.classes[("td", "decision")] == len(lot.characteristics)
@@ -117,7 +125,7 @@ def test_the_rendered_dom_holds_the_tables_and_charts(report, tmp_path):
 
 def test_the_console_check_catches_a_blocked_script(report, tmp_path):
     # The report with a script put in: the page's Content-Security-Policy blocks it and the console says so.
-    path, _ = report
+    path, _, _ = report
     spoiled = tmp_path / "spoiled.html"
     spoiled.write_text(path.read_text(encoding="utf-8").replace(
         "</body>", '<script>document.title = "ran"; notAFunction();</script></body>'), encoding="utf-8")
