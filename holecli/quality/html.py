@@ -159,11 +159,14 @@ svg .unseen { fill: none; stroke: #8c959f; stroke-dasharray: 1 3; }
 svg .dot { fill: var(--ink); }
 .charts { display: flex; flex-wrap: wrap; gap: 8px 18px; align-items: flex-start; }
 ul.violations { margin: 2px 0 8px; }
+/* A lot of 1,000 parts is a long page: the browser lays out only the sections near the view (8 s -> 1 s). */
+section.measurement, section.key { content-visibility: auto; contain-intrinsic-size: auto 1200px; }
 @page { size: A4; margin: 12mm; }
 @media print {
   body { max-width: none; padding: 0; font-size: 9pt; }
   nav { display: none; }
   * { -webkit-print-color-adjust: exact; print-color-adjust: exact; }
+  section.measurement, section.key { content-visibility: visible; }
   section.measurement, section.key, section#trends, section#subgroups { break-before: page; }
   tr, figure.fit, svg { break-inside: avoid; }
   a { color: inherit; text-decoration: none; }
