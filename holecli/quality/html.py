@@ -218,8 +218,11 @@ def html_report(lot, *, title=None, pictures=True, generated=None, inputs=None, 
     for measurement in lot.measurements:
         out.append(_measurement_section(measurement, pictures, scan_views or {}))
     out.append('</section>\n')
-    out.append(_trends(lot))
-    out.append(_subgroups(lot))
+    by_key = {}  # Lot.series of every key in one pass (a call each scans the whole lot)
+    for characteristic in lot.characteristics:
+        by_key.setdefault(characteristic.key, []).append(characteristic)
+    out.append(_trends(lot, by_key))
+    out.append(_subgroups(lot, by_key))
     out.append(f'<footer class="note"><p>Made by holecli {_e(__version__)}. Decisions follow ISO 14253-1 as the '
                'records\' decision rule says; the control charts use the Western Electric run rules.</p>'
                '</footer>\n</body>\n</html>\n')
@@ -421,20 +424,19 @@ def _hole_rows(hole, index, characteristics, units) -> str:
     return "".join(out)
 
 
-def _trends(lot) -> str:
+def _trends(lot, by_key) -> str:
     keys = [key for key in lot.keys if key[1] != "presence"]
     out = ['<section id="trends">\n<h2>Characteristics over the lot</h2>\n']
     if not keys:
         out.append('<p class="note">No characteristic checked.</p>\n')
     for number, key in enumerate(keys):
-        out.append(_key_section(lot, key, number))
+        out.append(_key_section(lot, key, by_key[key], number))
     return "".join(out) + '</section>\n'
 
 
-def _key_section(lot, key, number) -> str:
+def _key_section(lot, key, every, number) -> str:
     hole, name = key
-    series = [c for c in lot.series(key) if c.measured is not None and math.isfinite(c.measured)]
-    every = lot.series(key)
+    series = [c for c in every if c.measured is not None and math.isfinite(c.measured)]
     unit = next((c.unit for c in every if c.unit), "")
     digits = _decimals(every[0]) if every else 4
     decisions = Counter(c.decision for c in every)
@@ -487,13 +489,13 @@ def _capability_table(values, lower, upper, sigma_within, digits) -> str:
             'sigma, Pp and Ppk the overall one; 1.33 is the usual least Cpk of a capable process.</p>\n')
 
 
-def _subgroups(lot) -> str:
+def _subgroups(lot, by_key) -> str:
     """X-bar/R charts where holes of a part share a characteristic's nominal and tolerance."""
     groups = {}
     for key in lot.keys:
         if key[1] == "presence":
             continue
-        first = next((c for c in lot.series(key) if c.upper_tolerance is not None
+        first = next((c for c in by_key[key] if c.upper_tolerance is not None
                       and (c.nominal is not None or c.name in ZONE_CHECKS)), None)
         if first is None:
             continue
@@ -516,7 +518,7 @@ def _subgroups(lot) -> str:
         if len(keys) > 25:
             out.append('<p class="note">More than 25 holes per subgroup: no X-bar/R chart.</p></section>\n')
             continue
-        values = {key: {c.measurement: c.measured for c in lot.series(key)} for key in keys}
+        values = {key: {c.measurement: c.measured for c in by_key[key]} for key in keys}
         rows, labels = [], []
         for measurement in lot.measurements:
             row = [values[key].get(measurement.order) for key in keys]
@@ -530,7 +532,7 @@ def _subgroups(lot) -> str:
         left_out = sum(1 for m in lot.measurements if m.verdict != "error") - len(rows)
         xbar, ranges = spc.xbar_r_charts(np.array(rows, dtype=float))
         positions = np.arange(1, len(rows) + 1, dtype=float)
-        digits = _decimals(lot.series(keys[0])[0])
+        digits = _decimals(by_key[keys[0]][0])
         out.append('<div class="charts">')
         out.append(_chart_figure(xbar, "X-bar (subgroup mean)", positions, labels, (None, None), unit, digits))
         out.append(_chart_figure(ranges, "Range (subgroup)", positions, labels, (None, None), unit, digits))
