@@ -86,6 +86,8 @@ _SCAN_LEGEND = ('<p class="note">Scan pictures: the points around the hole seen 
                 'height: the surface white, what stands above it (a burr, a chip, lubricant) red, what lies below '
                 'it (the countersink, the bore) blue, no point (the open hole) grey. A fail with red on the rim '
                 'or grey gaps may be debris or a bad scan rather than a bad hole.</p>')
+_UNCHECKED_WORDS = {True: "not checked: no nominal hole of the spec matches it",
+                    False: "not checked: no tolerances were given for this scan"}
 _DECISION_WORDS = {"pass": "PASS", "fail": "FAIL", "undecided": "UNDECIDED", "missing": "MISSING",
                    "unchecked": "UNCHECKED", "error": "ERROR"}
 _VERDICTS = ("pass", "fail", "undecided", "unchecked", "error")
@@ -355,7 +357,7 @@ def _measurement_section(measurement, pictures, scan_views) -> str:
                '<th>Out of tolerance</th><th>Reason</th><th>Hole warnings</th></tr></thead>\n<tbody>\n')
     for position, hole in enumerate(holes):
         index = hole.get("index", position)
-        out.append(_hole_rows(hole, index, by_hole.get(index, ()), measurement.units))
+        out.append(_hole_rows(hole, index, by_hole.get(index, ()), measurement.units, "verdict" in record))
     for characteristic in missing:
         out.append(f'<tr class="row-missing"><td>{_e(characteristic.hole)}</td><td>presence</td>'
                    + '<td class="num">&ndash;</td>' * 5 + '<td class="decision missing">MISSING</td><td></td>'
@@ -378,7 +380,7 @@ def _measurement_section(measurement, pictures, scan_views) -> str:
     return "".join(out) + '</section>\n'
 
 
-def _hole_rows(hole, index, characteristics, units) -> str:
+def _hole_rows(hole, index, characteristics, units, checked) -> str:
     name = hole.get("name") or f"#{index}"
     codes = _warning_codes(hole)
     rows = max(1, len(characteristics))
@@ -395,7 +397,7 @@ def _hole_rows(hole, index, characteristics, units) -> str:
         return (f'<tr class="row-unchecked">{hole_cell}<td>diameter</td><td class="num"></td><td></td>'
                 f'<td class="num">{_number(diameter, 4)}{unit}</td><td class="num"></td><td class="num"></td>'
                 '<td class="decision unchecked">UNCHECKED</td><td></td>'
-                '<td class="reason">no hole of the spec matches it: not checked</td>'
+                f'<td class="reason">{_UNCHECKED_WORDS[checked]}</td>'
                 f'{warning_cell}</tr>\n')
     out = []
     for row, c in enumerate(characteristics):

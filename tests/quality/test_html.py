@@ -374,6 +374,7 @@ def test_unchecked_holes_and_error_records(records):
     assert len(rows) == len(unchecked["holes"])
     for (hole, texts, row, cells), record_hole in zip(rows, unchecked["holes"]):
         assert texts[6] == "UNCHECKED" and texts[3] == f"{record_hole['diameter']:.4f}"
+        assert texts[8] == "not checked: no tolerances were given for this scan"
     section = dom.find("section", id="m-1")
     assert "ERROR" in section.find("h3").text
     assert "no points in the file" in section.find("p", "error-message").text
@@ -462,3 +463,16 @@ def test_the_scan_around_a_doubtful_hole_is_shown_inline(lot, tmp_path):
     assert "Scan pictures:" in dom.find("section", id="m-1").text
     no_fits = _parse(html_report(lot, generated=GENERATED, pictures=False, scan_views=views))
     assert len(no_fits.find_all("figure", "fit")) == 1  # the scan's picture alone
+
+
+def test_a_hole_the_spec_does_not_name_is_unchecked_beside_the_checked(records):
+    record = copy.deepcopy(records[0])
+    extra = copy.deepcopy(record["holes"][0])
+    for key in ("name", "conformance", "in_tolerance", "failed_checks", "undecided_checks"):
+        extra.pop(key, None)
+    extra.update(index=len(record["holes"]), diameter=2.5)
+    record["holes"].append(extra)
+    dom = _parse(html_report(_lot([record]), generated=GENERATED))
+    hole, texts, row, cells = _rows(dom.find("section", id="m-0"))[-1]
+    assert hole == f"#{extra['index']}" and texts[3] == "2.5000" and texts[6] == "UNCHECKED"
+    assert texts[8] == "not checked: no nominal hole of the spec matches it"
