@@ -24,25 +24,20 @@ writes against the official schemas (``tests/data/qif3``). Its parts:
 
 The checks as QIF characteristics
 ---------------------------------
-============================================================  =====================================
-holecli check                                                 QIF characteristic
-============================================================  =====================================
-diameter, countersink_diameter, bore_diameter,                ``DiameterCharacteristic``: target the
-countersink_gauge                                             nominal, tolerance the band
-countersink_depth                                             ``DepthCharacteristic``
-countersink_angle (included angle, degrees)                   ``AngleCharacteristic``
-position (in-plane distance of the center <= T)               ``PositionCharacteristic``, a
-                                                              two-dimensional diametrical zone of
-                                                              diameter 2T; its value is 2 x the
-                                                              distance (GD&T's diametral figure)
-tilt, perpendicularity (an angle <= T degrees)                ``AngleFromCharacteristic``: target 0,
-                                                              tolerance [0, T] degrees (QIF's
-                                                              perpendicularity is a linear zone
-                                                              width, which a scan's angle is not)
-presence (a nominal hole the scan does not show)              ``UserDefinedAttributeCharacteristic``
-                                                              (pass value ``present``, fail value
-                                                              ``missing``)
-============================================================  =====================================
+diameter, countersink_diameter, bore_diameter, countersink_gauge
+    ``DiameterCharacteristic``: target the nominal, tolerance the band.
+countersink_depth
+    ``DepthCharacteristic``.
+countersink_angle (the included angle, degrees)
+    ``AngleCharacteristic``.
+position (the in-plane distance d of the center from the nominal <= T)
+    ``PositionCharacteristic`` with a two-dimensional diametrical zone of diameter 2T, and the value
+    2d: GD&T's diametral figure of the same check.
+tilt, perpendicularity (an angle <= T degrees)
+    ``AngleFromCharacteristic``: target 0, tolerance [0, T] degrees. (QIF's perpendicularity is a
+    linear zone width, which a scan's angle is not.)
+presence (a nominal hole the scan does not show)
+    ``UserDefinedAttributeCharacteristic``: pass value ``present``, fail value ``missing``.
 
 A size check's tolerance is written as its band of deviations from the target (``DefinedAsLimit``
 false), as the record holds it.

@@ -44,7 +44,8 @@ def records(tmp_path_factory):
     """Real records: the sample panel in tolerance; a simulated lot of 3 panels (part 2's C1 drilled
     0.1 mm large, part 3's L1 not drilled) with a file that is no scan (a batch error record); the
     panel checked under the guarded rule against tolerances tighter than its U, with a bore check a
-    profiler cannot see (undecided, not measured); the panel in metres; the panel without a spec."""
+    profiler cannot see and a tilt (undecided, not measured); the panel in metres; the panel without a
+    spec."""
     folder = tmp_path_factory.mktemp("qif")
     spec = Path("sample_clouds/panel_tolerances.toml").read_text()
     out = {"pass": detect("sample_clouds/panel.ply", "--spec", "sample_clouds/panel_tolerances.toml")}
@@ -60,7 +61,7 @@ def records(tmp_path_factory):
     tight = folder / "tight.toml"
     tight.write_text(spec.replace("tolerance = 0.05\nposition_tolerance = 0.1",
                                   "tolerance = 0.03\nposition_tolerance = 0.1\nbore_diameter = 4.0\n"
-                                  "bore_diameter_tolerance = 0.05", 1))
+                                  "bore_diameter_tolerance = 0.05\nnormal = [0.0, 0.0, 1.0]\nmax_tilt = 1", 1))
     out["guarded"] = detect("sample_clouds/panel.ply", "--spec", str(tight), "--decision-rule", "guarded")
     in_mm = folder / "mm.toml"
     in_mm.write_text('units = "mm"\n' + spec)
@@ -247,6 +248,9 @@ def test_undecided_is_indeterminate_and_not_measured_has_no_value(schema, record
     assert status(bore) == "FAIL" and attribute(bore, "reason") == "not_measured"
     assert bore.find("q:Value", NS) is None
     assert inspection_status(only) == "FAIL"  # a check not measured fails the part
+    tilt = values["T1 tilt"]  # the angle between the measured and the nominal normal, degrees
+    assert tilt.tag == f"{{{QIF_NAMESPACE}}}AngleFromCharacteristicMeasurement"
+    assert float(tilt.findtext("q:Value", namespaces=NS)) == hole(record, "T1")["tilt_deg"]
 
 
 def test_an_undecided_part_is_unknown(schema, records):
