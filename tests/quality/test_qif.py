@@ -383,3 +383,36 @@ def test_a_check_unknown_to_the_writer_is_a_user_defined_characteristic(schema, 
     kind = "UserDefinedAngular" if unit == "deg" else "UserDefinedLinear"
     assert element.tag == f"{{{QIF_NAMESPACE}}}{kind}CharacteristicMeasurement"
     assert status(element) == "PASS"
+
+
+def test_a_lot_in_inches_is_written_in_inches(schema, records):
+    from holecli.units import convert_record
+    record = convert_record(records["pass"], "mm", "in")  # the project's conversion, as --output-units in
+    document = qif_document(lot_of(record, record), created=CREATED)
+    assert_valid(schema, document)
+    root = parse(document)
+    assert root.findtext("q:FileUnits/q:PrimaryUnits/q:LinearUnit/q:UnitName", namespaces=NS) == "inch"
+    assert float(root.findtext("q:FileUnits/q:PrimaryUnits/q:LinearUnit/q:UnitConversion/q:Factor",
+                               namespaces=NS)) == pytest.approx(0.0254)
+    first, _ = results(root)
+    value = float(measured(root, first)["T1 diameter"].findtext("q:Value", namespaces=NS))
+    assert value == hole(record, "T1")["diameter"] == pytest.approx(3.99 / 25.4, rel=1e-3)
+    # one item per characteristic over the lot: the second part's values share the first's items
+    assert len(item_names(root)) == len(lot_of(record).measurements[0].characteristics)
+
+
+def test_a_record_checked_against_another_band_gets_its_own_item(schema, records):
+    document = qif_document(lot_of(records["pass"], records["guarded"]), created=CREATED)
+    assert_valid(schema, document)
+    root = parse(document)
+    characteristics = root.find("q:Characteristics", NS)
+    nominals = {n.get("id"): n.findtext("q:CharacteristicDefinitionId", namespaces=NS)
+                for n in characteristics.find("q:CharacteristicNominals", NS)}
+    definitions = {d.get("id"): d for d in characteristics.find("q:CharacteristicDefinitions", NS)}
+    items = [i for i in characteristics.find("q:CharacteristicItems", NS)
+             if i.findtext("q:Name", namespaces=NS) == "T1 diameter"]
+    bands = [float(definitions[nominals[i.findtext("q:CharacteristicNominalId", namespaces=NS)]].findtext(
+        "q:Tolerance/q:MaxValue", namespaces=NS)) for i in items]
+    assert bands == [0.05, 0.03]  # panel_tolerances.toml's, then the tight spec's
+    tolerant, tight = results(root)
+    assert status(measured(root, tolerant)["T1 diameter"]) == "PASS"
