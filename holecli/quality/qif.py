@@ -100,7 +100,8 @@ CHARACTERISTIC_TYPES = {
 named here is a ``UserDefinedAngular`` (degrees) or ``UserDefinedLinear`` characteristic."""
 
 CHARACTERISTIC_STATUS = {"pass": "PASS", "fail": "FAIL", "undecided": "INDETERMINATE", "missing": "FAIL"}
-"""A characteristic's decision as QIF's ``CharacteristicStatusEnum``."""
+"""A characteristic's decision as QIF's ``CharacteristicStatusEnum`` (another word, which no record of
+holecli's holds: UNDEFINED)."""
 
 INSPECTION_STATUS = {"pass": "PASS", "fail": "FAIL", "undecided": "UNKNOWN", "unchecked": "NOT_CALCULATED",
                      "error": "NOT_MEASURED"}
@@ -573,7 +574,8 @@ class _Writer:
                 ("reason", c.reason), ("expanded_uncertainty", None if expanded is None else _decimal(expanded)),
                 ("coverage_factor", None if expanded is None or not k else _decimal(k)),
                 ("warnings", " ".join(c.warnings))])
-            _sub(_sub(measurement, "Status"), "CharacteristicStatusEnum", CHARACTERISTIC_STATUS[c.decision])
+            _sub(_sub(measurement, "Status"), "CharacteristicStatusEnum",
+                 CHARACTERISTIC_STATUS.get(c.decision, "UNDEFINED"))
             _sub(measurement, "CharacteristicItemId", item["id"])
             if received is not None:
                 _sub(measurement, "TimeStamp", received)

@@ -333,6 +333,19 @@ def test_the_document_is_the_same_for_the_same_lot_and_time(records):
     root = parse(first)
     ids = [int(e.get("id")) for e in root.iter() if e.get("id") is not None]
     assert len(ids) == len(set(ids)) and max(ids) == int(root.get("idMax"))
+    # every list says how many it holds (the schema cannot check it; readers rely on it)
+    counted = [(e.tag, int(e.get("n")), len(e)) for e in root.iter() if e.get("n") is not None]
+    assert counted and all(n == children for _, n, children in counted)
+
+
+def test_a_decision_no_record_holds_is_undefined(schema, records):
+    record = copy.deepcopy(records["pass"])
+    hole(record, "T1")["conformance"]["diameter"]["decision"] = "maybe"
+    document = qif_document(lot_of(record), created=CREATED)
+    assert_valid(schema, document)
+    root = parse(document)
+    (only,) = results(root)
+    assert status(measured(root, only)["T1 diameter"]) == "UNDEFINED"
 
 
 def test_a_created_time_that_is_no_time_is_refused():
