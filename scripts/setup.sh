@@ -5,7 +5,7 @@
 # the pictures (plot, matplotlib), of the documentation site (docs, MkDocs and its Material theme) and
 # of the service (serve, postgres, opcua: FastAPI, uvicorn, psycopg, asyncua), so that their readers,
 # holecli plot, the docs' build and holecli serve are tested; and Debian's postgresql, which the tests
-# of the PostgreSQL results store start.
+# of the PostgreSQL results store start, and chromium, in which the tests render holecli report's HTML.
 # Safe to run again: it only does what is missing.
 #
 # The Python: $PYTHON if set, else python3 when open3d has a wheel for it (open3d 0.20: CPython 3.10 to
@@ -43,6 +43,14 @@ have_postgres() { compgen -G '/usr/lib/postgresql/*/bin/initdb' >/dev/null; }
 if ! have_postgres; then
     say "installing the Debian package postgresql (the tests of the PostgreSQL results store start one)"
     apt_install postgresql
+fi
+
+# Chromium: the test suite renders holecli report's HTML in a real browser (headless), to check that it
+# draws, holds its tables and charts and logs no error; holecli itself never needs it
+have_chromium() { command -v chromium >/dev/null; }
+if ! have_chromium; then
+    say "installing the Debian package chromium (the tests of holecli report render its HTML in it)"
+    apt_install chromium
 fi
 
 # pip's notes about local package indexes that this machine lacks are noise: filtered out

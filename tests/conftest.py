@@ -189,3 +189,31 @@ def postgres_store_url(postgres_url):
 
     with fresh_database(postgres_url) as url:
         yield url
+
+
+@pytest.fixture(scope="session")
+def shift_lot(tmp_path_factory, repo_root):
+    """A shift of 4 simulated panels (sample_clouds/panel.toml, 0.2 mm profiler) measured by ``holecli
+    batch --spec sample_clouds/panel_tolerances.toml``: part_002's C1 drilled 0.1 mm large, part_003's
+    L1 not drilled. Returns ``{"folder", "scans", "jsonl"}``: the JSON Lines' records in file order
+    (batch writes them in the order the files finish)."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    folder = tmp_path_factory.mktemp("shift")
+    env = dict(os.environ, PYTHONPATH=str(repo_root))
+    holecli = [sys.executable, "-m", "holecli"]
+    subprocess.run(holecli + ["simulate", "lot", str(folder / "lot"), "--parts", "4", "--panel",
+                              str(repo_root / "sample_clouds" / "panel.toml"), "--spacing", "0.2",
+                              "--defect", "2/C1=diameter:+0.1", "--defect", "3/L1=missing", "-q"],
+                   check=True, env=env, timeout=300)
+    jsonl = folder / "shift.jsonl"
+    batch = subprocess.run(holecli + ["batch", str(folder / "lot"), "--spec",
+                                      str(repo_root / "sample_clouds" / "panel_tolerances.toml"), "-o", str(jsonl),
+                                      "-q"], env=env, timeout=300)
+    assert batch.returncode == 5  # a part out of tolerance
+    records = sorted((json.loads(line) for line in jsonl.read_text().splitlines()), key=lambda r: r["file"])
+    jsonl.write_text("".join(json.dumps(record) + "\n" for record in records))
+    return {"folder": folder, "scans": folder / "lot", "jsonl": jsonl}

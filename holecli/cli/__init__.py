@@ -110,7 +110,7 @@ def global_verbosity(context, quiet, verbose):
 
 
 # The commands, each in its module (imported after main, which none of them needs).
-from holecli.cli import batch, detect, info, plot, register, serve, simulate  # noqa: E402
+from holecli.cli import batch, detect, info, plot, register, report, serve, simulate  # noqa: E402
 
 main.add_command(detect.detect)
 main.add_command(batch.batch)
@@ -118,4 +118,5 @@ main.add_command(simulate.simulate)
 main.add_command(plot.plot)
 main.add_command(register.register)
 main.add_command(info.info)
+main.add_command(report.report)
 main.add_command(serve.serve)

@@ -117,7 +117,7 @@ _DEGREE_IN_RADIANS = "0.0174532925199433"
 _QPID_NAMESPACE = uuid.uuid5(uuid.NAMESPACE_URL, "https://holecli/qif")
 
 
-def qif_document(lot, *, created=None, spec=None) -> bytes:
+def qif_document(lot, *, created=None, spec=None, part_number=None) -> bytes:
     """A QIF 3.0 Results document of a lot.
 
     Parameters
@@ -132,6 +132,8 @@ def qif_document(lot, *, created=None, spec=None) -> bytes:
         The spec the lot was checked against: its named holes' nominal centers and normals (in its
         unit, or the records' when it declares none) place the features, which a record does not
         carry.
+    part_number : str, optional
+        The part number of the measurements whose metadata names no part (a store's ``part``).
 
     Returns
     -------
@@ -153,7 +155,7 @@ def qif_document(lot, *, created=None, spec=None) -> bytes:
     >>> b'<Value combinedUncertainty="0.005">4.02</Value>' in document
     True
     """
-    return _Writer(lot, _timestamp(created), spec).document()
+    return _Writer(lot, _timestamp(created), spec, part_number).document()
 
 
 def _timestamp(created) -> str:
@@ -208,10 +210,11 @@ def _document_unit(lot):
 class _Writer:
     """The document of one lot: ids handed out in writing order."""
 
-    def __init__(self, lot, created, spec):
+    def __init__(self, lot, created, spec, part_number=None):
         self.lot = lot
         self.created = created
         self.spec = spec
+        self.part_number = part_number
         self.unit, self.assumed = _document_unit(lot)
         self.next_id = 0
         sources = "\n".join(f"{m.id or m.source}\t{m.record.get('file', '')}" for m in lot.measurements)
@@ -246,6 +249,7 @@ class _Writer:
         _sub(header, "Description", self.description())
         standard_id = self.standards(root) if self.lot.characteristics else None
         self.file_units(root)
+        paths = self.product(root)
         features = self.feature_table()
         items = self.characteristic_table()
         if features:
@@ -253,7 +257,7 @@ class _Writer:
         if items:
             self.characteristics(root, items, features, standard_id)
         if self.lot.measurements:
-            self.results(root, features, items)
+            self.results(root, features, items, paths)
         root.set("idMax", str(max(self.next_id, 1)))
         ET.indent(root)
         # Serialized to text and then encoded: ElementTree's own UTF-8 writer is several times slower.
@@ -314,6 +318,31 @@ class _Writer:
         _sub(linear, "SIUnitName", "meter")
         _sub(linear, "UnitName", _UNIT_NAMES[self.unit])
         _sub(_sub(linear, "UnitConversion"), "Factor", _decimal(_SI_METRES[self.unit]))
+
+    # -- the product: the part numbers -----------------------------------------------------------
+    def part_of(self, m):
+        """The part number of measurement ``m``: its metadata's, else the one given, else None."""
+        return m.part or self.part_number
+
+    def product(self, root) -> dict:
+        """A ``Part`` per part number of the lot, each its own component and assembly path (which an
+        ``ActualComponent`` names); returns {part number: assembly path id}."""
+        numbers = list(dict.fromkeys(n for n in map(self.part_of, self.lot.measurements) if n is not None))
+        if not numbers:
+            return {}
+        element = _sub(root, "Product")
+        part_set = _sub(element, "PartSet", n=str(len(numbers)))
+        component_set = _sub(element, "ComponentSet", n=str(len(numbers)))
+        path_set = _sub(element, "AsmPaths", n=str(len(numbers)))
+        paths = {}
+        for number in numbers:
+            part = _sub(part_set, "Part", id=self.new_id())
+            _sub(part, "ModelNumber", number)
+            component = _sub(component_set, "Component", id=self.new_id())
+            _sub(_sub(component, "Part"), "Id", part.get("id"))
+            paths[number] = path_id = self.new_id()
+            _sub(_sub(_sub(path_set, "AsmPath", id=path_id), "ComponentIds", n="1"), "Id", component.get("id"))
+        return paths
 
     # -- features --------------------------------------------------------------------------------
     def feature_table(self) -> dict:
@@ -482,7 +511,7 @@ class _Writer:
             _sub(nominal, "TargetValue", _decimal(item["nominal"]))
 
     # -- results ---------------------------------------------------------------------------------
-    def results(self, root, features, items):
+    def results(self, root, features, items, paths):
         results = _sub(root, "Results")
         measurements = self.lot.measurements
         results_set = _sub(results, "MeasurementResultsSet", n=str(len(measurements)))
@@ -497,6 +526,8 @@ class _Writer:
             if m.serial is not None:
                 _sub(component, "SerialNumber", m.serial)
             _sub(_sub(component, "Status"), "InspectionStatusEnum", INSPECTION_STATUS[m.verdict])
+            if self.part_of(m) is not None:
+                _sub(component, "AsmPathId", paths[self.part_of(m)])
         traceability = _sub(results, "InspectionTraceability")
         _sub(traceability, "ReportPreparationDate", self.created)
 

@@ -31,7 +31,7 @@ POSTGRES_SCHEMES = ("postgresql://", "postgres://")
 __all__ = ["POSTGRES_SCHEMES", "SQLiteStore", "Store", "StoreError", "open_store"]
 
 
-def open_store(location) -> Store:
+def open_store(location, *, create=True) -> Store:
     """Open (creating when needed) the results store at ``location``.
 
     Parameters
@@ -40,6 +40,9 @@ def open_store(location) -> Store:
         ``postgresql://...`` or ``postgres://...`` (a libpq URL): a PostgreSQL database, whose
         tables are created when missing; anything else: an SQLite file, created with its folder's
         permissions when missing.
+    create : bool
+        Create the store (the SQLite file, the tables) when there is none; False for a reader (``holecli
+        report``), which is refused a location that holds no store and changes nothing there.
 
     Returns
     -------
@@ -60,5 +63,5 @@ def open_store(location) -> Store:
         except ImportError as error:
             raise StoreError(f"{redacted(text)}: a PostgreSQL store needs psycopg 3: pip install 'holecli[postgres]' "
                              f"({error})") from None
-        return PostgresStore(text)
-    return SQLiteStore(text)
+        return PostgresStore(text, create=create)
+    return SQLiteStore(text, create=create)

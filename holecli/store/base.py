@@ -121,6 +121,41 @@ class Store:
         ValueError
             For an unknown verdict, a date that is not ISO-8601 or a limit that is not a positive int.
         """
+        conditions, parameters = self._filters(part=part, serial=serial, since=since, until=until,
+                                               verdict=verdict)
+        if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int) or limit < 1):
+            raise ValueError(f"limit must be a positive integer or None, got {limit!r}")
+        columns = ", ".join(f"{self._received_column()} AS received" if key == "received" else key
+                            for key in schema.SUMMARY_KEYS)
+        sql = (f"SELECT {columns} FROM measurement" + (" WHERE " + " AND ".join(conditions) if conditions else "")
+               + " ORDER BY measurement.received DESC, id DESC" + ("" if limit is None else f" LIMIT {int(limit)}"))
+        return [schema.summary(row) for row in self._select(sql, parameters)]
+
+    def answers(self, *, part=None, serial=None, since=None, until=None, verdict=None) -> list:
+        """The stored answers (as :meth:`get` gives them) of every measurement that matches the
+        filters (those of :meth:`find`), oldest first: the measurement order of a lot's reports.
+
+        Returns
+        -------
+        list of dict
+            In ``received`` order, then by id among those received in the same millisecond.
+
+        Raises
+        ------
+        ValueError
+            As :meth:`find`.
+        """
+        conditions, parameters = self._filters(part=part, serial=serial, since=since, until=until, verdict=verdict)
+        sql = (f"SELECT id, {self._received_column()} AS received, processing_ms, "
+               f"{self._text_column('meta')} AS meta, {self._text_column('record')} AS record FROM measurement"
+               + (" WHERE " + " AND ".join(conditions) if conditions else "")
+               + " ORDER BY measurement.received, id")
+        return [schema.stored_answer(row["record"], id=row["id"], received=row["received"],
+                                     processing_ms=row["processing_ms"], meta_text=row["meta"])
+                for row in self._select(sql, parameters)]
+
+    def _filters(self, *, part, serial, since, until, verdict):
+        """The WHERE conditions and parameters of :meth:`find`'s filters."""
         conditions, parameters = [], {}
         for name, value in (("part", part), ("serial", serial)):
             if value is not None:
@@ -137,13 +172,7 @@ class Store:
                 raise ValueError(f"verdict must be one of {', '.join(schema.VERDICTS)}, got {verdict!r}")
             conditions.append(f"verdict = {self._parameter('verdict')}")
             parameters["verdict"] = verdict
-        if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int) or limit < 1):
-            raise ValueError(f"limit must be a positive integer or None, got {limit!r}")
-        columns = ", ".join(f"{self._received_column()} AS received" if key == "received" else key
-                            for key in schema.SUMMARY_KEYS)
-        sql = (f"SELECT {columns} FROM measurement" + (" WHERE " + " AND ".join(conditions) if conditions else "")
-               + " ORDER BY measurement.received DESC, id DESC" + ("" if limit is None else f" LIMIT {int(limit)}"))
-        return [schema.summary(row) for row in self._select(sql, parameters)]
+        return conditions, parameters
 
     def count(self) -> int:
         """The number of measurements stored."""

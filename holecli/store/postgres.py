@@ -32,6 +32,8 @@ class PostgresStore(Store):
     ----------
     url : str
         ``postgresql://user[:password]@host[:port]/database[?...]`` (libpq's URL).
+    create : bool
+        Create the tables when the database has none (False: refuse it).
 
     Raises
     ------
@@ -42,10 +44,11 @@ class PostgresStore(Store):
 
     engine = "postgres"
 
-    def __init__(self, url):
+    def __init__(self, url, *, create=True):
         self._url = url
         self.location = redacted(url)
         self._connection = None
+        self._may_create = create
         try:
             self._connection = self._connect()
             self._open()
@@ -70,6 +73,8 @@ class PostgresStore(Store):
             version = None if found is None else found["value"]
         if is_a_store(self.location, tables, version, "a database"):
             return
+        if not self._may_create:
+            raise StoreError(f"{self.location}: not a holecli results store (the database holds no tables of one)")
         with connection.transaction():
             connection.execute("SELECT pg_advisory_xact_lock(%s)", (_CREATE_LOCK,))
             for statement in schema.ddl("postgres"):

@@ -28,6 +28,8 @@ class SQLiteStore(Store):
     path : str or os.PathLike
         The file. An existing file must be a holecli store of this schema version or an older one,
         or an empty file or database; anything else is refused and left as it is.
+    create : bool
+        Create the file and the tables when missing (False: refuse a missing file or an empty database).
 
     Raises
     ------
@@ -38,11 +40,14 @@ class SQLiteStore(Store):
 
     engine = "sqlite"
 
-    def __init__(self, path):
+    def __init__(self, path, *, create=True):
         self.path = os.fspath(path)
         self.location = str(self.path)
         self._connection = None
+        self._may_create = create
         existed = os.path.lexists(self.path)
+        if not existed and not create:
+            raise StoreError(f"{self.location}: no such results store")
         if existed:
             self._check_header()
         self._check_writable(existed)
@@ -94,6 +99,8 @@ class SQLiteStore(Store):
             found = connection.execute("SELECT value FROM store_info WHERE key = 'schema_version'").fetchone()
             version = None if found is None else found[0]
         existing = is_a_store(self.location, tables, version, "an SQLite database")
+        if not existing and not self._may_create:
+            raise StoreError(f"{self.location}: not a holecli results store (an empty SQLite database)")
         connection.execute("PRAGMA foreign_keys = ON")
         mode = connection.execute("PRAGMA journal_mode = WAL").fetchone()[0]
         if str(mode).lower() != "wal":

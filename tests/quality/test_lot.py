@@ -1,8 +1,6 @@
 """holecli.quality.lot: the characteristics of records, from a real lot's batch output."""
 
 import json
-import subprocess
-import sys
 
 import pytest
 
@@ -11,19 +9,9 @@ from holecli.quality.lot import (PRESENCE, SIZE_CHECKS, ZONE_CHECKS, Lot, lot_fr
 
 
 @pytest.fixture(scope="module")
-def records(tmp_path_factory):
-    """The batch records of a simulated lot of 4 panels: part 2's C1 drilled 0.1 mm large, part 3's
-    L1 not drilled, checked against sample_clouds/panel_tolerances.toml (in file order)."""
-    folder = tmp_path_factory.mktemp("lot")
-    holecli = [sys.executable, "-m", "holecli"]
-    subprocess.run(holecli + ["simulate", "lot", str(folder / "lot"), "--parts", "4", "--panel",
-                              "sample_clouds/panel.toml", "--spacing", "0.2", "--defect", "2/C1=diameter:+0.1",
-                              "--defect", "3/L1=missing", "-q"], check=True)
-    batch = subprocess.run(holecli + ["batch", str(folder / "lot"), "--spec", "sample_clouds/panel_tolerances.toml",
-                                      "-o", str(folder / "shift.jsonl"), "-q"])
-    assert batch.returncode == 5  # a part out of tolerance
-    lines = [json.loads(line) for line in (folder / "shift.jsonl").read_text().splitlines()]
-    return sorted(lines, key=lambda record: record["file"])
+def records(shift_lot):
+    """The batch records of the simulated shift (tests/conftest.py's shift_lot), in file order."""
+    return [json.loads(line) for line in shift_lot["jsonl"].read_text().splitlines()]
 
 
 @pytest.fixture(scope="module")

@@ -429,3 +429,25 @@ def test_a_record_checked_against_another_band_gets_its_own_item(schema, records
     assert bands == [0.05, 0.03]  # panel_tolerances.toml's, then the tight spec's
     tolerant, tight = results(root)
     assert status(measured(root, tolerant)["T1 diameter"]) == "PASS"
+
+
+def test_the_part_number_names_the_measured_parts(schema, records):
+    lot = lot_from_records([
+        {"record": records["pass"], "source": "store:1", "meta": {"serial": "SN-1", "part": "PN-7"}},
+        {"record": records["pass"], "source": "store:2", "meta": {"serial": "SN-2"}},
+        {"record": records["pass"], "source": "store:3", "meta": {"serial": "SN-3", "part": "PN-7"}}])
+    document = qif_document(lot, created=CREATED, part_number="PN-9")
+    assert_valid(schema, document)
+    root = parse(document)
+    product = root.find("q:Product", NS)
+    parts = {p.get("id"): p.findtext("q:ModelNumber", namespaces=NS) for p in product.find("q:PartSet", NS)}
+    assert sorted(parts.values()) == ["PN-7", "PN-9"]
+    component_part = {c.get("id"): parts[c.findtext("q:Part/q:Id", namespaces=NS)]
+                      for c in product.find("q:ComponentSet", NS)}
+    path_part = {p.get("id"): component_part[p.findtext("q:ComponentIds/q:Id", namespaces=NS)]
+                 for p in product.find("q:AsmPaths", NS)}
+    actual = root.findall("q:Results/q:ActualComponentSets/q:ActualComponentSet/q:ActualComponent", NS)
+    assert [(a.findtext("q:SerialNumber", namespaces=NS), path_part[a.findtext("q:AsmPathId", namespaces=NS)])
+            for a in actual] == [("SN-1", "PN-7"), ("SN-2", "PN-9"), ("SN-3", "PN-7")]
+    # no part number anywhere: no product
+    assert parse(qif_document(lot_of(records["pass"]), created=CREATED)).find("q:Product", NS) is None
