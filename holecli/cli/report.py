@@ -152,12 +152,40 @@ def render(lot, fmt, *, title=None, pictures=True, part_number=None, inputs=(), 
     if fmt == "qif":
         from holecli.quality.qif import qif_document
 
-        return qif_document(lot, part_number=part_number)
+        return qif_document(lot, part_number=part_number, spec=lot_spec(lot))
     from holecli.quality import tables
 
     if fmt == "fai":
         return tables.csv_text(tables.fai_table(lot, part_number=part_number))
     return tables.csv_text(tables.characteristic_table(lot))
+
+
+def lot_spec(lot):
+    """The spec every record of ``lot`` was checked against, read again for its nominal centers and
+    normals (QIF's features): when the records name one spec file, by path and SHA-256, that is still
+    there with the same SHA-256 and none of them was mapped by a registration (whose nominals are in
+    another frame). Else None: the features then stand at the measured centers, and QIF says so.
+    """
+    from holecli.cli.files import read_spec
+
+    named = set()
+    for m in lot.measurements:
+        tolerances = (m.record.get("options") or {}).get("tolerances")
+        if "error" in m.record or tolerances is None:
+            continue
+        if tolerances.get("registration") is not None:
+            return None
+        named.add((tolerances.get("spec_file"), tolerances.get("spec_sha256")))
+    if len(named) != 1:
+        return None
+    ((path, sha256),) = named
+    if not path or not sha256 or path == "-":
+        return None
+    try:
+        spec = read_spec(path)
+    except Failure:
+        return None
+    return spec if spec.sha256 == sha256 else None
 
 
 def scan_views(lot, limit) -> dict:

@@ -219,3 +219,21 @@ def test_a_scan_that_is_gone_is_said_so(shift_lot, tmp_path):
     lot = lot_from_records([{"record": record, "source": "x:1"}])
     (view,) = scan_views(lot, 5).values()
     assert view["unavailable"].startswith(f"the scan {tmp_path / 'gone.ply'} cannot be read now (")
+
+
+def test_qif_features_stand_at_the_spec_s_nominals_when_the_spec_is_still_there(shift_lot, tmp_path, monkeypatch):
+    from holecli.cli.report import lot_spec, read_results
+    from holecli.quality.lot import lot_from_records
+
+    lot = lot_from_records(read_results(str(shift_lot["jsonl"])))
+    spec = lot_spec(lot)  # the records name the spec by its absolute path
+    assert spec is not None and [hole.name for hole in spec.holes] == ["T1", "C1", "B1", "L1"]
+    # the same path with other content: not the spec the records were checked against
+    record = json.loads(shift_lot["jsonl"].read_text().splitlines()[0])
+    changed = tmp_path / "spec.toml"
+    with open(record["options"]["tolerances"]["spec_file"]) as original:
+        changed.write_text(original.read() + "\n# edited\n")
+    record["options"]["tolerances"]["spec_file"] = str(changed)
+    assert lot_spec(lot_from_records([{"record": record, "source": "x:1"}])) is None
+    record["options"]["tolerances"]["spec_file"] = str(tmp_path / "gone.toml")
+    assert lot_spec(lot_from_records([{"record": record, "source": "x:1"}])) is None
