@@ -126,6 +126,7 @@ td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: now
 .unchecked { color: var(--unchecked); background: var(--unchecked-bg); }
 .error { color: var(--error); background: var(--error-bg); }
 tr.row-fail td.reason, tr.row-missing td.reason { color: var(--fail); }
+td.reason { min-width: 12em; }
 td.warnings { color: var(--undecided); max-width: 280px; }
 td.warnings .hint { color: var(--fail); font-weight: 600; }
 p.error-message { padding: 6px 10px; border-left: 4px solid var(--error); }
@@ -458,7 +459,7 @@ def _key_section(lot, key, every, number) -> str:
     labels = [lot.measurements[c.measurement].label if c.measurement < len(lot.measurements) else str(c.measurement)
               for c in series]
     individuals, moving_range = spc.individuals_charts(values)
-    positions = np.arange(1, len(values) + 1, dtype=float)
+    positions = np.array([c.measurement + 1 for c in series], dtype=float)  # "measurement No.": 1-based order
     out.append('<div class="charts">')
     out.append(_chart_figure(individuals, "Individuals", positions, labels, (lower, upper), unit, digits))
     out.append(_chart_figure(moving_range, "Moving range", positions[1:], labels[1:], (None, None), unit, digits))
@@ -521,19 +522,20 @@ def _subgroups(lot, by_key) -> str:
             out.append('<p class="note">More than 25 holes per subgroup: no X-bar/R chart.</p></section>\n')
             continue
         values = {key: {c.measurement: c.measured for c in by_key[key]} for key in keys}
-        rows, labels = [], []
+        rows, labels, numbers = [], [], []
         for measurement in lot.measurements:
             row = [values[key].get(measurement.order) for key in keys]
             if all(v is not None and math.isfinite(v) for v in row):
                 rows.append(row)
                 labels.append(measurement.label)
+                numbers.append(measurement.order + 1)
         if len(rows) < 2:
             out.append('<p class="note">Not enough measurements for a chart (fewer than 2 complete '
                        'subgroups).</p></section>\n')
             continue
         left_out = sum(1 for m in lot.measurements if m.verdict != "error") - len(rows)
         xbar, ranges = spc.xbar_r_charts(np.array(rows, dtype=float))
-        positions = np.arange(1, len(rows) + 1, dtype=float)
+        positions = np.array(numbers, dtype=float)
         digits = _decimals(by_key[keys[0]][0])
         out.append('<div class="charts">')
         out.append(_chart_figure(xbar, "X-bar (subgroup mean)", positions, labels, (None, None), unit, digits))
@@ -864,7 +866,10 @@ def _signed(value, digits) -> str:
     value = _finite(value)
     if value is None:
         return "&ndash;"
-    return f"{value:+.{digits}f}".replace("-", "&minus;")
+    shown = f"{value:+.{digits}f}"
+    if float(shown) == 0.0:
+        shown = f"{0.0:+.{digits}f}"  # not -0.0000: a deviation that rounds to nothing has no side
+    return shown.replace("-", "&minus;")
 
 
 def _index(value) -> str:

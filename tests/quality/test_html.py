@@ -309,6 +309,9 @@ def test_holes_sharing_a_nominal_get_subgroup_charts(dom):
     # part_003 has no L1: 3 complete subgroups
     assert len(t1_l1.find("polyline").attrs["points"].split()) == 3
     assert "1 measurement(s) without every one of these holes" in t1_l1.text
+    # the x axis is the measurement No.: part_003 (No. 3) is the gap
+    xs = [float(point.split(",")[0]) for point in t1_l1.find("polyline").attrs["points"].split()]
+    assert xs[1] - xs[0] == pytest.approx((xs[2] - xs[1]) / 2, abs=0.2)  # coordinates to 0.1 px
 
 
 def test_fit_pictures_per_hole_or_none(lot, dom):
