@@ -115,7 +115,8 @@ dl.meta { display: grid; grid-template-columns: max-content 1fr; gap: 2px 14px; 
 dl.meta dt { font-weight: 600; }
 dl.meta dd { margin: 0; overflow-wrap: anywhere; }
 table { border-collapse: collapse; margin: 6px 0 10px; }
-th, td { border: 1px solid var(--line); padding: 3px 7px; vertical-align: top; }
+table.holes { font-size: 13px; }
+th, td { border: 1px solid var(--line); padding: 3px 6px; vertical-align: top; }
 th { background: #f3f4f6; text-align: left; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 .badge, td.decision { font-weight: 700; }
@@ -126,8 +127,9 @@ td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: now
 .unchecked { color: var(--unchecked); background: var(--unchecked-bg); }
 .error { color: var(--error); background: var(--error-bg); }
 tr.row-fail td.reason, tr.row-missing td.reason { color: var(--fail); }
-td.reason { min-width: 12em; }
-td.warnings { color: var(--undecided); max-width: 280px; }
+td.reason { min-width: 11em; }
+td.warnings { color: var(--undecided); min-width: 15em; max-width: 20em; font-size: 12px; }
+td.warnings span { display: block; margin-bottom: 3px; }
 td.warnings .hint { color: var(--fail); font-weight: 600; }
 p.error-message { padding: 6px 10px; border-left: 4px solid var(--error); }
 .note { color: #57606a; }
@@ -385,10 +387,10 @@ def _hole_rows(hole, index, characteristics, units, checked) -> str:
     name = hole.get("name") or f"#{index}"
     codes = _warning_codes(hole)
     rows = max(1, len(characteristics))
-    words = "<br>".join(f'<span title="{_e(_warning_sentence(code))}">{_e(_warning_phrase(code))}</span>'
+    words = "".join(f'<span title="{_e(_warning_sentence(code))}">{_e(_warning_phrase(code))}</span>'
                         for code in codes)
     if codes and any(c.decision in ("fail", "undecided") for c in characteristics):
-        words += ('<br><span class="hint">A warning may explain this result: look at the hole before '
+        words += ('<span class="hint">A warning may explain this result: look at the hole before '
                   'rejecting it.</span>')
     hole_cell = f'<td rowspan="{rows}">{_e(name)}</td>'
     warning_cell = f'<td rowspan="{rows}" class="warnings">{words}</td>'
@@ -410,7 +412,7 @@ def _hole_rows(hole, index, characteristics, units, checked) -> str:
             tolerance = f"zone &le; {_number(c.upper_tolerance, digits)}"
         else:
             nominal = _number(c.nominal, digits)
-            tolerance = (f"{_signed(c.lower_tolerance, digits)} / {_signed(c.upper_tolerance, digits)}")
+            tolerance = _band(c.lower_tolerance, c.upper_tolerance, digits)
         exceed = ""
         if c.decision == "fail":
             amount = c.exceedance
@@ -870,6 +872,13 @@ def _signed(value, digits) -> str:
     if float(shown) == 0.0:
         shown = f"{0.0:+.{digits}f}"  # not -0.0000: a deviation that rounds to nothing has no side
     return shown.replace("-", "&minus;")
+
+
+def _band(lower, upper, digits) -> str:
+    """A band of deviations: ``±t`` when symmetric, else ``lower / upper`` signed."""
+    if lower is not None and upper is not None and upper > 0 and _number(-lower, digits) == _number(upper, digits):
+        return f"&plusmn;{_number(upper, digits)}"
+    return f"{_signed(lower, digits)} / {_signed(upper, digits)}"
 
 
 def _index(value) -> str:

@@ -224,7 +224,7 @@ def test_the_oversize_hole_is_marked_fail_with_its_exceedance_and_reason(dom, lo
     c = next(c for c in lot.series(("C1", "diameter")) if c.decision == "fail")
     assert lot.measurements[c.measurement].label == "part_002"
     texts, row, cells = _row(dom, c.measurement, "C1", "diameter")
-    assert texts[1] == "7.0000" and texts[2] == "\u22120.0500 / +0.0500"
+    assert texts[1] == "7.0000" and texts[2] == "\u00b10.0500"
     assert texts[3] == f"{c.measured:.4f}" and texts[4] == f"+{c.deviation:.4f}"
     assert texts[5] == f"{c.expanded_uncertainty:.4f}"
     assert texts[6] == "FAIL" and "fail" in cells[6].classes
@@ -479,3 +479,11 @@ def test_a_hole_the_spec_does_not_name_is_unchecked_beside_the_checked(records):
     hole, texts, row, cells = _rows(dom.find("section", id="m-0"))[-1]
     assert hole == f"#{extra['index']}" and texts[3] == "2.5000" and texts[6] == "UNCHECKED"
     assert texts[8] == "not checked: no nominal hole of the spec matches it"
+
+
+def test_an_unsymmetric_band_shows_both_limits(records):
+    record = copy.deepcopy(records[0])
+    record["holes"][0]["conformance"]["diameter"].update(lower=0.0, upper=0.036)  # a drawing's +0.036/-0
+    dom = _parse(html_report(_lot([record]), generated=GENERATED))
+    texts, _, _ = _row(dom, 0, "T1", "diameter")
+    assert texts[2] == "+0.00000 / +0.03600"  # to about a thousandth of the zone
