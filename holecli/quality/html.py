@@ -280,7 +280,7 @@ def _header(lot, title, generated, inputs) -> str:
     rules = Counter()
     versions = Counter()
     for measurement in lot.measurements:
-        verdict = measurement.record.get("verdict") or {}
+        verdict = _mapping(measurement.record.get("verdict"))
         if verdict:
             rules[(verdict.get("decision_rule"), verdict.get("coverage_factor"))] += 1
         version = measurement.record.get("holecli_version")
@@ -736,14 +736,14 @@ def _fit_picture(hole):
         The SVG, the magnification and the notes the caption says (the offset's direction is not in
         the record; a partial hole's arc).
     """
-    conformance = hole.get("conformance") or {}
+    conformance = _mapping(hole.get("conformance"))
     diameter = _finite(hole.get("diameter"))
-    dia = conformance.get("diameter") or {}
+    dia = _mapping(conformance.get("diameter"))
     deviation = _finite(hole.get("diameter_deviation"))
     if deviation is None:
         deviation = _finite(dia.get("value"))
-    offset = _finite((hole.get("position_deviation") or {}).get("in_plane"))
-    zone = _finite((conformance.get("position") or {}).get("upper"))
+    offset = _finite(_mapping(hole.get("position_deviation")).get("in_plane"))
+    zone = _finite(_mapping(conformance.get("position")).get("upper"))
     band = (_finite(dia.get("lower")), _finite(dia.get("upper")))
     checked = bool(conformance)
     radius = None
@@ -809,6 +809,11 @@ def _input_of(source) -> str:
     return match.group(1) if match else str(source)
 
 
+def _mapping(value) -> dict:
+    """``value`` when it is a dict, else an empty one (a record's part that is not what a record holds)."""
+    return value if isinstance(value, dict) else {}
+
+
 def _finite(value):
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         return None
@@ -829,7 +834,8 @@ def _reason(code) -> str:
 
 def _warning_codes(hole) -> list:
     codes = []
-    for warning in hole.get("warnings") or ():
+    warnings = hole.get("warnings")
+    for warning in warnings if isinstance(warnings, (list, tuple)) else ():
         code = warning.get("code") if isinstance(warning, dict) else warning
         if code is not None:
             codes.append(str(code))
