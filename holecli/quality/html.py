@@ -164,6 +164,8 @@ svg .unseen { fill: none; stroke: #8c959f; stroke-dasharray: 1 3; }
 svg .dot { fill: var(--ink); }
 .charts { display: flex; flex-wrap: wrap; gap: 8px 18px; align-items: flex-start; }
 ul.violations { margin: 2px 0 8px; }
+ul.weak { list-style: none; padding: 0; }
+ul.weak li { margin: 2px 0; }
 /* A lot of 1,000 parts is a long page: the browser lays out only the sections near the view (8 s -> 1 s). */
 section.measurement, section.key { content-visibility: auto; contain-intrinsic-size: auto 1200px; }
 @page { size: A4; margin: 12mm; }
@@ -215,18 +217,19 @@ def html_report(lot, *, title=None, pictures=True, generated=None, inputs=None, 
            f'<meta http-equiv="Content-Security-Policy" content="{_e(CONTENT_SECURITY_POLICY)}">\n'
            '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
            f'<title>{_e(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n']
+    by_key = {}  # Lot.series of every key in one pass (a call each scans the whole lot)
+    for characteristic in lot.characteristics:
+        by_key.setdefault(characteristic.key, []).append(characteristic)
+    keys = [key for key in lot.keys if key[1] != "presence"]
     out.append(_header(lot, title, str(generated), inputs))
-    out.append(_summary(lot))
+    out.append(_summary(lot, keys, by_key))
     out.append('<section id="measurements">\n<h2>Measurements</h2>\n')
     if not lot.measurements:
         out.append('<p class="note">No measurements.</p>\n')
     for measurement in lot.measurements:
         out.append(_measurement_section(measurement, pictures, scan_views or {}))
     out.append('</section>\n')
-    by_key = {}  # Lot.series of every key in one pass (a call each scans the whole lot)
-    for characteristic in lot.characteristics:
-        by_key.setdefault(characteristic.key, []).append(characteristic)
-    out.append(_trends(lot, by_key))
+    out.append(_trends(lot, keys, by_key))
     out.append(_subgroups(lot, by_key))
     out.append(f'<footer class="note"><p>Made by holecli {_e(__version__)}. Decisions follow ISO 14253-1 as the '
                'records\' decision rule says; the control charts use the Western Electric run rules.</p>'
@@ -302,7 +305,7 @@ def _header(lot, title, generated, inputs) -> str:
             '</header>\n')
 
 
-def _summary(lot) -> str:
+def _summary(lot, keys, by_key) -> str:
     summary = lot.summary()
     verdicts = summary.get("verdicts", {})
     cells = "".join(f'<td class="num {word}">{int(verdicts.get(word, 0))}</td>' for word in _VERDICTS)
@@ -322,6 +325,16 @@ def _summary(lot) -> str:
         out.append('</ul>\n')
     else:
         out.append('<p>No part rejected.</p>\n')
+    weak = [(number, key, ratio) for number, key in enumerate(keys)
+            for ratio in [_median_tur(by_key[key])] if ratio is not None and ratio < _TUR_GOOD]
+    if weak:
+        out.append('<h3>Characteristics the measurement decides poorly</h3>\n<ul class="weak">')
+        for number, (hole, name), ratio in weak:
+            css, words = (("danger", "cannot decide conformance") if ratio < 1.0
+                          else ("caution", "below 4:1, caution near the limits"))
+            out.append(f'<li class="{css}"><a href="#k-{number}">{_e(hole)} {_e(_name(name))}</a>: test-uncertainty '
+                       f'ratio {ratio:.3g}, {words}</li>')
+        out.append('</ul>\n')
     return "".join(out) + '</section>\n'
 
 
@@ -429,8 +442,7 @@ def _hole_rows(hole, index, characteristics, units, checked) -> str:
     return "".join(out)
 
 
-def _trends(lot, by_key) -> str:
-    keys = [key for key in lot.keys if key[1] != "presence"]
+def _trends(lot, keys, by_key) -> str:
     out = ['<section id="trends">\n<h2>Characteristics over the lot</h2>\n']
     if not keys:
         out.append('<p class="note">No characteristic checked.</p>\n')
@@ -450,9 +462,7 @@ def _key_section(lot, key, every, number) -> str:
            + ", ".join(f'<span class="badge {word}">{count} {word}</span>' for word, count in sorted(decisions.items()))
            + '</p>\n']
     lower, upper = _limits(series)
-    ratios = [c.test_uncertainty_ratio for c in every if c.test_uncertainty_ratio is not None]
-    ratio = float(np.median(ratios)) if ratios else None
-    sentence, css = tur_words(ratio)
+    sentence, css = tur_words(_median_tur(every))
     out.append(f'<p class="tur {css}">{_e(sentence)}</p>\n')
     if len(series) < 2:
         out.append('<p class="note">Not enough measurements for a chart (fewer than 2 values).</p>\n')
@@ -897,6 +907,12 @@ def _index(value) -> str:
 
 def _rounded(value):
     return None if value is None else float(f"{value:.9g}")
+
+
+def _median_tur(characteristics):
+    """The median test-uncertainty ratio of a characteristic over the lot (None: U never known)."""
+    ratios = [c.test_uncertainty_ratio for c in characteristics if c.test_uncertainty_ratio is not None]
+    return float(np.median(ratios)) if ratios else None
 
 
 def _limits(series):

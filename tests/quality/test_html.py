@@ -287,6 +287,11 @@ def test_the_test_uncertainty_ratio_is_said_plainly(dom, lot):
     assert "the uncertainty is larger than the tolerance: this measurement cannot decide conformance" in tur.text
     c1 = dom.find("section", id=f"k-{lot.keys.index(('C1', 'diameter'))}").find("p", "tur")
     assert "ok" in c1.classes
+    # and the summary names it, linked, among the characteristics the measurement decides poorly
+    weak = {li.find("a").text: li for li in dom.find("ul", "weak").find_all("li")}
+    assert "danger" in weak["T1 diameter"].classes and "cannot decide conformance" in weak["T1 diameter"].text
+    assert weak["T1 diameter"].find("a").attrs["href"] == f"#k-{lot.keys.index(('T1', 'diameter'))}"
+    assert "C1 diameter" not in weak
 
 
 @pytest.mark.parametrize("ratio, css, words", [
