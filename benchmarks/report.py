@@ -6,8 +6,10 @@ wrong: oversize, off position, cut too deep, a hole not drilled) measured by ``h
 benchmarks/data/splice_tolerances.toml (5 characteristics a hole). The lot of ``--parts`` parts reports
 these records in turn, each under a serial of its own (part_0001.ply, ...): a report's time depends on
 the number of records, holes and characteristics, not on their values. The same lot goes into an
-SQLite results store (one measurement a second). The measured records are kept in ``--cache`` (default:
-a folder under the system's temporary folder), so that a second run measures nothing.
+SQLite results store (one measurement a second). The measured records and their scans are kept in
+``--cache`` (default: a folder under the system's temporary folder), so that a second run measures
+nothing; the HTML reports draw the scan around the doubtful holes from them (the default
+``--scan-pictures 50``).
 
 Then each report is made as a user makes it, ``holecli report ...`` in a process of its own, timed by
 wall clock and by the CPU time of the process (``resource.getrusage(RUSAGE_CHILDREN)``):
@@ -67,25 +69,27 @@ def holecli(*args, **options):
 
 
 def measured_records(cache, count) -> list:
-    """``count`` real records of splice strips (simulated and measured once, then read from ``cache``)."""
+    """``count`` real records of splice strips (simulated and measured once, then read from ``cache``,
+    which keeps the scans too: the HTML report reads those of the doubtful holes again)."""
+    import shutil
+
     cache = Path(cache)
     done = cache / f"measured_{count}.jsonl"
-    if not done.exists():
+    lot = cache / f"lot_{count}"
+    if not done.exists() or not lot.is_dir():
         cache.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory(dir=cache) as work:
-            lot = Path(work) / "lot"
-            defects = [argument for defect in DEFECTS if int(defect.split("/")[0]) <= count
-                       for argument in ("--defect", defect)]
-            holecli("simulate", "lot", lot, "--parts", count, "--panel", PANEL, "--spacing", "0.2",
-                    "--range-noise", "0.002", *defects, "-q", check=True)
-            output = Path(work) / "measured.jsonl"
-            batch = holecli("batch", lot, "--spec", SPEC, "-o", output, "-q")
-            if batch.returncode not in (0, 5, 8):
-                raise RuntimeError(f"holecli batch ended with {batch.returncode}")
-            records = sorted((json.loads(line) for line in output.read_text().splitlines()), key=lambda r: r["file"])
-            temporary = done.with_suffix(".tmp")
-            temporary.write_text("".join(json.dumps(record) + "\n" for record in records))
-            os.replace(temporary, done)
+        shutil.rmtree(lot, ignore_errors=True)
+        defects = [argument for defect in DEFECTS if int(defect.split("/")[0]) <= count
+                   for argument in ("--defect", defect)]
+        holecli("simulate", "lot", lot, "--parts", count, "--panel", PANEL, "--spacing", "0.2",
+                "--range-noise", "0.002", *defects, "-q", check=True)
+        output = cache / f"measured_{count}.part"
+        batch = holecli("batch", lot, "--spec", SPEC, "-o", output, "-q")
+        if batch.returncode not in (0, 5, 8):
+            raise RuntimeError(f"holecli batch ended with {batch.returncode}")
+        records = sorted((json.loads(line) for line in output.read_text().splitlines()), key=lambda r: r["file"])
+        output.write_text("".join(json.dumps(record) + "\n" for record in records))
+        os.replace(output, done)
     return [json.loads(line) for line in done.read_text().splitlines()]
 
 
@@ -98,6 +102,7 @@ def build_lot(records, parts, folder) -> tuple:
     start = datetime.datetime(2026, 12, 4, 6, 0, tzinfo=datetime.timezone.utc)
     with open(jsonl, "w") as lines, open_store(store) as opened:
         for number in range(parts):
+            # its own name; "path" (batch's absolute path) still names the measured scan, which the report reads
             record = dict(records[number % len(records)], file=f"scans/part_{number + 1:04d}.ply")
             lines.write(json.dumps(record) + "\n")
             opened.add(record, meta={"part": "SPLICE-10", "serial": f"SN-{number + 1:04d}"},

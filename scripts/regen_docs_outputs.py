@@ -1,6 +1,6 @@
 """Regenerate the docs' outputs that are made by running holecli, from this checkout's real CLI.
 
-    python scripts/regen_docs_outputs.py            # rewrite the docs' printed outputs and docs/plot_panel.png
+    python scripts/regen_docs_outputs.py            # rewrite the docs' printed outputs and the pictures
     python scripts/regen_docs_outputs.py --check    # exit 1 when the docs' printed outputs are stale
 
 What it regenerates:
@@ -12,7 +12,10 @@ What it regenerates:
   the pipeline ends), the batch summary inside the error line shortened to ``(...)`` (it holds the
   run's wall time);
 * ``docs/plot_panel.png``, the picture of :data:`PLOT_PAGE`, with :data:`PLOT_COMMAND` (the command the
-  page gives under the picture); not compared by ``--check`` (a PNG differs with matplotlib's version).
+  page gives under the picture); not compared by ``--check`` (a PNG differs with matplotlib's version);
+* ``docs/report_page.png``, the README's picture of an HTML report: the README's shift (:data:`SHIFT_COMMANDS`,
+  run in a temporary folder) reported and rendered by headless chromium (``scripts/report_screenshot.sh``);
+  not compared either.
 
 The other printed outputs of the README and the docs are checked, not rewritten, by
 ``tests/test_readme_examples.py``; the generated reference pages (every ``--help``, the record's
@@ -41,6 +44,17 @@ PLOT_PAGE = ROOT / "docs" / "guide" / "plot.md"
 PLOT_FILE = "docs/plot_panel.png"
 PLOT_COMMAND = ["detect", "sample_clouds/panel.ply", "--spec", "sample_clouds/panel_tolerances.toml", "--units", "mm",
                 "--gauge-depth", "0.5", "--plot", PLOT_FILE, "-o", "/dev/null"]
+
+# The README's picture of a report, and the shift it shows (the README's own commands).
+README = ROOT / "README.md"
+REPORT_FILE = ROOT / "docs" / "report_page.png"
+SHIFT_COMMANDS = (
+    "holecli simulate lot shift --parts 6 --panel sample_clouds/panel.toml --spacing 0.2 --defect 3/C1=diameter:+0.1 "
+    "--defect 5/L1=missing -q",
+    "holecli batch shift --spec sample_clouds/panel_tolerances.toml --store shift.sqlite --meta part=PANEL-60 "
+    "-o shift.jsonl -q",
+    "holecli report --store shift.sqlite --part PANEL-60 -o shift.html",
+)
 
 # The sh block of the broken-pipe example and the text block after it.
 _BROKEN_PIPE = re.compile(r"(```sh\n(?P<command>holecli batch [^\n]*\| head[^\n]*)\n```\n\n```text\n)(?P<output>.*?)(```)",
@@ -96,6 +110,21 @@ def draw_plot():
         subprocess.run(["holecli", *PLOT_COMMAND, "-q"], cwd=ROOT, env=_environment(shims), check=True, timeout=300)
 
 
+def draw_report_page():
+    """Draw :data:`REPORT_FILE`: the top of the README's shift report, 1280 x 1150 CSS pixels."""
+    import shutil
+
+    with tempfile.TemporaryDirectory() as shims, tempfile.TemporaryDirectory() as folder:
+        shutil.copytree(ROOT / "sample_clouds", Path(folder) / "sample_clouds")
+        env = _environment(shims)
+        for command in SHIFT_COMMANDS:
+            done = subprocess.run(["bash", "-c", command], cwd=folder, env=env, timeout=600)
+            if done.returncode not in (0, 5):  # batch: 5, parts out of tolerance
+                raise SystemExit(f"{command}: exit {done.returncode}")
+        subprocess.run([str(ROOT / "scripts" / "report_screenshot.sh"), "shift.html", str(REPORT_FILE), "1280", "1150"],
+                       cwd=folder, env=env, check=True, timeout=300)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--check", action="store_true", help="only say whether the docs' outputs are stale (exit 1)")
@@ -104,6 +133,9 @@ def main(argv=None):
     picture = PLOT_FILE.removeprefix("docs/")
     if picture not in plot_page or " ".join(PLOT_COMMAND[:2]) not in plot_page:
         raise SystemExit(f"{PLOT_PAGE.relative_to(ROOT)} no longer shows {picture} or its command: update PLOT_COMMAND")
+    readme = README.read_text(encoding="utf-8")
+    if REPORT_FILE.name not in readme or not all(command in readme for command in SHIFT_COMMANDS):
+        raise SystemExit(f"README.md no longer shows {REPORT_FILE.name} or its shift's commands: update SHIFT_COMMANDS")
     page = BROKEN_PIPE_PAGE.read_text(encoding="utf-8")
     new = regenerate_page(page)
     name = BROKEN_PIPE_PAGE.relative_to(ROOT)
@@ -116,7 +148,9 @@ def main(argv=None):
     if new != page:
         BROKEN_PIPE_PAGE.write_text(new, encoding="utf-8")
     draw_plot()
-    print(f"regenerated the broken-pipe example's output in {name} and {PLOT_FILE}", file=sys.stderr)
+    draw_report_page()
+    print(f"regenerated the broken-pipe example's output in {name}, {PLOT_FILE} and {REPORT_FILE.relative_to(ROOT)}",
+          file=sys.stderr)
     return 0
 
 

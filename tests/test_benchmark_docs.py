@@ -33,7 +33,7 @@ BLOCKS = {
     "accuracy.md": ["accuracy", "realistic"],
     "peers.md": ["peers"],
     "registration.md": ["register", "register-consistency"],
-    "speed.md": ["speed", "pattern_speed", "serve"],
+    "speed.md": ["speed", "pattern_speed", "serve", "report"],
 }
 
 

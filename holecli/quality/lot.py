@@ -337,7 +337,10 @@ def _hole_characteristics(hole, position, order, units) -> list:
         raise ValueError(f"hole {position}: conformance is not a JSON object")
     index = hole.get("index", position)
     name = hole.get("name") or f"#{index}"
-    warnings = tuple(w.get("code", "") if isinstance(w, dict) else str(w) for w in hole.get("warnings") or ())
+    listed = hole.get("warnings") or []
+    if not isinstance(listed, list):
+        raise ValueError(f"hole {position}: warnings is not a list")
+    warnings = tuple(w.get("code", "") if isinstance(w, dict) else str(w) for w in listed)
     out = []
     for check, entry in conformance.items():
         if not isinstance(entry, dict) or "decision" not in entry or "upper" not in entry:

@@ -125,6 +125,8 @@ def test_the_hole_s_warnings_go_with_its_characteristics():
     ({"file": "a.ply"}, 'no "holes" list'),
     ({"file": "a.ply", "holes": ["x"]}, "hole 0 is not a JSON object"),
     ({"file": "a.ply", "holes": [{"conformance": {"diameter": {"value": 1}}}]}, "not a conformance entry"),
+    ({"file": "a.ply", "holes": [{"warnings": "rim_gap", "conformance": {"diameter": {
+        "value": 0.0, "lower": -1, "upper": 1, "decision": "pass"}}}]}, "hole 0: warnings is not a list"),
 ])
 def test_what_is_not_a_record_is_refused_with_its_source(record, message):
     with pytest.raises(ValueError, match=f"^shift.jsonl:7: .*{message}"):
