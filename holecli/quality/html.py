@@ -38,41 +38,13 @@ import numpy as np
 from holecli import __version__
 from holecli.quality import spc
 from holecli.quality.lot import ZONE_CHECKS
-from holecli.vocabulary import DOUBT_CODES, WARNING_CODES
+from holecli.quality.wording import (REASON_WORDS, TUR_GOOD, WARNING_WORDS, decimals, reason_words, tur_words,
+                                     warning_phrase, warning_sentence)
 
 __all__ = ["CONTENT_SECURITY_POLICY", "REASON_WORDS", "WARNING_WORDS", "html_report", "tur_words"]
 
 #: The page's Content-Security-Policy: nothing may load or run; only its own inline CSS (and data: images).
 CONTENT_SECURITY_POLICY = "default-src 'none'; style-src 'unsafe-inline'; img-src data:"
-
-#: A conformance reason (holecli.tolerance's ``reason`` codes, and ``missing``) in plain words.
-REASON_WORDS = {
-    "inside": "inside the tolerance",
-    "outside": "outside the tolerance",
-    "inside_with_uncertainty": "inside the tolerance by more than its uncertainty U: conformance proved",
-    "outside_with_uncertainty": "outside the tolerance by more than its uncertainty U: non-conformance proved",
-    "straddles_lower": "within its uncertainty U of the lower limit: the measurement cannot decide",
-    "straddles_upper": "within its uncertainty U of the upper limit: the measurement cannot decide",
-    "straddles_both": "its uncertainty U is wider than the tolerance: the measurement cannot decide",
-    "uncertainty_unknown": "its uncertainty is not known, so conformance cannot be proved (guarded rule)",
-    "not_measured": "not measured: the scan does not show this value, so it cannot be accepted",
-    "missing": "no hole found where the drawing puts one",
-}
-
-#: The hole warnings an inspector should weigh before rejecting a part, in shop-floor words (the
-#: others are said in holecli.vocabulary's words). A fail beside one of these may be debris, not a bad hole.
-WARNING_WORDS = {
-    "points_inside": "points inside the hole: possible chips, burr or lubricant (or reflections) in the hole",
-    "rim_gap": "part of the hole's edge not seen: chips, lubricant or a shadow may hide it",
-    "few_rim_points": "few points on the edge: centre and diameter loosely held",
-    "high_fit_rms": "ragged edge: the edge points scatter (burr or chips on the edge?)",
-    "surface_not_flat": "the surface around the hole is not flat (burr, sealant or chips?)",
-    "near_border": "at the border of the scan: its surroundings are not all scanned",
-    "edge_bore_mismatch": "edge and bore disagree: an edge break (chamfer, burr) the scan does not resolve",
-    "blurred_edge": "blurred edge: the edge lies somewhere in a wide band",
-    "large_bias_correction": "a large correction of the diameter for the scan's sampling",
-    "bias_not_measured": "the diameter's sampling correction could not be measured",
-}
 
 _FIT_LEGEND = ('<p class="note">Fit pictures: the nominal circle dashed grey, the diameter\'s tolerance band the '
                'green ring, the position zone the blue disc about the nominal centre, the measured circle in its '
@@ -91,7 +63,6 @@ _UNCHECKED_WORDS = {True: "not checked: no nominal hole of the spec matches it",
 _DECISION_WORDS = {"pass": "PASS", "fail": "FAIL", "undecided": "UNDECIDED", "missing": "MISSING",
                    "unchecked": "UNCHECKED", "error": "ERROR"}
 _VERDICTS = ("pass", "fail", "undecided", "unchecked", "error")
-_TUR_GOOD = 4.0
 _MAX_LISTED = 10           # violations listed in words per chart; the rest counted
 _MAX_INPUTS = 12           # input files named in the header; the rest counted
 _MARKED_POINTS = 150       # a chart of at most this many points draws each with its tooltip
@@ -237,37 +208,6 @@ def html_report(lot, *, title=None, pictures=True, generated=None, inputs=None, 
     return "".join(out)
 
 
-def tur_words(ratio) -> tuple[str, str]:
-    """The test-uncertainty ratio (tolerance zone / 2U) said plainly, with its CSS class.
-
-    Parameters
-    ----------
-    ratio : float or None
-        The ratio; None when the uncertainty is not known.
-
-    Returns
-    -------
-    (str, str)
-        The sentence and its class: ``danger`` below 1, ``caution`` below 4, ``ok`` from 4, ``note``
-        unknown.
-
-    Examples
-    --------
-    >>> tur_words(0.5)[1], tur_words(2.0)[1], tur_words(10.0)[1], tur_words(None)[1]
-    ('danger', 'caution', 'ok', 'note')
-    """
-    if ratio is None or not math.isfinite(ratio):
-        return "The uncertainty U is not known: no test-uncertainty ratio.", "note"
-    said = f"Test-uncertainty ratio (tolerance zone / 2U) {ratio:.3g}: "
-    if ratio < 1.0:
-        return said + ("the uncertainty is larger than the tolerance: this measurement cannot decide "
-                       "conformance."), "danger"
-    if ratio < _TUR_GOOD:
-        return said + ("caution: the uncertainty takes a large share of the tolerance (below 4:1); values near a "
-                       "limit cannot be told in from out."), "caution"
-    return said + "the measurement is fit to decide (4:1 or better).", "ok"
-
-
 # ---------------------------------------------------------------------------------------------------
 # The page's parts
 
@@ -326,7 +266,7 @@ def _summary(lot, keys, by_key) -> str:
     else:
         out.append('<p>No part rejected.</p>\n')
     weak = [(number, key, ratio) for number, key in enumerate(keys)
-            for ratio in [_median_tur(by_key[key])] if ratio is not None and ratio < _TUR_GOOD]
+            for ratio in [_median_tur(by_key[key])] if ratio is not None and ratio < TUR_GOOD]
     if weak:
         out.append('<h3>Characteristics the measurement decides poorly</h3>\n<ul class="weak">')
         for number, (hole, name), ratio in weak:
@@ -377,7 +317,7 @@ def _measurement_section(measurement, pictures, scan_views) -> str:
     for characteristic in missing:
         out.append(f'<tr class="row-missing"><td>{_e(characteristic.hole)}</td><td>presence</td>'
                    + '<td class="num">&ndash;</td>' * 5 + '<td class="decision missing">MISSING</td><td></td>'
-                   f'<td class="reason">{_e(_reason(characteristic.reason))}</td><td></td></tr>\n')
+                   f'<td class="reason">{_e(reason_words(characteristic.reason))}</td><td></td></tr>\n')
     if not holes and not missing:
         out.append('<tr><td colspan="11" class="note">No hole found in this scan.</td></tr>\n')
     out.append('</tbody></table>\n')
@@ -400,7 +340,7 @@ def _hole_rows(hole, index, characteristics, units, checked) -> str:
     name = hole.get("name") or f"#{index}"
     codes = _warning_codes(hole)
     rows = max(1, len(characteristics))
-    words = "".join(f'<span title="{_e(_warning_sentence(code))}">{_e(_warning_phrase(code))}</span>'
+    words = "".join(f'<span title="{_e(warning_sentence(code))}">{_e(warning_phrase(code))}</span>'
                         for code in codes)
     if codes and any(c.decision in ("fail", "undecided") for c in characteristics):
         words += ('<span class="hint">A warning may explain this result: look at the hole before '
@@ -417,7 +357,7 @@ def _hole_rows(hole, index, characteristics, units, checked) -> str:
                 f'{warning_cell}</tr>\n')
     out = []
     for row, c in enumerate(characteristics):
-        digits = _decimals(c)
+        digits = decimals(c)
         unit = f" {_e(c.unit)}" if c.unit else ""
         zone = c.name in ZONE_CHECKS
         if zone:
@@ -437,7 +377,7 @@ def _hole_rows(hole, index, characteristics, units, checked) -> str:
                    f'<td class="num">{_signed(c.deviation, digits)}</td>'
                    f'<td class="num">{_number(c.expanded_uncertainty, digits)}</td>'
                    f'<td class="decision {decision}">{_DECISION_WORDS[decision]}</td>'
-                   f'<td class="num exceedance">{exceed}</td><td class="reason">{_e(_reason(c.reason))}</td>'
+                   f'<td class="num exceedance">{exceed}</td><td class="reason">{_e(reason_words(c.reason))}</td>'
                    f'{warning_cell if row == 0 else ""}</tr>\n')
     return "".join(out)
 
@@ -455,7 +395,7 @@ def _key_section(lot, key, every, number) -> str:
     hole, name = key
     series = [c for c in every if c.measured is not None and math.isfinite(c.measured)]
     unit = next((c.unit for c in every if c.unit), "")
-    digits = _decimals(every[0]) if every else 4
+    digits = decimals(every[0]) if every else 4
     decisions = Counter(c.decision for c in every)
     out = [f'<section class="key" id="k-{number}">\n<h3>{_e(hole)} &middot; {_e(_name(name))}'
            f'{" (" + _e(unit) + ")" if unit else ""}</h3>\n<p>{len(every)} checked, {len(series)} measured: '
@@ -548,7 +488,7 @@ def _subgroups(lot, by_key) -> str:
         left_out = sum(1 for m in lot.measurements if m.verdict != "error") - len(rows)
         xbar, ranges = spc.xbar_r_charts(np.array(rows, dtype=float))
         positions = np.array(numbers, dtype=float)
-        digits = _decimals(by_key[keys[0]][0])
+        digits = decimals(by_key[keys[0]][0])
         out.append('<div class="charts">')
         out.append(_chart_figure(xbar, "X-bar (subgroup mean)", positions, labels, (None, None), unit, digits))
         out.append(_chart_figure(ranges, "Range (subgroup)", positions, labels, (None, None), unit, digits))
@@ -714,7 +654,7 @@ def _fit_figure(hole, position) -> str:
     svg, magnification, notes = _fit_picture(hole)
     caption = [f'<b>{_e(name)}</b> &middot; deviations &times;{magnification:g}']
     caption.extend(_e(note) for note in notes)
-    caption.extend(_e(_warning_phrase(code)) for code in _warning_codes(hole))
+    caption.extend(_e(warning_phrase(code)) for code in _warning_codes(hole))
     return f'<figure class="fit">{svg}<figcaption>{"<br>".join(caption)}</figcaption></figure>'
 
 
@@ -838,10 +778,6 @@ def _name(name) -> str:
     return str(name).replace("_", " ")
 
 
-def _reason(code) -> str:
-    return REASON_WORDS.get(code, str(code).replace("_", " "))
-
-
 def _warning_codes(hole) -> list:
     codes = []
     warnings = hole.get("warnings")
@@ -850,27 +786,6 @@ def _warning_codes(hole) -> list:
         if code is not None:
             codes.append(str(code))
     return codes
-
-
-def _warning_phrase(code) -> str:
-    if code in WARNING_WORDS:
-        return WARNING_WORDS[code]
-    return _warning_sentence(code).split(":")[0]
-
-
-def _warning_sentence(code) -> str:
-    return DOUBT_CODES.get(code) or WARNING_CODES.get(code) or str(code).replace("_", " ")
-
-
-def _decimals(characteristic) -> int:
-    """Decimals that show a characteristic's values to about a thousandth of its tolerance zone."""
-    try:
-        zone = characteristic.tolerance_zone
-    except (TypeError, AttributeError):
-        zone = None
-    if zone is None or not math.isfinite(zone) or zone <= 0:
-        return 4
-    return int(min(9, max(1, math.ceil(-math.log10(zone)) + 3)))
 
 
 def _number(value, digits) -> str:

@@ -31,6 +31,7 @@ import io
 import math
 
 from holecli.quality.lot import PRESENCE
+from holecli.quality.wording import TUR_GOOD, decimals, reason_words, tur_words
 
 CHARACTERISTIC_COLUMNS = (
     "measurement", "label", "part", "serial", "received", "file", "id", "hole", "characteristic", "unit",
@@ -57,23 +58,16 @@ CHARACTERISTIC_WORDS = {
 }
 
 
-def format_value(value, unit) -> str:
-    """A value as the records print it: 4 decimals of a length (0.1 um in mm), 3 of an angle in degrees,
-    6 significant digits in an undeclared unit; ``-`` for None.
+def format_value(value, digits) -> str:
+    """A value with ``digits`` decimals (:func:`holecli.quality.wording.decimals` of its characteristic:
+    about a thousandth of its tolerance zone); ``-`` for None.
 
     Examples
     --------
-    >>> format_value(7.09966, "mm"), format_value(100.12345, "deg"), format_value(0.000712, ""), format_value(None, "mm")
-    ('7.0997', '100.123', '0.000712', '-')
+    >>> format_value(7.09966, 4), format_value(100.12345, 3), format_value(None, 4)
+    ('7.0997', '100.123', '-')
     """
-    if value is None:
-        return "-"
-    if unit == "deg":
-        return f"{value:.3f}"
-    if unit in ("mm", "um", "in", "m"):
-        decimals = {"mm": 4, "um": 1, "in": 5, "m": 7}[unit]
-        return f"{value:.{decimals}f}"
-    return f"{value:.6g}"
+    return "-" if value is None else f"{value:.{digits}f}"
 
 
 def unit_suffix(unit) -> str:
@@ -89,15 +83,17 @@ def requirement_text(c) -> str:
     words = CHARACTERISTIC_WORDS.get(c.name, c.name)
     if c.name == PRESENCE:
         return f"hole {c.hole} present"
+    digits = decimals(c)
     if c.is_zone:
-        return f"{words} \N{LESS-THAN OR EQUAL TO} {format_value(c.upper_tolerance, c.unit)}{unit_suffix(c.unit)}"
-    tolerance = _band_text(c.lower_tolerance, c.upper_tolerance, c.unit)
-    nominal = format_value(c.nominal, c.unit) if c.nominal is not None else "(nominal not known: not measured)"
+        return f"{words} \N{LESS-THAN OR EQUAL TO} {format_value(c.upper_tolerance, digits)}{unit_suffix(c.unit)}"
+    tolerance = _band_text(c.lower_tolerance, c.upper_tolerance, digits)
+    nominal = format_value(c.nominal, digits) if c.nominal is not None else "(nominal not known: not measured)"
     return f"{words} {nominal} {tolerance}{unit_suffix(c.unit)}"
 
 
 def reason_text(c) -> str:
-    """Why a characteristic is not a pass, in words (empty for a pass).
+    """Why a characteristic is not a pass, in words (empty for a pass): the reason's words
+    (:data:`holecli.quality.wording.REASON_WORDS`), with the value and U where they say more.
 
     Examples
     --------
@@ -105,24 +101,18 @@ def reason_text(c) -> str:
     >>> c = Characteristic(0, 0, "T1", "diameter", "mm", 4.0, 4.03, 0.03, -0.05, 0.05, 3.95, 4.05, 0.04,
     ...                    "undecided", "straddles_upper")
     >>> reason_text(c)
-    'undecided: 4.0300 mm +- U = 0.0400 straddles the upper limit'
+    'undecided: 4.0300 mm +- U = 0.0400: within its uncertainty U of the upper limit: the measurement cannot decide'
     """
-    unit = c.unit
-    u = format_value(c.expanded_uncertainty, unit)
-    value = f"{format_value(c.measured, unit)}{unit_suffix(unit)}"
-    texts = {
-        "outside": lambda: f"{_beyond(c)}",
-        "outside_with_uncertainty": lambda: f"{_beyond(c)}, by more than U = {u}",
-        "straddles_lower": lambda: f"undecided: {value} +- U = {u} straddles the lower limit",
-        "straddles_upper": lambda: f"undecided: {value} +- U = {u} straddles the upper limit",
-        "straddles_both": lambda: f"undecided: U = {u} is wider than the tolerance zone",
-        "uncertainty_unknown": lambda: "undecided: the measurement's uncertainty is not known",
-        "not_measured": lambda: "not measured: the scan does not show it (a fail until measured)",
-        "missing": lambda: "the hole was not found in the scan",
-    }
     if c.decision == "pass":
         return ""
-    return texts.get(c.reason, lambda: c.reason)()
+    words = reason_words(c.reason)
+    if c.reason.startswith("straddles"):
+        digits = decimals(c)
+        return (f"undecided: {format_value(c.measured, digits)}{unit_suffix(c.unit)} +- U = "
+                f"{format_value(c.expanded_uncertainty, digits)}: {words}")
+    if c.reason.startswith("outside"):
+        return f"{_beyond(c)} ({words})"
+    return words
 
 
 def characteristic_table(lot) -> list:
@@ -200,10 +190,11 @@ def _result_text(c, coverage) -> str:
         return "not found: NONCONFORMING"
     if c.measured is None:
         return "not measured: NONCONFORMING"
-    text = f"{format_value(c.measured, c.unit)}{unit_suffix(c.unit)}"
+    digits = decimals(c)
+    text = f"{format_value(c.measured, digits)}{unit_suffix(c.unit)}"
     if c.expanded_uncertainty is not None:
         k = f", k = {coverage:g}" if isinstance(coverage, (int, float)) else ""
-        text += f" (U = {format_value(c.expanded_uncertainty, c.unit)}{k})"
+        text += f" (U = {format_value(c.expanded_uncertainty, digits)}{k})"
     if c.decision == "fail":
         text += f": NONCONFORMING, {_beyond(c, values=False)}"
     elif c.decision == "undecided":
@@ -224,21 +215,19 @@ def _comment(c) -> str:
 
 
 def ratio_text(ratio) -> str:
-    """What a test uncertainty ratio (tolerance zone / 2U) says, in words; empty from 4:1 up or unknown.
+    """What a test uncertainty ratio (tolerance zone / 2U) says (:func:`holecli.quality.wording.tur_words`);
+    empty from 4:1 up or when unknown.
 
     Examples
     --------
     >>> ratio_text(0.7)
-    'test uncertainty ratio 0.7:1: U is larger than half the tolerance zone, too small for a decision (the measurement cannot tell a good part from a bad one near the limits)'
-    >>> ratio_text(2.5), ratio_text(5.0)
-    ('test uncertainty ratio 2.5:1 (below 4:1: decisions near the limits are uncertain)', '')
+    'Test-uncertainty ratio (tolerance zone / 2U) 0.7: the uncertainty is larger than the tolerance: this measurement cannot decide conformance.'
+    >>> ratio_text(5.0)
+    ''
     """
-    if ratio is None or ratio >= 4:
+    if ratio is None or not math.isfinite(ratio) or ratio >= TUR_GOOD:
         return ""
-    if ratio < 1:
-        return (f"test uncertainty ratio {ratio:.1f}:1: U is larger than half the tolerance zone, too small for a "
-                f"decision (the measurement cannot tell a good part from a bad one near the limits)")
-    return f"test uncertainty ratio {ratio:.1f}:1 (below 4:1: decisions near the limits are uncertain)"
+    return tur_words(ratio)[0]
 
 
 def _beyond(c, values=True) -> str:
@@ -248,22 +237,23 @@ def _beyond(c, values=True) -> str:
         return "outside the tolerance"
     side = "above the upper limit" if c.upper is not None and c.measured is not None and c.measured > c.upper \
         else "below the lower limit"
-    text = f"{format_value(excess, c.unit)} {side}"
+    digits = decimals(c)
+    text = f"{format_value(excess, digits)} {side}"
     if values:
         limit = c.upper if side.startswith("above") else c.lower
-        text = (f"outside: {format_value(c.measured, c.unit)}{unit_suffix(c.unit)} is {text} "
-                f"{format_value(limit, c.unit)}")
+        text = (f"outside: {format_value(c.measured, digits)}{unit_suffix(c.unit)} is {text} "
+                f"{format_value(limit, digits)}")
     return text
 
 
-def _band_text(lower, upper, unit) -> str:
+def _band_text(lower, upper, digits) -> str:
     """``+0.0500/-0.0500``; ``+/-0.0500`` when symmetric."""
     if lower is None or upper is None:
         return ""
     if math.isclose(-lower, upper, rel_tol=1e-12, abs_tol=0.0):
-        return f"\N{PLUS-MINUS SIGN}{format_value(upper, unit)}"
-    return f"{'+' if upper >= 0 else '-'}{format_value(abs(upper), unit)}/{'+' if lower >= 0 else '-'}" \
-           f"{format_value(abs(lower), unit)}"
+        return f"\N{PLUS-MINUS SIGN}{format_value(upper, digits)}"
+    return f"{'+' if upper >= 0 else '-'}{format_value(abs(upper), digits)}/{'+' if lower >= 0 else '-'}" \
+           f"{format_value(abs(lower), digits)}"
 
 
 def _number(value) -> str:
