@@ -237,3 +237,17 @@ def test_qif_features_stand_at_the_spec_s_nominals_when_the_spec_is_still_there(
     assert lot_spec(lot_from_records([{"record": record, "source": "x:1"}])) is None
     record["options"]["tolerances"]["spec_file"] = str(tmp_path / "gone.toml")
     assert lot_spec(lot_from_records([{"record": record, "source": "x:1"}])) is None
+
+
+def test_the_qif_the_command_writes_is_valid_qif_3(run, shift_lot, repo_root, tmp_path):
+    etree = pytest.importorskip("lxml.etree")
+    schema = etree.XMLSchema(etree.parse(str(repo_root / "tests" / "data" / "qif3" / "QIFApplications" /
+                                             "QIFDocument.xsd")))
+    output = tmp_path / "shift.qif"
+    result = run("report", shift_lot["jsonl"], "-o", output, "--part-number", "PANEL-60")
+    assert result.exit_code == 0, result.stderr
+    document = etree.parse(str(output))
+    assert schema.validate(document), schema.error_log
+    statuses = document.getroot().findall(".//{http://qifstandards.org/xsd/qif3}CharacteristicStatusEnum")
+    # part_003's missing L1: its presence FAIL, its diameter and position (checked on the others) NOT_ANALYZED
+    assert {status.text for status in statuses} == {"PASS", "FAIL", "NOT_ANALYZED"}
