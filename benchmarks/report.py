@@ -131,7 +131,7 @@ def run(args, progress=None) -> dict:
     with tempfile.TemporaryDirectory() as folder:
         jsonl, store = build_lot(records, args.parts, folder)
         if progress:
-            print(f"holecli report: a lot of {args.parts} parts ({args.measured} measured splice strips in turn, "
+            print(f"the lot: {args.parts} parts ({args.measured} measured splice strips in turn, "
                   f"{holes:.1f} holes each, 5 characteristics a hole), JSON Lines {os.path.getsize(jsonl) / 1e6:.1f} MB",
                   file=progress)
             print(f"goal: each report under {GOAL_SECONDS:g} s (wall clock, the whole process)\n", file=progress)

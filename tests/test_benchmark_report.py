@@ -23,7 +23,7 @@ def test_a_small_lot_is_reported_in_every_format(bench, tmp_path, capsys):
     assert code == 0, printed
     for name, *_ in bench.CASES:
         assert name in printed
-    assert "a lot of 4 parts (3 measured splice strips in turn, 10.0 holes each" in printed
+    assert "the lot: 4 parts (3 measured splice strips in turn, 10.0 holes each" in printed
     # measured once: the cache holds the records and their scans, and a second run measures nothing
     records = (tmp_path / "cache" / "measured_3.jsonl").read_text().splitlines()
     assert len(records) == 3 and all(Path(json.loads(line)["path"]).is_file() for line in records)

@@ -23,7 +23,8 @@ decided ``missing``.
 Examples
 --------
 >>> record = {"file": "scans/part_001.ply", "units": "mm", "holes": [{
-...     "index": 0, "name": "T1", "diameter": 4.02, "warnings": [], "conformance": {"diameter": {
+...     "index": 0, "name": "T1", "center": [0, 0, 0], "normal": [0, 0, 1], "diameter": 4.02, "warnings": [],
+...     "conformance": {"diameter": {
 ...         "value": 0.02, "lower": -0.05, "upper": 0.05, "expanded_uncertainty": 0.01,
 ...         "decision": "pass", "reason": "inside"}}}],
 ...     "verdict": {"in_tolerance": True, "missing": []}}
@@ -42,6 +43,7 @@ import os
 from dataclasses import dataclass
 
 from holecli.store.schema import verdict_word
+from holecli.units import UNITS
 
 SIZE_CHECKS = ("diameter", "countersink_diameter", "countersink_angle", "countersink_depth",
                "bore_diameter", "countersink_gauge")
@@ -92,6 +94,11 @@ class Characteristic:
         ``missing``.
     warnings : tuple of str
         The hole's warning codes (``rim_gap``, ``points_inside``, ...).
+    named : bool
+        Whether the hole has the spec's name. A hole checked against a nominal without a name (``detect
+        --nominal-diameter ...``) is ``#<index>/<measurement number>``: the detection's index says
+        nothing of which hole it is in another scan, so it is a characteristic of its measurement only,
+        never trended across the lot.
     """
 
     measurement: int
@@ -110,6 +117,7 @@ class Characteristic:
     decision: str
     reason: str
     warnings: tuple = ()
+    named: bool = True
 
     @property
     def key(self) -> tuple:
@@ -211,11 +219,12 @@ class Lot:
 
     @property
     def keys(self) -> tuple:
-        """The distinct :attr:`Characteristic.key`, in the order first seen (a missing hole's
-        ``presence`` is not a key: it has no value to trend)."""
+        """The distinct :attr:`Characteristic.key` of the named holes, in the order first seen: the
+        characteristics trended across the lot (a missing hole's ``presence`` has no value to trend, an
+        unnamed hole is its measurement's only)."""
         seen = {}
         for c in self.characteristics:
-            if c.name != PRESENCE:
+            if c.name != PRESENCE and c.named:
                 seen.setdefault(c.key, None)
         return tuple(seen)
 
@@ -280,21 +289,31 @@ def measurement_from_record(record, *, order, source, meta=None, id=None, receiv
     file = record.get("file")
     if not isinstance(file, str):
         raise ValueError("not a holecli record: no \"file\"")
+    units = record.get("units") or ""
+    if units not in ("", *UNITS):
+        raise ValueError(f"units must be one of {', '.join(UNITS)} or null, got {_shown(units)}")
+    options, verdict = _object(record, "options"), _object(record, "verdict")
+    _object(options, "tolerances", "options.tolerances")
+    for key in ("coverage_factor",):
+        if verdict.get(key) is not None and _number(verdict[key]) is None:
+            raise ValueError(f"verdict.{key} must be a number, got {_shown(verdict[key])}")
+    missing = verdict.get("missing") or []
+    if not isinstance(missing, list) or not all(isinstance(name, str) for name in missing):
+        raise ValueError(f"verdict.missing must be a list of hole names, got {_shown(missing)}")
     meta = dict(meta or {})
     part, serial = _text(meta.get("part")), _text(meta.get("serial"))
-    units = record.get("units") or ""
+    label = serial or _stem(file)
     characteristics = []
     for position, hole in enumerate(record.get("holes") or ()):
         if not isinstance(hole, dict):
             raise ValueError(f"hole {position} is not a JSON object")
         characteristics.extend(_hole_characteristics(hole, position, order, units))
-    verdict = record.get("verdict") or {}
-    for name in verdict.get("missing") or ():
+    for name in missing:
         characteristics.append(Characteristic(
-            measurement=order, hole_index=None, hole=str(name), name=PRESENCE, unit="", nominal=None, measured=None,
+            measurement=order, hole_index=None, hole=name, name=PRESENCE, unit="", nominal=None, measured=None,
             deviation=None, lower_tolerance=None, upper_tolerance=None, lower=None, upper=None,
             expanded_uncertainty=None, decision="missing", reason="missing"))
-    return Measurement(order=order, record=record, label=serial or _stem(file), part=part, serial=serial,
+    return Measurement(order=order, record=record, label=label, part=part, serial=serial,
                        id=id, received=received, source=source, verdict=verdict_word(record), units=units,
                        characteristics=tuple(characteristics))
 
@@ -336,16 +355,33 @@ def _hole_characteristics(hole, position, order, units) -> list:
     if not isinstance(conformance, dict):
         raise ValueError(f"hole {position}: conformance is not a JSON object")
     index = hole.get("index", position)
-    name = hole.get("name") or f"#{index}"
-    listed = hole.get("warnings") or []
-    if not isinstance(listed, list):
-        raise ValueError(f"hole {position}: warnings is not a list")
-    warnings = tuple(w.get("code", "") if isinstance(w, dict) else str(w) for w in listed)
+    if isinstance(index, bool) or not isinstance(index, int):
+        raise ValueError(f"hole {position}: index must be an integer, got {_shown(index)}")
+    name = hole.get("name")
+    if name is not None and (not isinstance(name, str) or not name):
+        raise ValueError(f"hole {position}: name must be a non-empty string or null, got {_shown(name)}")
+    for key in ("center", "normal"):
+        vector = hole.get(key)
+        if not (isinstance(vector, list) and len(vector) == 3 and all(_number(v) is not None for v in vector)):
+            raise ValueError(f"hole {position}: {key} must be 3 finite numbers, got {_shown(vector)}")
+    if _number(hole.get("diameter")) is None or hole["diameter"] <= 0:
+        raise ValueError(f"hole {position}: diameter must be a positive number, got {_shown(hole.get('diameter'))}")
+    warnings = warning_codes(hole, position)
     out = []
     for check, entry in conformance.items():
-        if not isinstance(entry, dict) or "decision" not in entry or "upper" not in entry:
-            raise ValueError(f"hole {position}: conformance.{check} is not a conformance entry")
-        value, lower_tol, upper_tol = _number(entry.get("value")), _number(entry.get("lower")), _number(entry["upper"])
+        if not isinstance(entry, dict) or entry.get("decision") not in DECISIONS:
+            raise ValueError(f"hole {position}: conformance.{check} is not a conformance entry (a decision "
+                             f"{', '.join(DECISIONS)})")
+        upper_tol = _limited(entry, "upper", position, check)
+        if upper_tol is None:
+            raise ValueError(f"hole {position}: conformance.{check}.upper must be a number")
+        value, lower_tol = _limited(entry, "value", position, check), _limited(entry, "lower", position, check)
+        expanded = _limited(entry, "expanded_uncertainty", position, check)
+        if expanded is not None and expanded < 0:
+            raise ValueError(f"hole {position}: conformance.{check}.expanded_uncertainty must be >= 0")
+        reason = entry.get("reason") or ""
+        if not isinstance(reason, str):
+            raise ValueError(f"hole {position}: conformance.{check}.reason must be a string")
         if check in ZONE_CHECKS:
             nominal, measured, deviation = 0.0, value, value
             lower, upper = None, upper_tol
@@ -357,12 +393,29 @@ def _hole_characteristics(hole, position, order, units) -> list:
             lower = nominal + lower_tol if nominal is not None and lower_tol is not None else None
             upper = nominal + upper_tol if nominal is not None and upper_tol is not None else None
         out.append(Characteristic(
-            measurement=order, hole_index=index, hole=str(name), name=check,
+            measurement=order, hole_index=index, hole=name or f"#{index}/{order + 1}", name=check,
             unit="deg" if check in ANGLE_CHECKS else units, nominal=nominal, measured=measured, deviation=deviation,
             lower_tolerance=lower_tol, upper_tolerance=upper_tol, lower=lower, upper=upper,
-            expanded_uncertainty=_number(entry.get("expanded_uncertainty")), decision=str(entry["decision"]),
-            reason=str(entry.get("reason") or ""), warnings=warnings))
+            expanded_uncertainty=expanded, decision=entry["decision"], reason=reason, warnings=warnings,
+            named=name is not None))
     return out
+
+
+def warning_codes(hole, position=0) -> tuple:
+    """The warning codes of a record's hole (its ``warnings``: objects with a ``code``, or codes).
+
+    Raises
+    ------
+    ValueError
+        When ``warnings`` is not a list of them.
+    """
+    listed = hole.get("warnings") or []
+    if not isinstance(listed, list):
+        raise ValueError(f"hole {position}: warnings is not a list")
+    codes = tuple(w.get("code") if isinstance(w, dict) else w for w in listed)
+    if not all(isinstance(code, str) and code for code in codes):
+        raise ValueError(f"hole {position}: a warning has no code")
+    return codes
 
 
 # Where a size check's measured value is in a hole (holecli.tolerance's _FEATURE_CHECKS and gauge).
@@ -385,6 +438,42 @@ def _number(value):
         return None
     value = float(value)
     return value if math.isfinite(value) else None
+
+
+# The decisions of a conformance entry (holecli.tolerance).
+DECISIONS = ("pass", "fail", "undecided")
+
+# The largest magnitude of a value the records are read with: beyond it a record is not a measurement
+# (and the statistics of such values overflow).
+_LARGEST = 1e12
+
+
+def _limited(entry, key, position, check):
+    """A conformance entry's number ``key`` (None when null), refused when it is not one or is beyond
+    :data:`_LARGEST`."""
+    value = entry.get(key)
+    if value is None:
+        return None
+    number = _number(value)
+    if number is None or abs(number) > _LARGEST:
+        raise ValueError(f"hole {position}: conformance.{check}.{key} must be a finite number, got {_shown(value)}")
+    return number
+
+
+def _object(container, key, name=None) -> dict:
+    """``container[key]`` when it is an object, {} when absent or null; refused otherwise."""
+    value = container.get(key)
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise ValueError(f"{name or key} must be a JSON object, got {_shown(value)}")
+    return value
+
+
+def _shown(value) -> str:
+    """A value as a message shows it (at most 40 characters)."""
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def _text(value):

@@ -100,8 +100,8 @@ CHARACTERISTIC_TYPES = {
 named here is a ``UserDefinedAngular`` (degrees) or ``UserDefinedLinear`` characteristic."""
 
 CHARACTERISTIC_STATUS = {"pass": "PASS", "fail": "FAIL", "undecided": "INDETERMINATE", "missing": "FAIL"}
-"""A characteristic's decision as QIF's ``CharacteristicStatusEnum`` (another word, which no record of
-holecli's holds: UNDEFINED)."""
+"""A characteristic's decision as QIF's ``CharacteristicStatusEnum`` (:func:`holecli.quality.lot.lot_from_records`
+refuses a record with another decision)."""
 
 INSPECTION_STATUS = {"pass": "PASS", "fail": "FAIL", "undecided": "UNKNOWN", "unchecked": "NOT_CALCULATED",
                      "error": "NOT_MEASURED"}
@@ -606,7 +606,7 @@ class _Writer:
                 ("coverage_factor", None if expanded is None or not k else _decimal(k)),
                 ("warnings", " ".join(c.warnings))])
             _sub(_sub(measurement, "Status"), "CharacteristicStatusEnum",
-                 CHARACTERISTIC_STATUS.get(c.decision, "UNDEFINED"))
+                 CHARACTERISTIC_STATUS[c.decision])
             _sub(measurement, "CharacteristicItemId", item["id"])
             if received is not None:
                 _sub(measurement, "TimeStamp", received)

@@ -13,7 +13,8 @@ Examples
 --------
 >>> from holecli.quality.lot import lot_from_records
 >>> record = {"file": "scans/part_001.ply", "units": "mm", "holecli_version": "0.1.0", "holes": [{
-...     "index": 0, "name": "T1", "diameter": 4.0712, "warnings": [], "conformance": {"diameter": {
+...     "index": 0, "name": "T1", "center": [0, 0, 0], "normal": [0, 0, 1], "diameter": 4.0712, "warnings": [],
+...     "conformance": {"diameter": {
 ...         "value": 0.0712, "lower": -0.05, "upper": 0.05, "expanded_uncertainty": 0.004,
 ...         "decision": "fail", "reason": "outside"}}}],
 ...     "verdict": {"in_tolerance": False, "missing": [], "coverage_factor": 2.0}}

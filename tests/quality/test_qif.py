@@ -11,7 +11,7 @@ import pytest
 from lxml import etree
 
 from holecli.quality.lot import lot_from_records
-from holecli.quality.qif import QIF_NAMESPACE, qif_document
+from holecli.quality.qif import CHARACTERISTIC_STATUS, QIF_NAMESPACE, qif_document
 from holecli.tolerance import parse_spec
 
 SCHEMA = Path(__file__).parent.parent / "data" / "qif3" / "QIFApplications" / "QIFDocument.xsd"
@@ -338,14 +338,17 @@ def test_the_document_is_the_same_for_the_same_lot_and_time(records):
     assert counted and all(n == children for _, n, children in counted)
 
 
-def test_a_decision_no_record_holds_is_undefined(schema, records):
+def test_every_decision_a_lot_can_hold_has_its_status():
+    from holecli.quality.lot import DECISIONS
+
+    assert set(CHARACTERISTIC_STATUS) == {*DECISIONS, "missing"}
+
+
+def test_a_decision_no_record_holds_is_refused_before_writing(records):
     record = copy.deepcopy(records["pass"])
     hole(record, "T1")["conformance"]["diameter"]["decision"] = "maybe"
-    document = qif_document(lot_of(record), created=CREATED)
-    assert_valid(schema, document)
-    root = parse(document)
-    (only,) = results(root)
-    assert status(measured(root, only)["T1 diameter"]) == "UNDEFINED"
+    with pytest.raises(ValueError, match="not a conformance entry"):
+        lot_of(record)
 
 
 def test_a_created_time_that_is_no_time_is_refused():

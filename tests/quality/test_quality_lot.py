@@ -1,6 +1,7 @@
 """holecli.quality.lot: the characteristics of records, from a real lot's batch output."""
 
 import json
+import re
 
 import pytest
 
@@ -88,8 +89,10 @@ def test_the_test_uncertainty_ratio_is_the_zone_over_twice_u():
 
 
 def test_a_value_not_measured_has_no_nominal_and_no_exceedance():
-    c = measurement_from_record(_record(value=None, decision="fail", reason="not_measured", diameter=None),
-                                order=0, source="x").characteristics[0]
+    record = _record(value=None, decision="fail", reason="not_measured")
+    hole = record["holes"][0]
+    hole["conformance"] = {"countersink_depth": hole["conformance"].pop("diameter")}  # no countersink measured
+    c = measurement_from_record(record, order=0, source="x").characteristics[0]
     assert (c.measured, c.nominal, c.lower, c.upper, c.exceedance) == (None, None, None, None, None)
     assert c.reason == "not_measured"
 
@@ -108,7 +111,8 @@ def test_the_store_s_serial_names_the_measurement():
 
 
 def test_an_unchecked_hole_gives_no_characteristic():
-    record = {"file": "a.ply", "holes": [{"index": 0, "diameter": 4.0, "warnings": []}]}
+    record = {"file": "a.ply", "holes": [{"index": 0, "center": [0, 0, 0], "normal": [0, 0, 1], "diameter": 4.0,
+                                          "warnings": []}]}
     m = measurement_from_record(record, order=0, source="x")
     assert m.characteristics == () and m.verdict == "unchecked"
 
@@ -119,17 +123,46 @@ def test_the_hole_s_warnings_go_with_its_characteristics():
     assert measurement_from_record(record, order=0, source="x").characteristics[0].warnings == ("points_inside",)
 
 
+def _hole(**changes):
+    hole = {"index": 0, "name": "T1", "center": [0, 0, 0], "normal": [0, 0, 1], "diameter": 4.0, "warnings": [],
+            "conformance": {"diameter": {"value": 0.0, "lower": -1, "upper": 1, "expanded_uncertainty": 0.1,
+                                         "decision": "pass", "reason": "inside"}}}
+    hole.update(changes)
+    return hole
+
+
+def _entry(**changes):
+    return {"diameter": {"value": 0.0, "lower": -1, "upper": 1, "expanded_uncertainty": 0.1, "decision": "pass",
+                         "reason": "inside", **changes}}
+
+
 @pytest.mark.parametrize("record, message", [
     ([1, 2], "a record is a JSON object"),
     ({"holes": []}, 'no "file"'),
     ({"file": "a.ply"}, 'no "holes" list'),
     ({"file": "a.ply", "holes": ["x"]}, "hole 0 is not a JSON object"),
-    ({"file": "a.ply", "holes": [{"conformance": {"diameter": {"value": 1}}}]}, "not a conformance entry"),
-    ({"file": "a.ply", "holes": [{"warnings": "rim_gap", "conformance": {"diameter": {
-        "value": 0.0, "lower": -1, "upper": 1, "decision": "pass"}}}]}, "hole 0: warnings is not a list"),
+    ({"file": "a.ply", "holes": [_hole(conformance={"diameter": {"value": 1}})]}, "not a conformance entry"),
+    ({"file": "a.ply", "holes": [_hole(conformance=_entry(decision="<i>x</i>"))]}, "not a conformance entry"),
+    ({"file": "a.ply", "holes": [_hole(conformance=_entry(upper=None))]}, "conformance.diameter.upper must be"),
+    ({"file": "a.ply", "holes": [_hole(conformance=_entry(value=1e308))]}, "conformance.diameter.value must be a fin"),
+    ({"file": "a.ply", "holes": [_hole(conformance=_entry(expanded_uncertainty=-1))]}, "expanded_uncertainty must be >= 0"),
+    ({"file": "a.ply", "holes": [_hole(conformance=_entry(reason=5))]}, "reason must be a string"),
+    ({"file": "a.ply", "holes": [_hole(warnings="rim_gap")]}, "hole 0: warnings is not a list"),
+    ({"file": "a.ply", "holes": [_hole(warnings=[{"code": None}])]}, "hole 0: a warning has no code"),
+    ({"file": "a.ply", "holes": [_hole(index=[0])]}, "hole 0: index must be an integer"),
+    ({"file": "a.ply", "holes": [_hole(name=5)]}, "hole 0: name must be a non-empty string"),
+    ({"file": "a.ply", "holes": [_hole(normal=None)]}, "hole 0: normal must be 3 finite numbers"),
+    ({"file": "a.ply", "holes": [_hole(center=[0, 0])]}, "hole 0: center must be 3 finite numbers"),
+    ({"file": "a.ply", "holes": [_hole(diameter=-1)]}, "hole 0: diameter must be a positive number"),
+    ({"file": "a.ply", "units": "ft", "holes": []}, "units must be one of mm, m, in or null, got 'ft'"),
+    ({"file": "a.ply", "verdict": "pass", "holes": []}, "verdict must be a JSON object"),
+    ({"file": "a.ply", "verdict": {"missing": "L1"}, "holes": []}, "verdict.missing must be a list of hole names"),
+    ({"file": "a.ply", "verdict": {"coverage_factor": "2"}, "holes": []}, "verdict.coverage_factor must be a number"),
+    ({"file": "a.ply", "options": [], "holes": []}, "options must be a JSON object"),
+    ({"file": "a.ply", "options": {"tolerances": "x"}, "holes": []}, "options.tolerances must be a JSON object"),
 ])
 def test_what_is_not_a_record_is_refused_with_its_source(record, message):
-    with pytest.raises(ValueError, match=f"^shift.jsonl:7: .*{message}"):
+    with pytest.raises(ValueError, match=f"^shift.jsonl:7: .*{re.escape(message)}"):
         lot_from_records([{"record": record, "source": "shift.jsonl:7"}])
 
 
@@ -143,5 +176,18 @@ def _record(value=0.01, lower=-0.05, upper=0.05, u=0.01, decision="pass", reason
     entry = {"value": value, "lower": lower, "upper": upper, "expanded_uncertainty": u, "decision": decision,
              "reason": reason}
     return {"file": "scans/p.ply", "units": "mm", "verdict": {"in_tolerance": decision == "pass", "missing": []},
-            "holes": [{"index": 0, "name": "T1", "diameter": diameter, "warnings": [],
+            "holes": [{"index": 0, "name": "T1", "center": [0.0, 0.0, 0.0], "normal": [0.0, 0.0, 1.0],
+                       "diameter": 4.01 if diameter is None else diameter, "warnings": [],
                        "conformance": {"diameter": entry}}]}
+
+
+def test_an_unnamed_hole_is_its_measurement_s_own_characteristic():
+    # checked against a nominal without a name (detect --nominal-diameter): the index says nothing of
+    # which hole it is in another scan
+    first, second = _record(), _record()
+    for record in (first, second):
+        del record["holes"][0]["name"]
+    lot = lot_from_records([{"record": first, "source": "a:1"}, {"record": second, "source": "a:2"}])
+    holes = [c.hole for c in lot.characteristics]
+    assert holes == ["#0/1", "#0/2"] and not any(c.named for c in lot.characteristics)
+    assert lot.keys == ()
