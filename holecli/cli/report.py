@@ -118,12 +118,13 @@ def report(results, store_location, part, serial, since, until, fmt, output, tit
         if not entries:
             where = f"the store {inputs[0]}" if store_location is not None else ", ".join(results)
             raise Failure(f"nothing to report: no measurement in {where}", EXIT_NOTHING)
-        if order == "name":
-            entries.sort(key=lambda entry: _natural_key(str(entry["record"].get("file", ""))))
         from holecli.quality.lot import lot_from_records
 
         try:
-            lot = lot_from_records(entries)
+            lot = lot_from_records(entries)  # checked in the order read, so that an error names its line
+            if order == "name":
+                entries.sort(key=lambda entry: _natural_key(entry["record"]["file"]))
+                lot = lot_from_records(entries)
         except ValueError as error:
             raise Failure(str(error), EXIT_INPUT) from None
         views = {}
@@ -223,12 +224,16 @@ def scan_views(lot, limit) -> dict:
             clouds.clear()  # a measurement's holes come together: one scan in memory at a time
             try:
                 cloud = read_cloud(file)
-                factor = 1.0
-                if m.record.get("units") and cloud.units and cloud.units != m.record["units"]:
-                    factor = scale_factor(cloud.units, m.record["units"])
-                clouds[file] = (cloud.points * factor, None)
             except (HoleCliError, OSError, ValueError) as error:
                 clouds[file] = (None, f"the scan {m.record.get('file')} cannot be read now ({error})")
+            else:
+                if not m.units or cloud.units == m.units:
+                    clouds[file] = (cloud.points, None)
+                elif cloud.units:
+                    clouds[file] = (cloud.points * scale_factor(cloud.units, m.units), None)
+                else:  # --units/--output-units: the record does not say which unit the file's numbers are in
+                    clouds[file] = (None, f"the record is in {m.units} and the scan {m.record.get('file')} declares "
+                                          f"no unit: the unit of its points is not known")
         points, why = clouds[file]
         if points is None:
             views[(m.order, index)] = {"unavailable": why}

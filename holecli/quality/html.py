@@ -37,8 +37,8 @@ import numpy as np
 
 from holecli import __version__
 from holecli.quality import spc
-from holecli.quality.lot import ZONE_CHECKS
-from holecli.quality.wording import (REASON_WORDS, TUR_GOOD, WARNING_WORDS, decimals, reason_words, tur_words,
+from holecli.quality.lot import ZONE_CHECKS, warning_codes
+from holecli.quality.wording import (REASON_WORDS, WARNING_WORDS, decimals, reason_words, tur_level, tur_words,
                                      warning_phrase, warning_sentence)
 
 __all__ = ["CONTENT_SECURITY_POLICY", "REASON_WORDS", "WARNING_WORDS", "html_report", "tur_words"]
@@ -255,7 +255,9 @@ def _summary(lot, keys, by_key) -> str:
            f'<td class="num">{int(summary["measurements"])}</td><td class="num">{int(summary["parts"])}</td>'
            f'<td class="num">{int(summary["holes"])}</td><td class="num">{int(summary["characteristics"])}</td>'
            f'{cells}</tr></table>\n']
-    rejected = [m for m in lot.measurements if m.verdict in ("fail", "error")]
+    # a part (a label) once, at its last measurement that was rejected (lot.summary's list)
+    last = {m.label: m for m in lot.measurements if m.verdict in ("fail", "error")}
+    rejected = [last[label] for label in summary["rejected"]]
     if rejected:
         out.append(f'<h3>Parts rejected ({len(rejected)})</h3>\n<ul class="rejected">')
         for measurement in rejected:
@@ -265,13 +267,13 @@ def _summary(lot, keys, by_key) -> str:
         out.append('</ul>\n')
     else:
         out.append('<p>No part rejected.</p>\n')
-    weak = [(number, key, ratio) for number, key in enumerate(keys)
-            for ratio in [_median_tur(by_key[key])] if ratio is not None and ratio < TUR_GOOD]
+    weak = [(number, key, ratio, level) for number, key in enumerate(keys)
+            for ratio in [_median_tur(by_key[key])]
+            for level in [tur_level(ratio, by_key[key][0].is_zone)] if level in ("danger", "caution")]
     if weak:
         out.append('<h3>Characteristics the measurement decides poorly</h3>\n<ul class="weak">')
-        for number, (hole, name), ratio in weak:
-            css, words = (("danger", "cannot decide conformance") if ratio < 1.0
-                          else ("caution", "below 4:1, caution near the limits"))
+        for number, (hole, name), ratio, css in weak:
+            words = "cannot decide conformance" if css == "danger" else "below 4:1, caution near the limits"
             out.append(f'<li class="{css}"><a href="#k-{number}">{_e(hole)} {_e(_name(name))}</a>: test-uncertainty '
                        f'ratio {ratio:.3g}, {words}</li>')
         out.append('</ul>\n')
@@ -338,7 +340,7 @@ def _measurement_section(measurement, pictures, scan_views) -> str:
 
 def _hole_rows(hole, index, characteristics, units, checked) -> str:
     name = hole.get("name") or f"#{index}"
-    codes = _warning_codes(hole)
+    codes = warning_codes(hole)
     rows = max(1, len(characteristics))
     words = "".join(f'<span title="{_e(warning_sentence(code))}">{_e(warning_phrase(code))}</span>'
                         for code in codes)
@@ -399,10 +401,11 @@ def _key_section(lot, key, every, number) -> str:
     decisions = Counter(c.decision for c in every)
     out = [f'<section class="key" id="k-{number}">\n<h3>{_e(hole)} &middot; {_e(_name(name))}'
            f'{" (" + _e(unit) + ")" if unit else ""}</h3>\n<p>{len(every)} checked, {len(series)} measured: '
-           + ", ".join(f'<span class="badge {word}">{count} {word}</span>' for word, count in sorted(decisions.items()))
+           + ", ".join(f'<span class="badge {_e(word)}">{count} {_e(word)}</span>'
+                       for word, count in sorted(decisions.items()))
            + '</p>\n']
     lower, upper = _limits(series)
-    sentence, css = tur_words(_median_tur(every))
+    sentence, css = tur_words(_median_tur(every), every[0].is_zone if every else False)
     out.append(f'<p class="tur {css}">{_e(sentence)}</p>\n')
     if len(series) < 2:
         out.append('<p class="note">Not enough measurements for a chart (fewer than 2 values).</p>\n')
@@ -654,7 +657,7 @@ def _fit_figure(hole, position) -> str:
     svg, magnification, notes = _fit_picture(hole)
     caption = [f'<b>{_e(name)}</b> &middot; deviations &times;{magnification:g}']
     caption.extend(_e(note) for note in notes)
-    caption.extend(_e(warning_phrase(code)) for code in _warning_codes(hole))
+    caption.extend(_e(warning_phrase(code)) for code in warning_codes(hole))
     return f'<figure class="fit">{svg}<figcaption>{"<br>".join(caption)}</figcaption></figure>'
 
 
@@ -776,16 +779,6 @@ def _plain(value) -> str:
 
 def _name(name) -> str:
     return str(name).replace("_", " ")
-
-
-def _warning_codes(hole) -> list:
-    codes = []
-    warnings = hole.get("warnings")
-    for warning in warnings if isinstance(warnings, (list, tuple)) else ():
-        code = warning.get("code") if isinstance(warning, dict) else warning
-        if code is not None:
-            codes.append(str(code))
-    return codes
 
 
 def _number(value, digits) -> str:

@@ -348,12 +348,8 @@ def lot_from_records(entries) -> Lot:
 
 
 def _hole_characteristics(hole, position, order, units) -> list:
-    """The characteristics of one hole of a record (none when it was not checked)."""
-    conformance = hole.get("conformance")
-    if not conformance:
-        return []
-    if not isinstance(conformance, dict):
-        raise ValueError(f"hole {position}: conformance is not a JSON object")
+    """The characteristics of one hole of a record (none when it was not checked), the hole's shape
+    checked (checked or not)."""
     index = hole.get("index", position)
     if isinstance(index, bool) or not isinstance(index, int):
         raise ValueError(f"hole {position}: index must be an integer, got {_shown(index)}")
@@ -367,6 +363,11 @@ def _hole_characteristics(hole, position, order, units) -> list:
     if _number(hole.get("diameter")) is None or hole["diameter"] <= 0:
         raise ValueError(f"hole {position}: diameter must be a positive number, got {_shown(hole.get('diameter'))}")
     warnings = warning_codes(hole, position)
+    conformance = hole.get("conformance")
+    if not conformance:
+        return []
+    if not isinstance(conformance, dict):
+        raise ValueError(f"hole {position}: conformance is not a JSON object")
     out = []
     for check, entry in conformance.items():
         if not isinstance(entry, dict) or entry.get("decision") not in DECISIONS:

@@ -77,6 +77,7 @@ document's ``Attributes`` say (``length_unit_assumed``). Angles are in degrees.
 from __future__ import annotations
 
 import datetime
+import re
 import uuid
 import xml.etree.ElementTree as ET
 from decimal import Decimal
@@ -626,11 +627,26 @@ class _Writer:
 
 
 def _sub(parent, tag, text=None, **attributes):
-    """A child element ``tag`` of ``parent`` with ``text`` and ``attributes``."""
-    element = ET.SubElement(parent, tag, attributes)
+    """A child element ``tag`` of ``parent`` with ``text`` and ``attributes`` (each made a legal XML 1.0 string)."""
+    element = ET.SubElement(parent, tag, {name: _xml(value) for name, value in attributes.items()})
     if text is not None:
-        element.text = text
+        element.text = _xml(text)
     return element
+
+
+# The characters XML 1.0 does not allow in a document (a record's file name may hold them).
+_NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
+
+
+def _xml(text) -> str:
+    """``text`` with every character XML 1.0 does not allow replaced by U+FFFD.
+
+    Examples
+    --------
+    >>> _xml("scan\x01.ply")
+    'scan\ufffd.ply'
+    """
+    return _NOT_XML.sub("\ufffd", str(text))
 
 
 def _kind(name, unit) -> str:

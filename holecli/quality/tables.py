@@ -31,8 +31,8 @@ import csv
 import io
 import math
 
-from holecli.quality.lot import PRESENCE
-from holecli.quality.wording import TUR_GOOD, decimals, reason_words, tur_words
+from holecli.quality.lot import PRESENCE, warning_codes
+from holecli.quality.wording import decimals, reason_words, tur_words
 
 CHARACTERISTIC_COLUMNS = (
     "measurement", "label", "part", "serial", "received", "file", "id", "hole", "characteristic", "unit",
@@ -126,17 +126,31 @@ def characteristic_table(lot) -> list:
     Returns
     -------
     list of list of str
-        :data:`CHARACTERISTIC_COLUMNS` first; numbers in full precision (``repr``), empty where None.
+        :data:`CHARACTERISTIC_COLUMNS` first; numbers in full precision (``repr``), empty where None. A
+        hole no tolerance applies to is a row of its diameter, decision ``unchecked``; a scan that could
+        not be measured one row, decision ``error``, its error the reason.
     """
     rows = [list(CHARACTERISTIC_COLUMNS)]
     for m in lot.measurements:
+        head = [str(m.order + 1), m.label, m.part or "", m.serial or "", m.received or "", m.record.get("file", ""),
+                m.id or ""]
+        if "error" in m.record:  # a scan that could not be measured: one row, its error the reason
+            rows.append(head + ["", "", "", *[""] * 8, "error", str(m.record["error"]), "", "", "", m.source])
+            continue
+        checked = {c.hole_index for c in m.characteristics}
         for c in m.characteristics:
-            rows.append([
-                str(m.order + 1), m.label, m.part or "", m.serial or "", m.received or "", m.record.get("file", ""),
-                m.id or "", c.hole, c.name, c.unit, _number(c.nominal), _number(c.lower_tolerance),
+            rows.append(head + [
+                c.hole, c.name, c.unit, _number(c.nominal), _number(c.lower_tolerance),
                 _number(c.upper_tolerance), _number(c.lower), _number(c.upper), _number(c.measured),
                 _number(c.deviation), _number(c.expanded_uncertainty), c.decision, c.reason,
                 _number(c.exceedance), _number(c.test_uncertainty_ratio), " ".join(c.warnings), m.source])
+        for position, hole in enumerate(m.record.get("holes") or ()):
+            index = hole.get("index", position)
+            if index not in checked:  # a hole no tolerance applies to: its diameter, unchecked
+                rows.append(head + [
+                    hole.get("name") or f"#{index}", "diameter", m.units, "", "", "", "", "", _number(hole["diameter"]),
+                    "", "", "unchecked", "no tolerance applies to this hole", "", "", " ".join(warning_codes(hole)),
+                    m.source])
     return rows
 
 
@@ -155,8 +169,8 @@ def fai_table(lot, *, part_number=None) -> list:
     Returns
     -------
     list of list of str
-        :data:`FAI_COLUMNS` first, then per measurement a row per characteristic (an error record: one
-        row saying the scan could not be measured).
+        :data:`FAI_COLUMNS` first, then per measurement a row per characteristic (an error record, or a
+        record measured without tolerances: one row saying so).
     """
     numbers = {key: n for n, key in enumerate(lot.keys, 1)}
     for c in lot.characteristics:
@@ -170,6 +184,10 @@ def fai_table(lot, *, part_number=None) -> list:
         if "error" in m.record:
             rows.append(head + ["", "", "", "the whole part", f"not measured: {m.record['error']}", tooling, "",
                                 "the scan could not be measured: measure the part again"])
+            continue
+        if m.verdict == "unchecked":
+            rows.append(head + ["", "", "", "the drawing's characteristics", "not checked: the scan was measured "
+                                "without tolerances", tooling, "", "measure it again with the part's spec (--spec)"])
             continue
         coverage = (m.record.get("verdict") or {}).get("coverage_factor")
         for c in sorted(m.characteristics, key=lambda c: numbers[c.key]):
@@ -199,7 +217,8 @@ def _result_text(c, coverage) -> str:
     if c.decision == "fail":
         text += f": NONCONFORMING, {_beyond(c, values=False)}"
     elif c.decision == "undecided":
-        text += ": UNDECIDED (within U of a limit)"
+        text += (": UNDECIDED (within U of a limit)" if c.reason.startswith("straddles")
+                 else f": UNDECIDED ({reason_words(c.reason)})")
     return text
 
 
@@ -211,13 +230,13 @@ def _comment(c) -> str:
     if c.warnings:
         notes.append("the scan warns: " + ", ".join(c.warnings) + " (check the hole for chips, burrs or lubricant "
                      "before rejecting it)")
-    notes.append(ratio_text(c.test_uncertainty_ratio))
+    notes.append(ratio_text(c.test_uncertainty_ratio, c.is_zone))
     return "; ".join(note for note in notes if note)
 
 
-def ratio_text(ratio) -> str:
-    """What a test uncertainty ratio (tolerance zone / 2U) says (:func:`holecli.quality.wording.tur_words`);
-    empty from 4:1 up or when unknown.
+def ratio_text(ratio, one_sided=False) -> str:
+    """What a test uncertainty ratio (tolerance zone / 2U) says (:func:`holecli.quality.wording.tur_words`;
+    ``one_sided`` for a zone with an upper limit only); empty from 4:1 up or when unknown.
 
     Examples
     --------
@@ -226,9 +245,8 @@ def ratio_text(ratio) -> str:
     >>> ratio_text(5.0)
     ''
     """
-    if ratio is None or not math.isfinite(ratio) or ratio >= TUR_GOOD:
-        return ""
-    return tur_words(ratio)[0]
+    sentence, level = tur_words(ratio, one_sided)
+    return sentence if level in ("danger", "caution") else ""
 
 
 def _beyond(c, values=True) -> str:

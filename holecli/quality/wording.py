@@ -42,35 +42,67 @@ WARNING_WORDS = {
 }
 
 
-def tur_words(ratio) -> tuple[str, str]:
-    """The test-uncertainty ratio (tolerance zone / 2U) said plainly, with its CSS class.
+def tur_level(ratio, one_sided=False) -> str:
+    """How well a measurement of this test-uncertainty ratio (tolerance zone / 2U) decides conformance.
 
     Parameters
     ----------
     ratio : float or None
-        The ratio; None when the uncertainty is not known.
+    one_sided : bool
+        A zone with an upper limit only (position, tilt, perpendicularity: the value is a deviation,
+        never below 0), whose zone is [0, T].
 
     Returns
     -------
-    (str, str)
-        The sentence and its class: ``danger`` below 1, ``caution`` below 4, ``ok`` from 4, ``note``
-        unknown.
+    {"danger", "caution", "ok", "note"}
+        ``danger`` when no value can be proved in tolerance with this U (ISO 14253-1's guarded rule):
+        2U wider than the zone (ratio below 1), or, one-sided, U above T (below 0.5; the rule of
+        :func:`holecli.tolerance.uncertainty_exceeds_zone`); ``caution`` below 4:1; ``ok`` from 4:1;
+        ``note`` when U is not known.
+
+    Examples
+    --------
+    >>> tur_level(0.7), tur_level(0.7, one_sided=True), tur_level(0.4, one_sided=True), tur_level(None)
+    ('danger', 'caution', 'danger', 'note')
+    """
+    if ratio is None or not math.isfinite(ratio):
+        return "note"
+    if ratio < (0.5 if one_sided else 1.0):
+        return "danger"
+    return "caution" if ratio < TUR_GOOD else "ok"
+
+
+def tur_words(ratio, one_sided=False) -> tuple[str, str]:
+    """The test-uncertainty ratio (tolerance zone / 2U) said plainly, with its level (:func:`tur_level`,
+    the page's CSS class).
 
     Examples
     --------
     >>> tur_words(0.5)[1], tur_words(2.0)[1], tur_words(10.0)[1], tur_words(None)[1]
     ('danger', 'caution', 'ok', 'note')
+    >>> tur_words(0.99999)[0]
+    'Test-uncertainty ratio (tolerance zone / 2U) 0.99999: the uncertainty is larger than the tolerance: this measurement cannot decide conformance.'
     """
-    if ratio is None or not math.isfinite(ratio):
+    level = tur_level(ratio, one_sided)
+    if level == "note":
         return "The uncertainty U is not known: no test-uncertainty ratio.", "note"
-    said = f"Test-uncertainty ratio (tolerance zone / 2U) {ratio:.3g}: "
-    if ratio < 1.0:
+    said = f"Test-uncertainty ratio (tolerance zone / 2U) {_ratio(ratio)}: "
+    if level == "danger":
         return said + ("the uncertainty is larger than the tolerance: this measurement cannot decide "
-                       "conformance."), "danger"
-    if ratio < TUR_GOOD:
+                       "conformance."), level
+    if level == "caution":
         return said + ("caution: the uncertainty takes a large share of the tolerance (below 4:1); values near a "
-                       "limit cannot be told in from out."), "caution"
-    return said + "the measurement is fit to decide (4:1 or better).", "ok"
+                       "limit cannot be told in from out."), level
+    return said + "the measurement is fit to decide (4:1 or better).", level
+
+
+def _ratio(ratio) -> str:
+    """A ratio to 3 significant digits, but never rounded across a threshold (0.99999 is not 1)."""
+    shown = f"{ratio:.3g}"
+    for threshold in (0.5, 1.0, TUR_GOOD):
+        if (ratio < threshold) != (float(shown) < threshold):
+            return f"{ratio:.6g}"
+    return shown
 
 
 def reason_words(code) -> str:

@@ -251,3 +251,67 @@ def test_the_qif_the_command_writes_is_valid_qif_3(run, shift_lot, repo_root, tm
     statuses = document.getroot().findall(".//{http://qifstandards.org/xsd/qif3}CharacteristicStatusEnum")
     # part_003's missing L1: its presence FAIL, its diameter and position (checked on the others) NOT_ANALYZED
     assert {status.text for status in statuses} == {"PASS", "FAIL", "NOT_ANALYZED"}
+
+
+def test_a_scan_not_measured_and_a_hole_not_checked_have_their_rows(run, shift_lot, repo_root, tmp_path):
+    records = [json.loads(line) for line in shift_lot["jsonl"].read_text().splitlines()][:1]
+    records.append({"file": "scans/broken.ply", "path": "/scans/broken.ply", "error": "scans/broken.ply: no points"})
+    unchecked = json.loads(json.dumps(records[0]))
+    unchecked.pop("verdict")
+    for hole in unchecked["holes"]:
+        for key in ("name", "conformance", "in_tolerance", "failed_checks", "undecided_checks"):
+            hole.pop(key, None)
+    unchecked["file"] = "scans/unchecked.ply"
+    records.append(unchecked)
+    (tmp_path / "mixed.jsonl").write_text("".join(json.dumps(record) + "\n" for record in records))
+    table = rows(run("report", tmp_path / "mixed.jsonl", "--format", "csv").stdout)
+    error = [row for row in table if row["label"] == "broken"]
+    assert [(row["decision"], row["reason"]) for row in error] == [("error", "scans/broken.ply: no points")]
+    plain = [row for row in table if row["label"] == "unchecked"]
+    assert [row["hole"] for row in plain] == ["#0", "#1", "#2", "#3"]
+    assert {(row["characteristic"], row["decision"]) for row in plain} == {("diameter", "unchecked")}
+    assert float(plain[0]["measured"]) == unchecked["holes"][0]["diameter"]
+    fai = rows(run("report", tmp_path / "mixed.jsonl", "--format", "fai").stdout)
+    assert [row["results"] for row in fai if row["serial_number"] == "unchecked"] == [
+        "not checked: the scan was measured without tolerances"]
+    assert [row["results"] for row in fai if row["serial_number"] == "broken"] == [
+        "not measured: scans/broken.ply: no points"]
+
+
+def test_order_name_refuses_a_line_that_is_not_a_record_as_read_order_does(run, tmp_path):
+    (tmp_path / "bad.jsonl").write_text('{"file": "a.ply", "holes": []}\n[1, 2]\n')
+    for order in ("read", "name"):
+        result = run("report", tmp_path / "bad.jsonl", "--order", order, "--format", "csv")
+        assert result.exit_code == 3 and "bad.jsonl:2: a record is a JSON object, got list" in result.stderr
+
+
+def test_lot_spec_refuses_a_spec_mapped_by_a_registration(shift_lot):
+    from holecli.cli.report import lot_spec, read_results
+    from holecli.quality.lot import lot_from_records
+
+    entries = read_results(str(shift_lot["jsonl"]))
+    entries[0]["record"]["options"]["tolerances"]["registration"] = {"file": "registration.json", "sha256": "0" * 64}
+    assert lot_spec(lot_from_records(entries)) is None  # its nominals are in the part's frame, not the scan's
+
+
+def test_a_postgresql_database_without_a_store_is_refused_and_left_empty(run, postgres_store_url):
+    result = run("report", "--store", postgres_store_url)
+    assert result.exit_code == 3 and "not a holecli results store (the database holds no tables of one)" in result.stderr
+    import psycopg
+
+    with psycopg.connect(postgres_store_url) as connection:
+        tables = connection.execute("SELECT count(*) FROM information_schema.tables WHERE table_schema = "
+                                    "current_schema()").fetchone()[0]
+    assert tables == 0
+
+
+def test_no_picture_of_a_scan_whose_unit_the_record_does_not_give(shift_lot):
+    pytest.importorskip("matplotlib")
+    from holecli.cli.report import scan_views
+    from holecli.quality.lot import lot_from_records
+
+    record = json.loads(shift_lot["jsonl"].read_text().splitlines()[1])  # part_002, its C1 oversize
+    record["units"] = "in"  # as detect --units mm --output-units in writes it: the PLY declares nothing
+    (view,) = scan_views(lot_from_records([{"record": record, "source": "x:1"}]), 5).values()
+    assert view == {"unavailable": f"the record is in in and the scan {record['file']} declares no unit: the unit "
+                                   f"of its points is not known"}

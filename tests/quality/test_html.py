@@ -31,14 +31,10 @@ def _batch(repo_root, folder, *options):
 
 
 @pytest.fixture(scope="module")
-def folder(repo_root, tmp_path_factory):
-    """A simulated lot of 4 panels: part 2's C1 drilled 0.1 mm large, part 3's L1 not drilled."""
-    folder = tmp_path_factory.mktemp("lot")
-    env = dict(os.environ, PYTHONPATH=str(repo_root))
-    subprocess.run([sys.executable, "-m", "holecli", "simulate", "lot", str(folder / "lot"), "--parts", "4",
-                    "--panel", "sample_clouds/panel.toml", "--spacing", "0.2", "--defect", "2/C1=diameter:+0.1",
-                    "--defect", "3/L1=missing", "-q"], cwd=repo_root, env=env, check=True, timeout=300)
-    return folder
+def folder(shift_lot):
+    """The simulated lot of 4 panels (tests/conftest.py's shift_lot): part 2's C1 drilled 0.1 mm large,
+    part 3's L1 not drilled, in ``lot/``."""
+    return shift_lot["folder"]
 
 
 @pytest.fixture(scope="module")
@@ -502,3 +498,10 @@ def test_a_hole_part_that_is_not_what_a_record_holds_is_drawn_as_absent(records)
     figures = dom.find_all("figure", "fit")
     assert len(figures) == len(record["holes"]) and "partial" not in figures[0].text
     # (a hole's warnings that are not a list are refused before: holecli.quality.lot, test_lot.py)
+
+
+def test_a_part_rejected_twice_is_one_part_rejected(records):
+    twice = [*records, *records]  # the shift's records read twice (two logs holding them)
+    dom = _parse(html_report(_lot(twice), generated=GENERATED))
+    heading = next(h for h in dom.find_all("h3") if h.text.startswith("Parts rejected"))
+    assert heading.text == "Parts rejected (2)"  # part_002 and part_003, each once

@@ -454,3 +454,11 @@ def test_the_part_number_names_the_measured_parts(schema, records):
             for a in actual] == [("SN-1", "PN-7"), ("SN-2", "PN-9"), ("SN-3", "PN-7")]
     # no part number anywhere: no product
     assert parse(qif_document(lot_of(records["pass"]), created=CREATED)).find("q:Product", NS) is None
+
+
+def test_a_character_xml_does_not_allow_is_replaced_not_written(schema, records):
+    record = copy.deepcopy(records["pass"])
+    record["file"] = "scans/part\x01\x1f.ply"
+    document = qif_document(lot_of(record), created=CREATED)
+    assert_valid(schema, document)
+    assert "part\ufffd\ufffd" in document.decode("utf-8")
