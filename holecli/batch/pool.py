@@ -103,14 +103,27 @@ def _measure_in_worker(path):
     would end the batch there, or break the pool when it cannot be pickled. A file that takes longer
     than the time limit gets an error record too (:func:`_time_limit`).
     """
-    reading = dict(_WORKER["reading"])
+    return measure_guarded(path, _WORKER["options"], _WORKER["spec"], _WORKER["explain"], _WORKER["reading"],
+                           _WORKER.get("timeout"))
+
+
+def measure_guarded(path, options, spec, explain, reading, timeout=None):
+    """The record of ``path`` as a batch worker makes it (:func:`_measure_in_worker`, a cluster's
+    task too): :func:`measure_record` with ``reading`` (``scan``, ``units``, ``plots``: those given),
+    within ``timeout`` seconds (None: no limit; the caller's main thread only), anything raised
+    turned into an error record, the record one that can be pickled.
+
+    Returns
+    -------
+    dict
+    """
+    reading = dict(reading)
     plots = reading.pop("plots", None)
     if plots is not None and path in plots:
         reading["plot_file"] = plots[path]
-    timeout = _WORKER.get("timeout")
     try:
         with _time_limit(timeout):
-            record = measure_record(path, _WORKER["options"], _WORKER["spec"], _WORKER["explain"], **reading)
+            record = measure_record(path, options, spec, explain, **reading)
     except FileTimeout:
         record = error_record(path, timeout_message(path, timeout))
     except BaseException as error:  # noqa: BLE001 - see the docstring

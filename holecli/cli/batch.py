@@ -138,6 +138,14 @@ def e57_units_overridden(files, units):
                    "of stdout.")
 @click.option("--jobs", "-j", type=click.IntRange(min=1), default=None, metavar="N",
               help="Worker processes [default: the number of cores].")
+@click.option("--cluster", "cluster_address", metavar="ADDRESS", default=None,
+              help="Measure on a Dask cluster instead of local processes: local:N (N worker processes here, started "
+                   "and stopped by holecli) or a scheduler's address, tcp://host:8786; the files must be readable "
+                   "from the workers (a shared file system). With --output, OUTPUT.manifest records what is done "
+                   "(path, size, SHA-256) for --resume (needs pip install 'holecli[cluster]').")
+@click.option("--files-per-task", type=click.IntRange(min=1), default=None, metavar="K",
+              help="With --cluster: files measured in one task [default: max(1, min(256, ceil(files / (4 x "
+                   "workers))))].")
 @click.option("--resume", is_flag=True,
               help="Keep the records already in --output, skip their files and append the others; refused (exit 2, "
                    "the file untouched) when the options differ from its first record's.")
@@ -168,7 +176,8 @@ def e57_units_overridden(files, units):
 @registration_option_decorators(plain_name=False)
 @fail_on_warning_option
 @verbosity_option_decorators
-def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output, jobs, resume, overwrite, store_location,
+def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output, jobs, cluster_address, files_per_task,
+          resume, overwrite, store_location,
           meta_pairs, plot_dir, explain, file_timeout,
           scan_index,
           units, output_units,
@@ -197,6 +206,7 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
       holecli batch scans/ --spec part.toml -o shift.jsonl --plot shift_plots/
       holecli batch cell/R1.ply cell/R3.ply --spec part.toml --registration registration.json
       holecli batch scans/ --spec part.toml --store results.sqlite --meta part=P7 --meta cell=C2
+      holecli batch /shared/scans/ --spec part.toml --cluster tcp://scheduler:8786 -o /shared/shift.jsonl
     """
     check_verbosity(quiet, verbose)
     # --output-units without --units is checked on the files found, in the body (all E57 is fine)
@@ -223,6 +233,11 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
         # resuming reads each earlier file's verdict from the whole header's columns
         raise click.UsageError("--resume needs the whole CSV (it reads the earlier files' verdicts from its columns): "
                                "drop --fields")
+    if cluster_address is not None and jobs is not None:
+        raise click.UsageError("--jobs is for local worker processes; with --cluster the cluster's workers measure "
+                               "(local:N for N of them here)")
+    if files_per_task is not None and cluster_address is None:
+        raise click.UsageError("--files-per-task needs --cluster")
     if meta_pairs and store_location is None:
         raise click.UsageError("--meta needs --store (the metadata is stored with each record)")
     if output == "-":  # stdout, as without --output
@@ -283,6 +298,9 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
                            gauge_depth=units_now.to_file_units(gauge_depth)) if method != "paper" else options
         if store_location is not None:  # before the output is opened (and emptied): nothing is measured without it
             store = stack.enter_context(open_results_store(store_location))
+        measure = None
+        if cluster_address is not None:  # before the output is opened (and emptied): nothing is measured without it
+            measure = start_cluster(stack, cluster_address, files_per_task, verbose)
         plots = None
         if plot_dir is not None:  # before the output is opened (and emptied): nothing is measured without it
             from holecli.cli.plot import make_plot_folder
@@ -307,6 +325,9 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
                 write, earlier, header = output_file.write, output_file.earlier, output_file.needs_header
             else:
                 write, earlier, header = write_stdout, [], True
+            after_write = None
+            if measure is not None and output_file is not None:
+                earlier, after_write = open_manifest(stack, measure, output, files, earlier, resume)
             todo = batching.files_to_do(files, earlier)
             # a subfolder that cannot be listed: an error record (once, with --resume), before the files
             done = {summary.path for summary in earlier}
@@ -318,13 +339,71 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
                              verbose=verbose, fail_on_warning=fail_on_warning,
                              plots=None if plots is None else {path: plots[path] for path in todo},
                              file_timeout=file_timeout, unlisted=unlisted, fields=fields,
-                             store=store, meta=meta_pairs)
+                             store=store, meta=meta_pairs, measure=measure, after_write=after_write)
         finally:
             if output_file is not None:
                 output_file.close()
 
     with StopRequests() as stop:
         sys.exit(run_guarded(body, stop))
+
+
+def start_cluster(stack, address, task_size, verbose):
+    """``--cluster``: the Dask client of ``address`` (:func:`holecli.batch.cluster.cluster_client`),
+    closed by ``stack``, and the measuring function of :func:`run_batch` on it.
+
+    Raises
+    ------
+    Failure
+        With the input-error code, when Dask is missing or the cluster cannot be reached.
+    """
+    from functools import partial
+
+    from holecli.batch.cluster import ClusterError, cluster_client, measure_on_cluster
+
+    try:
+        client = stack.enter_context(cluster_client(address, verbose=verbose))
+    except ClusterError as error:
+        raise Failure(str(error), EXIT_INPUT) from None
+    return partial(measure_on_cluster, client=client, task_size=task_size, fingerprints={})
+
+
+def open_manifest(stack, measure, output, files, earlier, resume):
+    """``--cluster`` with ``--output``: the manifest beside the output (:class:`holecli.batch.manifest.Manifest`),
+    closed by ``stack``; with ``resume``, the ``earlier`` records whose files changed since (by the
+    manifest) are left out, so that those files are measured again.
+
+    Returns
+    -------
+    (list of FileSummary, callable)
+        The earlier records still done, and the ``after_write`` of :func:`run_batch` (adds a record's
+        file to the manifest).
+
+    Raises
+    ------
+    Failure
+        With the input-error code, when the manifest cannot be opened.
+    """
+    from holecli.batch.manifest import Manifest, manifest_path
+    from holecli.measure import resolved_path
+
+    path = manifest_path(output)
+    try:
+        manifest = stack.enter_context(Manifest(path, resume=resume))
+    except OSError as error:
+        raise Failure(f"{path}: cannot open the manifest: {error.strerror or error}", EXIT_INPUT) from None
+    if resume:
+        by_path = {resolved_path(file): file for file in files}
+        changed = manifest.changed(by_path[summary.path] for summary in earlier if summary.path in by_path)
+        earlier = [summary for summary in earlier if summary.path not in changed]
+    fingerprints = measure.keywords["fingerprints"]
+
+    def after_write(record):
+        fingerprint = fingerprints.pop(record["file"], None)
+        if fingerprint is not None:
+            manifest.add(record["file"], fingerprint)
+
+    return earlier, after_write
 
 
 def parse_meta(pairs) -> dict:
@@ -443,7 +522,7 @@ def _run_provenance(batching, method, view_dir, min_diameter, max_holes, full_on
 
 def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, output, stop, explain=False, scan=None,
               units=None, *, quiet=False, verbose=False, fail_on_warning=None, plots=None, file_timeout=None,
-              unlisted=(), fields=None, store=None, meta=None):
+              unlisted=(), fields=None, store=None, meta=None, measure=None, after_write=None):
     """The measuring loop of ``holecli batch``: records out, progress and summary on stderr.
 
     Parameters
@@ -497,6 +576,12 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         ``--store``: each record is added to it (committed) before it is written.
     meta : dict, optional
         ``--meta``: the metadata stored with each record.
+    measure : callable, optional
+        ``--cluster``: measures instead of :func:`holecli.batch.measure_all` (``jobs`` and
+        ``file_timeout`` are then not used), e.g. :func:`holecli.batch.cluster.measure_on_cluster`
+        with its client; takes the files, options and spec and measure_all's other keywords.
+    after_write : callable, optional
+        Called with each record after it is written (the cluster's manifest).
 
     Returns
     -------
@@ -538,8 +623,13 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
         return stop.signal is not None
 
     stop.defer()
-    measured = batching.measure_all(todo, options, spec, jobs=min(jobs, max(1, len(todo))), should_stop=should_stop,
-                                    explain=explain, scan=scan, units=units, plots=plots, file_timeout=file_timeout)
+    if measure is None:
+        measured = batching.measure_all(todo, options, spec, jobs=min(jobs, max(1, len(todo))),
+                                        should_stop=should_stop, explain=explain, scan=scan, units=units, plots=plots,
+                                        file_timeout=file_timeout)
+    else:
+        measured = measure(todo, options, spec, should_stop=should_stop, explain=explain, scan=scan, units=units,
+                           plots=plots)
 
     def every_record():
         yield from unlisted
@@ -560,6 +650,8 @@ def run_batch(batching, todo, options, spec, jobs, write, fmt, header, earlier, 
                 except ValueError as error:  # a NaN in the record: a bug, but the batch goes on
                     record = unwritable_record(record, error)
                     writer.write(record)
+                if after_write is not None:
+                    after_write(record)
             except BrokenPipeError:
                 # The reader of the output went away (`| head -1`): stop as when interrupted (the
                 # workers are ended as the loop is left; every record written so far is whole).
