@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import re
 from contextlib import contextmanager
 
@@ -161,7 +162,9 @@ def cluster_client(address, verbose=False):
     """A Dask client of the cluster ``address`` (:func:`parse_address`), closed on exit.
 
     ``local:N`` starts a ``LocalCluster`` of N worker processes with one thread each, on the loopback
-    interface only, without the dashboard, and shuts it down on exit. Dask's own log lines are kept
+    interface only, without the dashboard, its workers batch workers
+    (:class:`~holecli.batch.local_worker.LocalBatchWorker`: Ctrl-C is the batch's), and shuts it down on
+    exit. Dask's own log lines are kept
     out of stderr (they are shown at ``verbose``).
 
     Yields
@@ -186,6 +189,9 @@ def cluster_client(address, verbose=False):
                 cluster = distributed.LocalCluster(n_workers=target, threads_per_worker=1, processes=True,
                                                    host="127.0.0.1", dashboard_address=None, silence_logs=level)
                 client = distributed.Client(cluster)
+                from holecli.batch.local_worker import LocalBatchWorker  # (it imports distributed)
+
+                client.register_plugin(LocalBatchWorker(os.getpid()))
             else:
                 client = distributed.Client(target, timeout=30)
         except (OSError, TimeoutError, ValueError) as error:
