@@ -81,7 +81,7 @@ def parse_address(address):
             raise ClusterError(f"--cluster {address}: a local cluster needs at least one worker (local:N, N >= 1)")
         return workers
     if not address or address.lower().startswith("local"):
-        raise ClusterError(f"--cluster {address!r}: give local:N (N worker processes here) or a Dask scheduler's "
+        raise ClusterError(f"--cluster {address}: give local:N (N worker processes here) or a Dask scheduler's "
                            f"address, e.g. tcp://host:8786")
     return address
 

@@ -236,6 +236,14 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
     if cluster_address is not None and jobs is not None:
         raise click.UsageError("--jobs is for local worker processes; with --cluster the cluster's workers measure "
                                "(local:N for N of them here)")
+    if cluster_address is not None:
+        from holecli.batch.cluster import ClusterError, parse_address
+
+        try:
+            parse_address(cluster_address)
+        except ClusterError as error:
+            raise click.BadParameter(str(error).removeprefix(f"--cluster {cluster_address}: "),
+                                     param_hint="'--cluster'") from None
     if files_per_task is not None and cluster_address is None:
         raise click.UsageError("--files-per-task needs --cluster")
     if meta_pairs and store_location is None:
