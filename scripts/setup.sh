@@ -3,9 +3,10 @@
 # open3d; the venv module where Debian ships it apart), a Python that open3d has a wheel for, a virtual
 # environment, and the project with its test extra, the extras of the optional formats (e57, las), of
 # the pictures (plot, matplotlib), of the documentation site (docs, MkDocs and its Material theme) and
-# of the service (serve, postgres, opcua: FastAPI, uvicorn, psycopg, asyncua), so that their readers,
-# holecli plot, the docs' build and holecli serve are tested; and Debian's postgresql, which the tests
-# of the PostgreSQL results store start, and chromium, in which the tests render holecli report's HTML.
+# of the service (serve, postgres, opcua: FastAPI, uvicorn, psycopg, asyncua) and of batch --cluster
+# (cluster: Dask), so that their readers, holecli plot, the docs' build, holecli serve and the cluster
+# batch are tested; and Debian's postgresql, which the tests of the PostgreSQL results store start,
+# and chromium, in which the tests render holecli report's HTML.
 # Safe to run again: it only does what is missing.
 #
 # The Python: $PYTHON if set, else python3 when open3d has a wheel for it (open3d 0.20: CPython 3.10 to
@@ -118,6 +119,7 @@ installed() {  # run from / so that the current folder is not what finds holecli
 import os, sys
 import open3d, pytest, jsonschema, pye57, laspy, lazrs, matplotlib, mkdocs, material  # noqa: F401
 import fastapi, uvicorn, prometheus_client, psycopg, asyncua, httpx, schemathesis  # noqa: F401
+import distributed  # noqa: F401
 import holecli
 root = os.path.realpath(sys.argv[1])
 sys.exit(os.path.realpath(holecli.__file__) != os.path.join(root, "holecli", "__init__.py")
@@ -134,5 +136,5 @@ if [ ! -x .venv/bin/holecli ] || ! installed; then
         say "replacing open3d with open3d-cpu in .venv"
         pip_quiet .venv/bin/python -m pip uninstall --quiet --yes open3d
     fi
-    pip_quiet .venv/bin/python -m pip install --quiet -e '.[test,e57,las,plot,docs,serve,postgres,opcua]' --config-settings editable_mode=compat
+    pip_quiet .venv/bin/python -m pip install --quiet -e '.[test,e57,las,plot,docs,serve,postgres,opcua,cluster]' --config-settings editable_mode=compat
 fi

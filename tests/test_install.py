@@ -54,13 +54,13 @@ def test_the_package_s_data_files_are_declared():
 def test_setup_installs_and_checks_every_extra():
     # scripts/setup.sh makes the development environment: every optional-dependency group of
     # pyproject.toml is installed (so that the readers, holecli plot, the docs' build and holecli serve
-    # are tested), and its check that the environment is complete imports the docs' and the service's
+    # and the cluster batch are tested), and its check that the environment is complete imports the docs' and the service's
     # packages.
     extras = set(tomllib.loads((PACKAGE.parent / "pyproject.toml").read_text())["project"]["optional-dependencies"])
     setup = (PACKAGE.parent / "scripts" / "setup.sh").read_text()
     installed = re.search(r"pip install --quiet -e '\.\[([\w,]+)\]'", setup)
     assert installed and set(installed.group(1).split(",")) == extras == {"test", "e57", "las", "plot", "docs", "serve",
-                                                                                "postgres", "opcua"}
+                                                                                "postgres", "opcua", "cluster"}
     assert re.search(r"^import .*\bmkdocs, material\b", setup, re.MULTILINE)
     assert re.search(r"^import fastapi, uvicorn, prometheus_client, psycopg, asyncua\b", setup, re.MULTILINE)
 
