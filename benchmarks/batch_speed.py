@@ -1,4 +1,4 @@
-"""Speed of ``holecli batch``: --jobs 2 against --jobs 1 on 60 scans of about 10^4 points.
+"""Speed of ``holecli batch``: --jobs 2 against --jobs 1 on 60 scans of about 10^4 points, and on a local cluster.
 
 Writes 60 synthetic scans of about 10^4 points into a temporary folder: an 8 x 8 mm patch with a 3 mm
 hole (or two 2.5 mm holes), cycling through the kinds of scan holecli is made for (grid, laser
@@ -7,6 +7,11 @@ light noise and a different pose per scan. It then runs ``python -m holecli batc
 ``--jobs 1`` and with ``--jobs 2``: each the real command, start-up included, output to a file. It
 prints both wall times (the best of ``--repeats`` alternating runs, since other processes on the
 machine add noise) and their ratio. The target on a machine with 2 cores is a ratio >= 1.6.
+
+It also runs ``holecli batch --cluster local:N`` (N = ``--jobs``; a Dask LocalCluster started and
+stopped by the command, its start included) when Dask is installed, and prints the files per second
+of the three: ``--jobs 1``, ``--jobs N`` and ``--cluster local:N``. The cluster has no target: it is
+for archives beyond one machine, and on one machine it shows what its start and its tasks cost.
 
 A first, untimed run compiles holecli's bytecode into a temporary cache (``PYTHONPYCACHEPREFIX``), as
 an installed holecli has it: without it (``PYTHONDONTWRITEBYTECODE`` set) every run compiles the
@@ -64,17 +69,26 @@ def write_scans(folder, count):
 
 
 def run_batch(folder, jobs, cache):
-    """Wall time of one ``holecli batch`` run, seconds; the number of records it wrote."""
-    output = Path(folder).parent / f"out_jobs{jobs}.jsonl"
+    """Wall time of one ``holecli batch`` run, seconds; the number of records it wrote. ``jobs``: the
+    worker processes (``--jobs``), or ``"local:N"`` (``--cluster local:N``)."""
+    where = ["--cluster", jobs] if str(jobs).startswith("local:") else ["--jobs", str(jobs)]
+    output = Path(folder).parent / f"out_{str(jobs).replace(':', '')}.jsonl"
     env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONPYCACHEPREFIX=str(cache))
     env.pop("PYTHONDONTWRITEBYTECODE", None)
     started = time.perf_counter()
-    result = subprocess.run([sys.executable, "-m", "holecli", "batch", str(folder), "--jobs", str(jobs),
+    result = subprocess.run([sys.executable, "-m", "holecli", "batch", str(folder), *where, "--overwrite",
                              "--output", str(output)], capture_output=True, text=True, env=env, cwd=ROOT)
     seconds = time.perf_counter() - started
     if result.returncode not in (0, 4):
-        sys.exit(f"holecli batch --jobs {jobs} failed with exit code {result.returncode}:\n{result.stderr}")
+        sys.exit(f"holecli batch {' '.join(where)} failed with exit code {result.returncode}:\n{result.stderr}")
     return seconds, len(output.read_text().splitlines())
+
+
+def have_dask() -> bool:
+    """Whether ``--cluster`` can run here (Dask's distributed is installed)."""
+    import importlib.util
+
+    return importlib.util.find_spec("distributed") is not None
 
 
 def main():
@@ -92,11 +106,14 @@ def main():
         cache = Path(folder) / "pycache"
         run_batch(scans, 1, cache)  # warm-up: bytecode and file cache
         times = {1: [], args.jobs: []}
+        cluster = f"local:{args.jobs}"
+        if have_dask():
+            times[cluster] = []
         for _ in range(args.repeats):
             for jobs in times:
                 seconds, records = run_batch(scans, jobs, cache)
                 if records != args.scans:
-                    sys.exit(f"--jobs {jobs}: expected {args.scans} records, got {records}")
+                    sys.exit(f"{jobs}: expected {args.scans} records, got {records}")
                 times[jobs].append(seconds)
     serial, parallel = min(times[1]), min(times[args.jobs])
     ratio = serial / parallel
@@ -106,6 +123,14 @@ def main():
     print(f"files per second per core: --jobs 1 {args.scans / serial:.1f}, "
           f"--jobs {args.jobs} {args.scans / parallel / min(args.jobs, cores):.1f}")
     print(f"ratio: {ratio:.2f} (target >= {TARGET_RATIO} with --jobs 2 on 2 cores)")
+    if cluster in times:
+        clustered = min(times[cluster])
+        print(f"--cluster {cluster}: {clustered:.2f} s (runs: {', '.join(f'{t:.2f}' for t in times[cluster])}; "
+              f"the cluster's start included)")
+    else:
+        print(f"--cluster {cluster}: not run (Dask is not installed: pip install 'holecli[cluster]')")
+    print(f"files per second: --jobs 1 {args.scans / serial:.1f}, --jobs {args.jobs} {args.scans / parallel:.1f}"
+          + (f", --cluster {cluster} {args.scans / clustered:.1f}" if cluster in times else ""))
     if args.check and ratio < TARGET_RATIO:
         sys.exit(1)
 
