@@ -133,7 +133,11 @@ def measure_files(paths, options, spec, explain, reading) -> list:
         ``(record, fingerprint)`` of each file, in order. No time limit per file: a worker's tasks
         run outside its main thread, where no alarm can be set.
     """
-    return [(file_fingerprint(path), measure_guarded(path, options, spec, explain, reading))[::-1] for path in paths]
+    results = []
+    for path in paths:
+        fingerprint = file_fingerprint(path)  # first: a file changed while measured differs at the next --resume
+        results.append((measure_guarded(path, options, spec, explain, reading), fingerprint))
+    return results
 
 
 def lost_message(path) -> str:
