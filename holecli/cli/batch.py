@@ -142,7 +142,8 @@ def e57_units_overridden(files, units):
               help="Measure on a Dask cluster instead of local processes: local:N (N worker processes here, started "
                    "and stopped by holecli) or a scheduler's address, tcp://host:8786; the files must be readable "
                    "from the workers (a shared file system). With --output, OUTPUT.manifest records what is done "
-                   "(path, size, SHA-256) for --resume (needs pip install 'holecli[cluster]').")
+                   "(path, size, SHA-256) for --resume; --file-timeout is not applied there (needs pip install "
+                   "'holecli[cluster]').")
 @click.option("--files-per-task", type=click.IntRange(min=1), default=None, metavar="K",
               help="With --cluster: files measured in one task [default: max(1, min(256, ceil(files / (4 x "
                    "workers))))].")
