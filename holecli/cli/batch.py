@@ -12,6 +12,7 @@ import re
 import sys
 import time
 from contextlib import ExitStack
+from functools import partial
 
 import click
 
@@ -336,7 +337,8 @@ def batch(paths, recursive, pattern, input_format, columns, fmt, fields, output,
                 write, earlier, header = write_stdout, [], True
             after_write = None
             if measure is not None and output_file is not None:
-                earlier, after_write = open_manifest(stack, measure, output, files, earlier, resume)
+                earlier, fingerprints, after_write = open_manifest(stack, output, files, earlier, resume)
+                measure = partial(measure, fingerprints=fingerprints)
             todo = batching.files_to_do(files, earlier)
             # a subfolder that cannot be listed: an error record (once, with --resume), before the files
             done = {summary.path for summary in earlier}
@@ -366,27 +368,26 @@ def start_cluster(stack, address, task_size, verbose):
     Failure
         With the input-error code, when Dask is missing or the cluster cannot be reached.
     """
-    from functools import partial
-
     from holecli.batch.cluster import ClusterError, cluster_client, measure_on_cluster
 
     try:
         client = stack.enter_context(cluster_client(address, verbose=verbose))
     except ClusterError as error:
         raise Failure(str(error), EXIT_INPUT) from None
-    return partial(measure_on_cluster, client=client, task_size=task_size, fingerprints={})
+    return partial(measure_on_cluster, client=client, task_size=task_size)
 
 
-def open_manifest(stack, measure, output, files, earlier, resume):
+def open_manifest(stack, output, files, earlier, resume):
     """``--cluster`` with ``--output``: the manifest beside the output (:class:`holecli.batch.manifest.Manifest`),
     closed by ``stack``; with ``resume``, the ``earlier`` records whose files changed since (by the
     manifest) are left out, so that those files are measured again.
 
     Returns
     -------
-    (list of FileSummary, callable)
-        The earlier records still done, and the ``after_write`` of :func:`run_batch` (adds a record's
-        file to the manifest).
+    (list of FileSummary, dict, callable)
+        The earlier records still done; the ``fingerprints`` for
+        :func:`holecli.batch.cluster.measure_on_cluster` to fill; the ``after_write`` of
+        :func:`run_batch`, which adds a record's file to the manifest with its fingerprint.
 
     Raises
     ------
@@ -405,14 +406,14 @@ def open_manifest(stack, measure, output, files, earlier, resume):
         by_path = {resolved_path(file): file for file in files}
         changed = manifest.changed(by_path[summary.path] for summary in earlier if summary.path in by_path)
         earlier = [summary for summary in earlier if summary.path not in changed]
-    fingerprints = measure.keywords["fingerprints"]
+    fingerprints = {}
 
     def after_write(record):
         fingerprint = fingerprints.pop(record["file"], None)
         if fingerprint is not None:
             manifest.add(record["file"], fingerprint)
 
-    return earlier, after_write
+    return earlier, fingerprints, after_write
 
 
 def parse_meta(pairs) -> dict:
