@@ -26,12 +26,12 @@ import math
 import os
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from benchmarks._baseline import baseline_checkout  # noqa: E402
 from benchmarks._docs_table import VALIDATION, add_docs_options, docs_target, recording  # noqa: E402
 
 CHILD = r"""
@@ -86,36 +86,27 @@ def main(argv=None):
     args = parser.parse_args(argv)
     docs = docs_target(parser, args, argv, "pattern_speed.py", ["pattern_speed"])
     sizes = [int(s) for s in args.sizes.split(",")]
-    baseline_dir = None
-    if args.baseline:
-        baseline_dir = Path(tempfile.mkdtemp(prefix="holecli-baseline-"))
-        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q", str(baseline_dir),
-                        args.baseline], check=True)
-    with recording() as printed:
-        try:
-            header = f"{'pattern':<8} {'points':>10} {'holes':>5} {'cpu s':>8} {'wall s':>8} {'exponent':>8}"
-            if baseline_dir:
-                header += f" {'base cpu s':>10} {'base exp':>8} {'base/now':>8}"
-            print(header)
-            for pattern in args.patterns.split(","):
-                previous = previous_base = None
-                for points in sizes:
-                    now = measure(ROOT, pattern, points, args.repeats)
-                    exponent = "" if previous is None else \
-                        f"{math.log(now['cpu'] / previous['cpu']) / math.log(now['points'] / previous['points']):8.2f}"
-                    line = (f"{pattern:<8} {now['points']:>10,} {now['holes']:>5} {now['cpu']:8.3f} {now['wall']:8.3f} "
-                            f"{exponent:>8}")
-                    if baseline_dir:
-                        base = measure(baseline_dir, pattern, points, args.repeats)
-                        base_exponent = "" if previous_base is None else \
-                            f"{math.log(base['cpu'] / previous_base['cpu']) / math.log(base['points'] / previous_base['points']):8.2f}"
-                        line += f" {base['cpu']:10.3f} {base_exponent:>8} {base['cpu'] / now['cpu']:7.2f}x"
-                        previous_base = base
-                    print(line, flush=True)
-                    previous = now
-        finally:
-            if baseline_dir:
-                subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(baseline_dir)], check=False)
+    with baseline_checkout(args.baseline) as baseline_dir, recording() as printed:
+        header = f"{'pattern':<8} {'points':>10} {'holes':>5} {'cpu s':>8} {'wall s':>8} {'exponent':>8}"
+        if baseline_dir:
+            header += f" {'base cpu s':>10} {'base exp':>8} {'base/now':>8}"
+        print(header)
+        for pattern in args.patterns.split(","):
+            previous = previous_base = None
+            for points in sizes:
+                now = measure(ROOT, pattern, points, args.repeats)
+                exponent = "" if previous is None else \
+                    f"{math.log(now['cpu'] / previous['cpu']) / math.log(now['points'] / previous['points']):8.2f}"
+                line = (f"{pattern:<8} {now['points']:>10,} {now['holes']:>5} {now['cpu']:8.3f} {now['wall']:8.3f} "
+                        f"{exponent:>8}")
+                if baseline_dir:
+                    base = measure(baseline_dir, pattern, points, args.repeats)
+                    base_exponent = "" if previous_base is None else \
+                        f"{math.log(base['cpu'] / previous_base['cpu']) / math.log(base['points'] / previous_base['points']):8.2f}"
+                    line += f" {base['cpu']:10.3f} {base_exponent:>8} {base['cpu'] / now['cpu']:7.2f}x"
+                    previous_base = base
+                print(line, flush=True)
+                previous = now
     if docs:
         docs.write("pattern_speed", printed.text)
     return 0

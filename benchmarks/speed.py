@@ -14,16 +14,24 @@ that give those counts) and for laser-stripe scans of 10^5, 10^6 and 10^7 points
 The table's "cpu s" is the pipeline's median CPU time (``time.process_time``: the machine's other load
 disturbs it less than the wall time beside it), and "exponent" the scaling exponent
 ``log(t2 / t1) / log(n2 / n1)`` of that CPU time against the previous size of the same scan (1: linear).
-Its last row ("cad") is a ray-cast CAD scan: ``holecli simulate panel --panel sample_clouds/panel.toml`` at
-0.05 mm pitch, noise-free, float32 (about 915,000 points, 4 holes). ``benchmarks/pattern_speed.py``
-has grid, stripes and random sampling per size against a baseline revision.
+Its "cad" row is a ray-cast CAD scan: ``holecli simulate panel --panel sample_clouds/panel.toml`` at
+0.05 mm pitch, noise-free, float32 (about 915,000 points, 4 holes), and its "plate" row trimesh's
+plate_holes.STL on a noise-free exact 0.25 mm lattice straight down (978k points, 5 holes;
+``benchmarks/plate_speed.py``). ``benchmarks/pattern_speed.py`` has grid, stripes and random sampling
+per size.
 
 Also prints the load time of a 10^6-point binary PCD and a 10^6-row CSV, the time of
 ``import holecli`` and of ``holecli --help``, whether either imports open3d or matplotlib, and the
 CPU time of a whole ``holecli detect sample_clouds/table1.ply`` process split into the interpreter's
-start, the imports, the load, ``detect`` and the rest (output, exit).
+start, the imports, the load, ``detect`` and the rest (output, exit), and the CPU of whole
+``holecli detect`` processes on 10^4-point PLYs sampled as a grid, stripes and at random. The whole
+processes run byte-compiled (``PYTHONPYCACHEPREFIX``, filled by a first run), as an installed holecli does.
 
-Run:  python benchmarks/speed.py [--max-points 10000000] [--docs]
+With ``--baseline REV`` every figure is also measured on that git revision of holecli (checked out into
+a temporary worktree), each case right after the current code's, with the same scans, and the ratio
+baseline / current is printed: a same-run comparison on a shared machine.
+
+Run:  python benchmarks/speed.py [--max-points 10000000] [--baseline REV] [--docs]
 
 ``--docs`` writes the table into its block of docs/validation/speed.md (``--docs-page PATH``: another page).
 """
@@ -46,6 +54,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from benchmarks._baseline import baseline_checkout  # noqa: E402
 from benchmarks._docs_table import VALIDATION, add_docs_options, docs_target, recording  # noqa: E402
 
 # The paper's Table II: points -> seconds (MATLAB, one thread of an i7-6700).
@@ -85,8 +94,11 @@ def cad_scan(path):
     subprocess.run(command, check=True, capture_output=True, env=dict(os.environ, PYTHONPATH=str(ROOT)))
 
 
-def child(size, kind, repeats, delaunay):
-    """Measure one size in this (fresh) process and print a JSON line."""
+def child(size, kind, repeats, delaunay, source=None):
+    """Measure one size in this (fresh) process, with the holecli of ``source`` (a folder; None: this
+    checkout's), and print a JSON line."""
+    if source:
+        sys.path.insert(0, str(source))
     from scipy.spatial import Delaunay
 
     from holecli import detect, read_cloud
@@ -98,6 +110,10 @@ def child(size, kind, repeats, delaunay):
         path = os.path.join(folder, "scan.ply")
         if kind == "cad":
             cad_scan(path)
+        elif kind == "plate":
+            from benchmarks.plate_speed import plate_points
+
+            save_points(path, plate_points(0.25))
         else:
             scene = table1_like(size) if kind == "table1" else stripes_scan(size)
             save_points(path, make_scan(scene, 0).points)
@@ -123,8 +139,8 @@ def child(size, kind, repeats, delaunay):
                       "peak_mb": peak}))
 
 
-def run_child(size, kind, repeats, delaunay):
-    command = [sys.executable, __file__, "--child", str(size), kind, str(repeats), str(int(delaunay))]
+def run_child(size, kind, repeats, delaunay, source=None):
+    command = [sys.executable, __file__, "--child", str(size), kind, str(repeats), str(int(delaunay)), str(source or "")]
     output = subprocess.run(command, check=True, capture_output=True, text=True).stdout
     return json.loads(output.strip().splitlines()[-1])
 
@@ -192,18 +208,26 @@ def _child_cpu(command, **kwargs):
     return after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime, result.stdout
 
 
-def one_shot_split(runs=7):
+def _environment(source, cache):
+    """The environment of a whole holecli process: ``source``'s holecli, byte-compiled into ``cache``."""
+    environment = dict(os.environ, PYTHONPATH=str(source), PYTHONPYCACHEPREFIX=str(cache))
+    for name in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "PYTHONDONTWRITEBYTECODE"):
+        environment.pop(name, None)  # as a user's shell has them: unset
+    return environment
+
+
+def one_shot_split(source, cache, runs=7):
     """CPU of the whole ``holecli detect sample_clouds/table1.ply`` process, and where it goes: the
     interpreter's start, the imports, loading the file, ``detect``; what is left (writing the record,
-    the exit) is the whole minus those. Medians of ``runs`` alternating runs."""
+    the exit) is the whole minus those. Medians of ``runs`` alternating runs, after one that fills the
+    bytecode ``cache``."""
     path = str(ROOT / "sample_clouds" / "table1.ply")
-    environment = dict(os.environ, PYTHONPATH=str(ROOT))
-    for name in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-        environment.pop(name, None)  # as a user's shell has them: unset
+    environment = _environment(source, cache)
+    _child_cpu([sys.executable, "-c", SPLIT, str(source), path], env=environment)
     totals, parts = [], []
     for _ in range(runs):
         totals.append(_child_cpu([sys.executable, "-m", "holecli", "detect", path], env=environment)[0])
-        parts.append(json.loads(_child_cpu([sys.executable, "-c", SPLIT, str(ROOT), path], env=environment)[1]))
+        parts.append(json.loads(_child_cpu([sys.executable, "-c", SPLIT, str(source), path], env=environment)[1]))
     split = {key: float(np.median([part[key] for part in parts])) for key in ("interpreter", "imports", "load", "detect")}
     split["total"] = float(np.median(totals))
     split["rest"] = max(0.0, split["total"] - sum(split[key] for key in ("interpreter", "imports", "load", "detect")))
@@ -211,23 +235,59 @@ def one_shot_split(runs=7):
     return split
 
 
+def pattern_plys(folder, points=10_000):
+    """``benchmarks/pattern_speed.py``'s scene sampled as a grid, stripes and at random with about
+    ``points`` points, written as binary PLYs into ``folder``: {pattern: (path, points)}."""
+    from dataclasses import replace
+
+    from holecli.io import save_points
+    from holecli.simulation.synth import make_scan
+
+    plys = {}
+    for pattern in ("grid", "stripes", "random"):
+        scene = stripes_scan(points)
+        if pattern != "stripes":
+            area = (scene.extent[1] - scene.extent[0]) * (scene.extent[3] - scene.extent[2])
+            spacing = float(np.sqrt(area / points))
+            scene = replace(scene, pattern=pattern, line_pitch=None, spacing=spacing, noise_world_z=0.1 * spacing)
+        cloud = make_scan(scene, 0).points
+        cloud = cloud[np.isfinite(cloud).all(axis=1)]
+        path = os.path.join(folder, f"{pattern}.ply")
+        save_points(path, cloud)
+        plys[pattern] = (path, len(cloud))
+    return plys
+
+
+def whole_process(source, cache, path, runs=7):
+    """Median CPU seconds of a whole ``holecli detect PATH`` process (``source``'s holecli), after one
+    run that fills the bytecode ``cache``."""
+    environment = _environment(source, cache)
+    command = [sys.executable, "-m", "holecli", "detect", path]
+    _child_cpu(command, env=environment)
+    return float(np.median([_child_cpu(command, env=environment)[0] for _ in range(runs)]))
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--max-points", type=float, default=1e7, help="largest size to run (default 1e7)")
-    parser.add_argument("--child", nargs=4, help=argparse.SUPPRESS)
+    parser.add_argument("--baseline", default=None, help="a git revision to measure in the same run")
+    parser.add_argument("--child", nargs=5, help=argparse.SUPPRESS)
     add_docs_options(parser, VALIDATION / "speed.md")
     args = parser.parse_args(argv)
     if args.child:
-        size, kind, repeats, delaunay = args.child
-        child(int(size), kind, int(repeats), bool(int(delaunay)))
+        size, kind, repeats, delaunay, source = args.child
+        child(int(size), kind, int(repeats), bool(int(delaunay)), source or None)
         return 0
     docs = docs_target(parser, args, argv, "speed.py", ["speed"])
 
-    with recording() as printed:
+    with baseline_checkout(args.baseline) as base, recording() as printed, \
+            tempfile.TemporaryDirectory() as scratch:
         sizes = [(416, "table1", 21), (1572, "table1", 21), (6733, "table1", 21), (9498, "table1", 21),
-                 (100_000, "stripes", 5), (1_000_000, "stripes", 5), (10_000_000, "stripes", 1), (915_000, "cad", 3)]
-        print(f"{'scan':<8} {'points':>10} {'holes':>5} {'load s':>7} {'pipeline s':>10} {'cpu s':>7} {'exponent':>8} "
-              f"{'vs Table II':>11} {'Delaunay s':>10} {'vs Delaunay':>11} {'peak MB':>7}")
+                 (100_000, "stripes", 5), (1_000_000, "stripes", 5), (10_000_000, "stripes", 1), (915_000, "cad", 3),
+                 (978_000, "plate", 3)]
+        header = (f"{'scan':<8} {'points':>10} {'holes':>5} {'load s':>7} {'pipeline s':>10} {'cpu s':>7} {'exponent':>8} "
+                  f"{'vs Table II':>11} {'Delaunay s':>10} {'vs Delaunay':>11} {'peak MB':>7}")
+        print(header + (f" {'base cpu s':>10} {'base/now':>8}" if base else ""))
         previous = {}
         for size, kind, repeats in sizes:
             if size > args.max_points:
@@ -245,18 +305,34 @@ def main(argv=None):
                 before = previous[kind]
                 exponent = f"{math.log(row['cpu'] / before['cpu']) / math.log(row['points'] / before['points']):.2f}"
             previous[kind] = row
-            print(f"{kind:<8} {row['points']:>10,} {row['holes']:>5} {row['load']:>7.3f} {row['pipeline']:>10.4f} "
-                  f"{row['cpu']:>7.3f} {exponent:>8} {versus_paper} {delaunay} {versus_delaunay} {row['peak_mb']:>7.0f}",
-                  flush=True)
+            line = (f"{kind:<8} {row['points']:>10,} {row['holes']:>5} {row['load']:>7.3f} {row['pipeline']:>10.4f} "
+                    f"{row['cpu']:>7.3f} {exponent:>8} {versus_paper} {delaunay} {versus_delaunay} {row['peak_mb']:>7.0f}")
+            if base:
+                was = run_child(size, kind, repeats, delaunay=False, source=base)
+                line += f" {was['cpu']:>10.3f} {was['cpu'] / row['cpu']:>7.2f}x"
+            print(line, flush=True)
         loads = load_times()
         print(f"load 10^6 points: binary PCD {loads['scan.pcd']:.3f} s, CSV {loads['scan.csv']:.3f} s")
         import_time, heavy_import, help_time, heavy_help = startup()
         print(f"import holecli: {import_time:.3f} s, open3d/matplotlib imported: {heavy_import}")
         print(f"holecli --help: {help_time:.3f} s (whole process), open3d/matplotlib imported: {heavy_help}")
-        split = one_shot_split()
-        print(f"holecli detect on a {split['points']:,}-point PLY, CPU s (median of {split['runs']} runs): whole process "
-              f"{split['total']:.3f} = interpreter {split['interpreter']:.3f} + imports {split['imports']:.3f} "
-              f"+ load {split['load']:.3f} + detect {split['detect']:.3f} + output and exit {split['rest']:.3f}")
+        cache = Path(scratch) / "pycache"
+        for label, source in [("now", ROOT), ("base", base)]:
+            if source is None:
+                continue
+            split = one_shot_split(source, cache / label)
+            print(f"holecli detect on a {split['points']:,}-point PLY, CPU s (median of {split['runs']} runs, {label}): "
+                  f"whole process {split['total']:.3f} = interpreter {split['interpreter']:.3f} + imports "
+                  f"{split['imports']:.3f} + load {split['load']:.3f} + detect {split['detect']:.3f} + output and exit "
+                  f"{split['rest']:.3f}")
+        print("whole process holecli detect of a 10^4-point PLY, CPU s (median of 7 runs, byte-compiled):")
+        for pattern, (path, points) in pattern_plys(scratch).items():
+            now = whole_process(ROOT, cache / "now", path)
+            line = f"  {pattern:<8} {points:>7,} points: {now:.3f}"
+            if base:
+                was = whole_process(base, cache / "base", path)
+                line += f" (base {was:.3f}, base/now {was / now:.2f}x)"
+            print(line, flush=True)
     if docs:
         docs.write("speed", printed.text)
     return 0
