@@ -30,8 +30,9 @@ __all__ = ["LinearProgramResult", "maximize"]
 FEASIBILITY_TOL = 1e-9
 MULTIPLIER_TOL = 1e-11
 DIRECTION_TOL = 1e-9
-# Every multiplier above UNIQUE_TOL: no other vertex has the same objective.
-UNIQUE_TOL = 1e-8
+# Every multiplier above UNIQUE_TOL: no other point has the same objective, nor one within the dual
+# feasibility tolerance of HiGHS (1e-7, its default), so a general solver finds this same vertex.
+UNIQUE_TOL = 1e-7
 # After this many steps without progress the leaving row is chosen by Bland's rule (the lowest
 # index), which cannot cycle.
 BLAND_AFTER = 20
@@ -68,7 +69,9 @@ class LinearProgramResult:
 
     @property
     def unique(self):
-        """True when the optimum is certainly unique: every multiplier of the vertex is positive."""
+        """True when the optimum is certainly unique: a vertex whose every multiplier is positive
+        (above ``UNIQUE_TOL``). Otherwise other points may be optimal too (an edge or a face of the
+        polytope at the same height), and which of them a solver returns is its own choice."""
         return bool(self.success and len(self.active) == len(self.x) and np.all(self.multipliers > UNIQUE_TOL))
 
 

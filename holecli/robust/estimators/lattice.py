@@ -107,19 +107,23 @@ def separating_circle(local_xy, rim_xy, steps, center, radius, *, settings=DEFAU
     if not steps:
         return None
     step_length = float(np.median([np.linalg.norm(s) for s in steps]))
-    tree = cKDTree(local_xy)
+    vectors = np.array([vector for step in steps for vector in (step, -step)])
+    # The distance from the nearest material point behind and ahead of every rim point along every
+    # vector, in one query (of an unbalanced tree: quicker to build, the same distances), exact up to
+    # twice the farther of the two thresholds (beyond it: infinite, on the same side of both).
+    ahead_xy = rim_xy[None] + vectors[:, None]
+    reach = 2.0 * max(settings.lattice_present_steps, settings.lattice_missing_steps) * np.linalg.norm(vectors, axis=1).max()
+    distance, _ = cKDTree(local_xy, balanced_tree=False, compact_nodes=False).query(
+        np.concatenate([rim_xy[None] - vectors[:, None], ahead_xy]).reshape(-1, 2), distance_upper_bound=reach)
+    behind_all, ahead_all = distance.reshape(2, len(vectors), len(rim_xy))
     inner, outer = [], []
-    for step in steps:
-        for vector in (step, -step):
-            length = float(np.linalg.norm(vector))
-            behind, _ = tree.query(rim_xy - vector)
-            ahead, _ = tree.query(rim_xy + vector)
-            candidate = rim_xy + vector
-            inside = np.hypot(*(candidate - center).T) < radius
-            ok = ((behind < settings.lattice_present_steps * length)
-                  & (ahead > settings.lattice_missing_steps * length) & inside)
-            inner.append(candidate[ok])
-            outer.append(rim_xy[ok])
+    for vector, behind, ahead, candidate in zip(vectors, behind_all, ahead_all, ahead_xy):
+        length = float(np.linalg.norm(vector))
+        inside = np.hypot(*(candidate - center).T) < radius
+        ok = ((behind < settings.lattice_present_steps * length)
+              & (ahead > settings.lattice_missing_steps * length) & inside)
+        inner.append(candidate[ok])
+        outer.append(rim_xy[ok])
     inner = np.unique(np.concatenate(inner), axis=0)
     outer = np.unique(np.concatenate(outer), axis=0)
     if len(inner) < settings.lattice_min_brackets:
@@ -181,15 +185,17 @@ def _maximize(objective, rows, limits, bounds, start):
     """The point that maximises ``objective . x`` subject to ``rows x <= limits`` and the ``bounds``
     of each variable (``(low, high)``, None for no bound), from the feasible ``start``.
 
-    Solved by :func:`holecli.geometry.small_lp.maximize`; where it cannot certify an optimum, by
-    scipy's HiGHS. None when neither finds one.
+    Solved by :func:`holecli.geometry.small_lp.maximize`; by scipy's HiGHS where it cannot certify
+    an optimum, or where the optimum may not be unique (about one programme in a thousand on random
+    lattice cuts, none on the benchmarks' scans): HiGHS's choice among the optimal points is the one
+    holecli made before, kept so that the records do not move. None when neither finds one.
     """
     box = np.eye(len(objective))
     upper = [j for j, (_, high) in enumerate(bounds) if high is not None]
     lower = [j for j, (low, _) in enumerate(bounds) if low is not None]
     result = maximize(objective, np.vstack([rows, box[upper], -box[lower]]),
                       np.concatenate([limits, [bounds[j][1] for j in upper], [-bounds[j][0] for j in lower]]), start)
-    if result.success:
+    if result.unique:
         return result.x
     from scipy.optimize import linprog  # here: its import costs the command line about half a second
 

@@ -109,3 +109,72 @@ def test_separating_circle_is_scale_free(factor):
     assert np.linalg.norm(scaled[0] / factor - center) < 1e-6 * H
     assert abs(scaled[1] / factor - radius) < 1e-6 * H
     assert scaled[2] / factor == pytest.approx(margin, rel=1e-6)
+
+
+def random_cut(seed):
+    """A lattice cut of random pitch (a grid or stripes), angle, phase, hole and in-plane noise; the
+    start a rim fit would give (too large, off center)."""
+    rng = np.random.default_rng(seed)
+    pitch = H * rng.choice([1.0, 3.0])
+    angle = rng.uniform(0.0, np.pi / 2)
+    axes = (np.array([np.cos(angle), np.sin(angle)]), np.array([-np.sin(angle), np.cos(angle)]))
+    radius = rng.uniform(0.4, 2.0)
+    across = int(np.ceil((radius + 0.6) / pitch))
+    along = int(np.ceil((radius + 0.6) / H))
+    i, j = np.meshgrid(np.arange(-along, along + 1), np.arange(-across, across + 1))
+    xy = np.outer(i.ravel() * H, axes[0]) + np.outer(j.ravel() * pitch, axes[1]) + rng.uniform(0.0, H, 2)
+    xy += rng.normal(scale=rng.choice([0.0, 0.002, 0.01]) * H, size=xy.shape)
+    center = rng.uniform(-0.5 * H, 0.5 * H, 2)
+    material, rim = with_hole(xy, center, radius)
+    steps = lattice_steps(material, axes if pitch == H else axes[:1], H)
+    start = center + rng.normal(scale=0.02 * H, size=2), radius + rng.uniform(0.0, 0.1 * H)
+    return material, rim, steps, start
+
+
+def test_separating_circle_is_highs_optimum(monkeypatch):
+    """On 300 random lattice cuts the separating circle, its margin and its range of radii are those of
+    scipy's HiGHS on the same programmes (the solver of holecli before 0.2: linprog on every row) to
+    1e-9 of the spacing, and the cuts where HiGHS finds no circle are those where it finds none."""
+    from holecli.geometry.small_lp import LinearProgramResult
+    from holecli.robust.estimators import lattice
+
+    cuts = [random_cut(seed) for seed in range(300)]
+    found = [separating_circle(material, rim, steps, *start, radii=True) for material, rim, steps, start in cuts]
+    monkeypatch.setattr(lattice, "maximize", lambda *args, **kwargs: LinearProgramResult(False, None, None, None, 0, "x"))
+    reference = [separating_circle(material, rim, steps, *start, radii=True) for material, rim, steps, start in cuts]
+    compared = 0
+    for seed, (ours, highs) in enumerate(zip(found, reference)):
+        assert (ours is None) == (highs is None), seed
+        if ours is None:
+            continue
+        compared += 1
+        assert np.abs(ours[0] - highs[0]).max() < 1e-9 * H, seed
+        assert ours[1] == pytest.approx(highs[1], abs=1e-9 * H), seed
+        assert ours[2] == pytest.approx(highs[2], abs=1e-9 * H), seed
+        np.testing.assert_allclose(ours[3], highs[3], atol=1e-9 * H, err_msg=str(seed))
+    assert compared >= 200
+
+
+def test_separating_circle_optimum_is_certified(monkeypatch):
+    """Every programme of the random cuts is solved with its certificate: every row, the other
+    material points included, satisfied at the optimum, and the optimum's multipliers non-negative."""
+    from holecli.geometry import small_lp
+    from holecli.robust.estimators import lattice
+
+    solved = []
+
+    def recording(c, A, b, x0, **kwargs):
+        result = small_lp.maximize(c, A, b, x0, **kwargs)
+        solved.append((np.asarray(c), A, b, result))
+        return result
+
+    monkeypatch.setattr(lattice, "maximize", recording)
+    for seed in range(100):
+        material, rim, steps, start = random_cut(seed)
+        separating_circle(material, rim, steps, *start, radii=True)
+    assert len(solved) >= 150
+    for c, A, b, result in solved:
+        assert result.success, result.message
+        assert (A @ result.x - b).max() <= small_lp.FEASIBILITY_TOL
+        assert np.all(result.multipliers >= -small_lp.MULTIPLIER_TOL)
+        np.testing.assert_allclose(A[result.active].T @ result.multipliers, c, atol=1e-9)
