@@ -22,11 +22,11 @@ import numpy as np
 
 __all__ = ["LinearProgramResult", "maximize"]
 
-# Rows whose slack is within this (in the units of b, the programme being scaled to order one) are
-# active; a multiplier above -MULTIPLIER_TOL is non-negative; a row whose cosine with a direction is
-# below DIRECTION_TOL does not block it (a row parallel to the active ones, e.g. a repeated row,
-# would make them singular; moving along it changes its slack by that fraction of the step at most,
-# and the optimum is checked against every row in the end).
+# A point violating no row by more than FEASIBILITY_TOL (in the units of b, the programme being
+# scaled to order one) is feasible; a multiplier above -MULTIPLIER_TOL is non-negative; a row whose
+# cosine with a direction is below DIRECTION_TOL does not block it (a row parallel to the active
+# ones, e.g. a repeated row, would make them singular; moving along it changes its slack by that
+# fraction of the step at most, and the optimum is checked against every row in the end).
 FEASIBILITY_TOL = 1e-9
 MULTIPLIER_TOL = 1e-11
 DIRECTION_TOL = 1e-9
@@ -49,11 +49,11 @@ class LinearProgramResult:
         when fewer rows than variables are active: the optimum is then not unique).
     x : (d,) float or None
         The optimal point (None unless ``success``).
-    active : (d,) int or None
-        The rows that define the optimal vertex.
-    multipliers : (d,) float or None
+    active : (k,) int or None
+        The rows active at the optimum, linearly independent: ``k = d`` at a vertex, fewer on a face.
+    multipliers : (k,) float or None
         Their multipliers: ``A[active].T @ multipliers == c``, all >= 0. A multiplier of zero means
-        the optimum may not be unique (another vertex can have the same objective).
+        the optimum may not be unique (another vertex can have the same objective): see ``unique``.
     steps : int
         Simplex steps taken.
     message : str
