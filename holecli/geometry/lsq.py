@@ -190,7 +190,8 @@ def trimmed_refit(fit, residuals, start, *, clip, floor, rounds, minimum, refit_
     minimum : int
         Fewest points kept (else every point is, at the start, or the last set stays).
     refit_last : bool
-        Fit the last kept set once more at the end (it was not fitted when ``rounds`` ran out).
+        Fit the last kept set at the end when it was not fitted (``rounds`` ran out, or is 0); when
+        the rounds stopped because the kept set stayed, ``p`` is already its fit.
 
     Returns
     -------
@@ -202,14 +203,16 @@ def trimmed_refit(fit, residuals, start, *, clip, floor, rounds, minimum, refit_
     kept = np.abs(residual) <= clip * max(robust_sigma(residual), floor)
     if np.count_nonzero(kept) < minimum:
         kept = np.ones(len(residual), dtype=bool)
+    fitted = False  # whether p is the fit of the kept set
     for _ in range(rounds):
         p = fit(p, kept)
         residual = residuals(p)
         new_kept = np.abs(residual) <= clip * max(robust_sigma(residual[kept]), floor)
         if np.count_nonzero(new_kept) < minimum or np.array_equal(new_kept, kept):
+            fitted = True
             break
         kept = new_kept
-    if refit_last:
+    if refit_last and not fitted:
         p = fit(p, kept)
     return p, kept
 

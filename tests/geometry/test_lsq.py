@@ -95,6 +95,28 @@ def test_trimmed_refit_keeps_everything_when_too_few_would_stay():
     assert kept.all()
 
 
+@pytest.mark.parametrize("rounds, start, fits", [
+    (10, 5.05, 1),  # the start leaves the outliers out, the first fit keeps that set: it is the last set's fit
+    (1, 5.6, 2),    # the start keeps every value, the first fit leaves the outliers out, the rounds run out:
+                    # that set is fitted once more
+    (0, 5.05, 1),   # no round: the start's kept set is fitted
+])
+def test_trimmed_refit_refits_the_last_set_only_when_it_was_not_fitted(rounds, start, fits):
+    values = np.concatenate([5.0 + 0.1 * np.random.default_rng(0).standard_normal(200), np.full(10, 6.0)])
+    fitted = []
+
+    def fit(p, kept):
+        fitted.append(kept.copy())
+        return np.array([values[kept].mean()])
+
+    p, kept = trimmed_refit(fit, lambda p: values - p[0], [start], clip=3.0, floor=0.0, rounds=rounds,
+                            minimum=2, refit_last=True)
+    assert len(fitted) == fits
+    np.testing.assert_array_equal(fitted[-1], kept)
+    assert not kept[200:].any() and kept[:200].all()
+    assert p[0] == values[kept].mean()
+
+
 def test_the_covariance_of_a_straight_line_is_the_textbook_one():
     rng = np.random.default_rng(1)
     x = np.linspace(0.0, 10.0, 50)
