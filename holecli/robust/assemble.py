@@ -18,6 +18,7 @@ from holecli.results import Bore, Counterbore, Countersink, Hole, HoleNote, Reje
 from holecli.robust.doubts import Doubts, doubt_warnings, edge_bore_warning
 from holecli.robust.estimators import ESTIMATOR_NAMED
 from holecli.robust.hole_shape import measure_hole_shape
+from holecli.robust.scene import seen_from
 from holecli.robust.uncertainty import edge_uncertainty, resolution_uncertainty
 from holecli.vocabulary import ESTIMATOR_RIM_FIT, NOTE_CODES, REJECTION_REASONS
 
@@ -94,6 +95,7 @@ def _uncertainty(scene, measured):
 
 def with_shape(scene, hole, measured, gauge_depth, settings):
     """The hole with what its points below the edge show (:mod:`holecli.robust.hole_shape`)."""
+    scene = seen_from(scene, measured)  # (its points from those gathered around the hole)
     center = np.asarray(hole.center)
     center2d = (scene.rotation @ (center - scene.origin))[:2]
     # The plane frame's disk holds every point within the search radius of the hole's axis, deep

@@ -311,3 +311,125 @@ def _nothing_behind(heights, surface, band, view):
     """
     behind = np.count_nonzero(~surface & (heights * np.sign(view[2]) > band))
     return behind <= SEEN_MIN_POINTS
+
+
+class Neighbourhood:
+    """The scene as one hole sees it: every attribute and question of its :class:`Scene`, the
+    neighbourhood questions (``box``, ``within``, ``count_in_disk``) answered from the points
+    gathered once around the hole.
+
+    A hole's measurement asks a dozen questions of the points around it (the surface ring of its
+    tangent plane and of the height of a countersink's top, the fringe of its edge, the reflections
+    inside it, a boss, the points of its shape, the crop of a curved panel), each of them a pass over
+    the whole scan when asked of the scene. Here each of the scene's point arrays (``xy``,
+    ``surface_xy``, ``material_xy``, ``above_xy``) is gathered once, when first asked, within its
+    ``reaches`` of ``center`` (or farther, when the first question needs it), with every point's
+    distance from ``center``. A question about a disk or ring inside what was gathered is answered
+    from those points alone: the points clearly inside or outside it by their distance from
+    ``center`` (the triangle inequality, with a margin a million times the round-off), the few near
+    its circles by the scene's own box test and distance, so that the answer is the scene's, the
+    same indices in the same order. Any other question goes to the scene.
+
+    Parameters
+    ----------
+    scene : Scene
+    center : (2,) float
+        Plane frame.
+    reaches : dict
+        Per array's name (``"xy"``, ``"surface_xy"``, ``"material_xy"``, ``"above_xy"``), the
+        radius within which its points are gathered when first asked (an array not named: as far
+        as its first question needs).
+    """
+
+    ARRAYS = ("xy", "surface_xy", "material_xy", "above_xy")
+
+    def __init__(self, scene, center, reaches):
+        self.scene = scene
+        self.center = np.array(center, dtype=np.float64)
+        self.reaches = dict(reaches)
+        self._gathered = {}  # name -> (indices, their distances from center, reach)
+
+    def __getattr__(self, name):
+        if name.startswith("_"):  # (copy and pickle ask before __init__ has run)
+            raise AttributeError(name)
+        return getattr(self.scene, name)
+
+    def _name_of(self, xy):
+        for name in self.ARRAYS:
+            if xy is getattr(self.scene, name):
+                return name
+        return None
+
+    def _margin(self, center, reach):
+        # Distances carry a few units of round-off of the coordinates' magnitude: far below this.
+        scale = float(np.max(np.abs(self.center))) + float(np.max(np.abs(center))) + abs(reach)
+        return 1e-9 * scale
+
+    def _gather(self, name, need):
+        """The points of the array ``name`` within its reach of the center (at least ``need``), and
+        their distances from it."""
+        gathered = self._gathered.get(name)
+        if gathered is None:
+            reach = max(float(self.reaches.get(name, 0.0)), need)
+            xy, center = getattr(self.scene, name), self.center
+            index = self.scene.box(xy, center - reach, center + reach)
+            distance = np.hypot(xy[index, 0] - center[0], xy[index, 1] - center[1])
+            inside = distance <= reach
+            gathered = self._gathered[name] = (index[inside], distance[inside], reach)
+        return gathered
+
+    def box(self, xy, low, high):
+        """:meth:`Scene.box`, from the gathered points when the box lies inside them."""
+        name = self._name_of(xy)
+        gathered = None if name is None else self._gathered.get(name)
+        if gathered is not None:
+            index, _, reach = gathered
+            low, high = np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
+            corners = np.array([[low[0], low[1]], [low[0], high[1]], [high[0], low[1]], [high[0], high[1]]])
+            farthest = float(np.max(np.hypot(*(corners - self.center).T)))
+            if farthest + self._margin(high, reach) + self._margin(low, reach) <= reach:
+                points = xy[index]
+                return index[(points[:, 0] >= low[0]) & (points[:, 0] <= high[0])
+                             & (points[:, 1] >= low[1]) & (points[:, 1] <= high[1])]
+        return self.scene.box(xy, low, high)
+
+    def within(self, xy, center, inner, outer):
+        """:meth:`Scene.within`: the same indices, from the gathered points when the disk of ``outer``
+        lies inside them."""
+        name = self._name_of(xy)
+        center = np.asarray(center, dtype=np.float64)
+        shift = float(np.hypot(center[0] - self.center[0], center[1] - self.center[1]))
+        margin = self._margin(center, shift + outer)
+        if name is None or not np.isfinite(shift + outer):
+            return self.scene.within(xy, center, inner, outer)
+        index, distance, reach = self._gather(name, shift + outer + 2.0 * margin)
+        if not shift + outer + margin <= reach:
+            return self.scene.within(xy, center, inner, outer)
+        # Distances from ``center`` differ from those from self.center by at most ``shift``.
+        maybe = distance < outer + shift + margin
+        sure = distance < outer - shift - margin
+        if inner > 0:
+            maybe &= distance >= inner - shift - margin
+            sure &= distance >= inner + shift + margin
+        sure &= maybe
+        doubt = np.flatnonzero(maybe & ~sure)
+        if len(doubt):
+            # The scene's own tests (Scene.within: the box, then the distance).
+            points = xy[index[doubt]]
+            low, high = center - outer, center + outer
+            boxed = ((points[:, 0] >= low[0]) & (points[:, 0] <= high[0])
+                     & (points[:, 1] >= low[1]) & (points[:, 1] <= high[1]))
+            exact = np.hypot(points[:, 0] - center[0], points[:, 1] - center[1])
+            sure[doubt] = boxed & (exact >= inner) & (exact < outer)
+        return index[sure]
+
+    def count_in_disk(self, xy, center, radius):
+        """:meth:`Scene.count_in_disk`, from the gathered points."""
+        return len(self.within(xy, center, 0.0, radius))
+
+
+def seen_from(scene, measured):
+    """The scene as the hole ``measured`` sees it: the :class:`Neighbourhood` its measurement
+    gathered (``measured.around``), else ``scene``."""
+    around = getattr(measured, "around", None)
+    return scene if around is None else around
