@@ -322,13 +322,13 @@ class Neighbourhood:
     tangent plane and of the height of a countersink's top, the fringe of its edge, the reflections
     inside it, a boss, the points of its shape, the crop of a curved panel), each of them a pass over
     the whole scan when asked of the scene. Here each of the scene's point arrays (``xy``,
-    ``surface_xy``, ``material_xy``, ``above_xy``) is gathered once, when first asked, within its
-    ``reaches`` of ``center`` (or farther, when the first question needs it), with every point's
-    distance from ``center``. A question about a disk or ring inside what was gathered is answered
-    from those points alone: the points clearly inside or outside it by their distance from
-    ``center`` (the triangle inequality, with a margin a million times the round-off), the few near
-    its circles by the scene's own box test and distance, so that the answer is the scene's, the
-    same indices in the same order. Any other question goes to the scene.
+    ``surface_xy``, ``material_xy``, ``above_xy``) is gathered once, when first asked: its points in
+    the box of its reach about ``center`` (or farther, when the first question needs it), with their
+    squared distances from ``center``. A question whose box lies inside what was gathered is
+    answered from those points alone: the points clearly inside or outside its ring by their
+    distance from ``center`` (the triangle inequality, with a margin a million times the round-off),
+    the few near its circles by the scene's own box test and distance, so that the answer is the
+    scene's, the same indices in the same order. Any other question goes to the scene.
 
     Parameters
     ----------
@@ -337,8 +337,8 @@ class Neighbourhood:
         Plane frame.
     reaches : dict
         Per array's name (``"xy"``, ``"surface_xy"``, ``"material_xy"``, ``"above_xy"``), the
-        radius within which its points are gathered when first asked (an array not named: as far
-        as its first question needs).
+        half side of the box its points are gathered in when first asked (an array not named: as
+        far as its first question needs).
     """
 
     ARRAYS = ("xy", "surface_xy", "material_xy", "above_xy")
@@ -347,7 +347,7 @@ class Neighbourhood:
         self.scene = scene
         self.center = np.array(center, dtype=np.float64)
         self.reaches = dict(reaches)
-        self._gathered = {}  # name -> (indices, their distances from center, reach)
+        self._gathered = {}  # name -> (indices, their squared distances from center, low, high)
 
     def __getattr__(self, name):
         if name.startswith("_"):  # (copy and pickle ask before __init__ has run)
@@ -360,67 +360,66 @@ class Neighbourhood:
                 return name
         return None
 
-    def _margin(self, center, reach):
-        # Distances carry a few units of round-off of the coordinates' magnitude: far below this.
-        scale = float(np.max(np.abs(self.center))) + float(np.max(np.abs(center))) + abs(reach)
-        return 1e-9 * scale
-
     def _gather(self, name, need):
-        """The points of the array ``name`` within its reach of the center (at least ``need``), and
-        their distances from it."""
+        """The points of the array ``name`` in the box of its reach (at least ``need``) about the
+        center, their squared distances from it, and the box's corners."""
         gathered = self._gathered.get(name)
         if gathered is None:
             reach = max(float(self.reaches.get(name, 0.0)), need)
             xy, center = getattr(self.scene, name), self.center
-            index = self.scene.box(xy, center - reach, center + reach)
-            distance = np.hypot(xy[index, 0] - center[0], xy[index, 1] - center[1])
-            inside = distance <= reach
-            gathered = self._gathered[name] = (index[inside], distance[inside], reach)
+            low, high = center - reach, center + reach
+            index = self.scene.box(xy, low, high)
+            dx, dy = xy[index, 0] - center[0], xy[index, 1] - center[1]
+            gathered = self._gathered[name] = (index, dx * dx + dy * dy, low, high)
         return gathered
 
     def box(self, xy, low, high):
-        """:meth:`Scene.box`, from the gathered points when the box lies inside them."""
+        """:meth:`Scene.box`, from the gathered points when the box lies inside theirs."""
         name = self._name_of(xy)
         gathered = None if name is None else self._gathered.get(name)
         if gathered is not None:
-            index, _, reach = gathered
+            index, _, gathered_low, gathered_high = gathered
             low, high = np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
-            corners = np.array([[low[0], low[1]], [low[0], high[1]], [high[0], low[1]], [high[0], high[1]]])
-            farthest = float(np.max(np.hypot(*(corners - self.center).T)))
-            if farthest + self._margin(high, reach) + self._margin(low, reach) <= reach:
+            if np.all(low >= gathered_low) and np.all(high <= gathered_high):
                 points = xy[index]
                 return index[(points[:, 0] >= low[0]) & (points[:, 0] <= high[0])
                              & (points[:, 1] >= low[1]) & (points[:, 1] <= high[1])]
         return self.scene.box(xy, low, high)
 
     def within(self, xy, center, inner, outer):
-        """:meth:`Scene.within`: the same indices, from the gathered points when the disk of ``outer``
-        lies inside them."""
+        """:meth:`Scene.within`: the same indices, from the gathered points when the box of the disk
+        of ``outer`` lies inside theirs."""
         name = self._name_of(xy)
         center = np.asarray(center, dtype=np.float64)
         shift = float(np.hypot(center[0] - self.center[0], center[1] - self.center[1]))
-        margin = self._margin(center, shift + outer)
-        if name is None or not np.isfinite(shift + outer):
+        if name is None or not np.isfinite(shift + outer) or not outer > 0:
             return self.scene.within(xy, center, inner, outer)
-        index, distance, reach = self._gather(name, shift + outer + 2.0 * margin)
-        if not shift + outer + margin <= reach:
+        # The distances carry a few units of round-off of the coordinates' magnitude: far below this.
+        margin = 1e-9 * (float(np.max(np.abs(self.center))) + float(np.max(np.abs(center))) + shift + outer)
+        index, squared, gathered_low, gathered_high = self._gather(name, shift + outer + 2.0 * margin)
+        low, high = center - outer, center + outer
+        if not (np.all(low >= gathered_low) and np.all(high <= gathered_high)):
             return self.scene.within(xy, center, inner, outer)
-        # Distances from ``center`` differ from those from self.center by at most ``shift``.
-        maybe = distance < outer + shift + margin
-        sure = distance < outer - shift - margin
-        if inner > 0:
-            maybe &= distance >= inner - shift - margin
-            sure &= distance >= inner + shift + margin
-        sure &= maybe
+        # A point's distance from ``center`` differs from its distance from self.center by at most
+        # ``shift``: certainly out beyond outer + shift or within inner - shift, certainly in between
+        # inner + shift and outer - shift; the rest is tested as the scene tests it.
+        maybe = squared < (outer + shift + margin) ** 2
+        if inner - shift - margin > 0:
+            maybe &= squared >= (inner - shift - margin) ** 2
+        if outer - shift - margin > 0:
+            sure = maybe & (squared < (outer - shift - margin) ** 2)
+            if inner > 0:
+                sure &= squared >= (inner + shift + margin) ** 2
+        else:
+            sure = np.zeros(len(index), dtype=bool)
         doubt = np.flatnonzero(maybe & ~sure)
         if len(doubt):
-            # The scene's own tests (Scene.within: the box, then the distance).
+            # Scene.within's own tests: the box, then the distance.
             points = xy[index[doubt]]
-            low, high = center - outer, center + outer
             boxed = ((points[:, 0] >= low[0]) & (points[:, 0] <= high[0])
                      & (points[:, 1] >= low[1]) & (points[:, 1] <= high[1]))
-            exact = np.hypot(points[:, 0] - center[0], points[:, 1] - center[1])
-            sure[doubt] = boxed & (exact >= inner) & (exact < outer)
+            distance = np.hypot(points[:, 0] - center[0], points[:, 1] - center[1])
+            sure[doubt] = boxed & (distance >= inner) & (distance < outer)
         return index[sure]
 
     def count_in_disk(self, xy, center, radius):
