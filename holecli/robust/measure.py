@@ -223,23 +223,22 @@ def _around(scene, fit, settings):
     """The :class:`holecli.robust.scene.Neighbourhood` of a hole whose rim's circle is ``fit``: what
     its measurement asks of the scan, from here to its shape, gathered once.
 
-    Each array's reach is the farthest any step asks, for an edge up to a countersink's window
-    (``2 alpha``) outside the rim and a center that moves by as much: the surface ring of the tangent
-    plane and of a curved panel (``crop_ring_radii``), the crop of a curved panel (``crop_radii``) and
-    the points of the hole's shape (:func:`holecli.robust.assemble.with_shape`, about a center a
-    curved panel moves by up to half a radius), the material that synthetic holes are cut into
-    (:func:`holecli.robust.estimators.rim_fit.synthetic_ring`), a boss. A step that asks farther is
-    answered by the scene.
+    Each array's reach is the farthest any step of every hole asks, for an edge up to a
+    countersink's window (``2 alpha``) outside the rim and a center that moves by as much: the
+    surface ring of the tangent plane and of the curvature test (``crop_ring_radii``), the points of
+    the hole's shape (:func:`holecli.robust.assemble.with_shape`), the material that synthetic holes
+    are cut into (:func:`holecli.robust.estimators.rim_fit.synthetic_ring`), a boss. What only a hole
+    of a curved panel asks (the crop of ``crop_radii``, the shape about the center moved onto the
+    surface: :mod:`holecli.robust.curved`) is answered by the scene, as is any step that asks farther.
     """
     alpha, cell = scene.alpha, scene.cell
     radius = fit.radius + 2.0 * alpha
     slack = 2.0 * alpha + cell
-    shape = settings.shape_search_radii * (1.0 + settings.shape_depth_radii * 0.2) + 0.5
     period = scene.sampling.period or 0.5 * alpha
     step = max(float(scene.sampling.gap), float(scene.sampling.spacing), period)  # (the offsets' unit)
     synthetic = max(settings.bias_offsets) * step + settings.margin_alphas * alpha + cell + period
     return Neighbourhood(scene, fit.center, {
-        "xy": max(settings.crop_radii, shape) * radius + slack,
+        "xy": settings.shape_search_radii * (1.0 + settings.shape_depth_radii * 0.2) * radius + slack,
         "surface_xy": max(3.0, settings.crop_ring_radii) * radius + slack,
         "material_xy": radius + synthetic + slack,
         "above_xy": radius + slack,
