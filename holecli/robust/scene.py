@@ -362,7 +362,8 @@ class Neighbourhood:
 
     def _gather(self, name, need):
         """The points of the array ``name`` in the box of its reach (at least ``need``) about the
-        center, their squared distances from it, and the box's corners."""
+        center, their squared distances from it, and the box's corners ``(low x, low y, high x,
+        high y)``."""
         gathered = self._gathered.get(name)
         if gathered is None:
             reach = max(float(self.reaches.get(name, 0.0)), need)
@@ -370,7 +371,8 @@ class Neighbourhood:
             low, high = center - reach, center + reach
             index = self.scene.box(xy, low, high)
             dx, dy = xy[index, 0] - center[0], xy[index, 1] - center[1]
-            gathered = self._gathered[name] = (index, dx * dx + dy * dy, low, high)
+            corners = (float(low[0]), float(low[1]), float(high[0]), float(high[1]))
+            gathered = self._gathered[name] = (index, dx * dx + dy * dy, corners)
         return gathered
 
     def box(self, xy, low, high):
@@ -378,9 +380,8 @@ class Neighbourhood:
         name = self._name_of(xy)
         gathered = None if name is None else self._gathered.get(name)
         if gathered is not None:
-            index, _, gathered_low, gathered_high = gathered
-            low, high = np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
-            if np.all(low >= gathered_low) and np.all(high <= gathered_high):
+            index, _, (low_x, low_y, high_x, high_y) = gathered
+            if low[0] >= low_x and low[1] >= low_y and high[0] <= high_x and high[1] <= high_y:
                 points = xy[index]
                 return index[(points[:, 0] >= low[0]) & (points[:, 0] <= high[0])
                              & (points[:, 1] >= low[1]) & (points[:, 1] <= high[1])]
@@ -390,15 +391,15 @@ class Neighbourhood:
         """:meth:`Scene.within`: the same indices, from the gathered points when the box of the disk
         of ``outer`` lies inside theirs."""
         name = self._name_of(xy)
-        center = np.asarray(center, dtype=np.float64)
-        shift = float(np.hypot(center[0] - self.center[0], center[1] - self.center[1]))
-        if name is None or not np.isfinite(shift + outer) or not outer > 0:
+        x, y = float(center[0]), float(center[1])
+        at_x, at_y = float(self.center[0]), float(self.center[1])
+        shift = ((x - at_x) ** 2 + (y - at_y) ** 2) ** 0.5
+        if name is None or not 0.0 < outer < np.inf or not shift < np.inf:
             return self.scene.within(xy, center, inner, outer)
         # The distances carry a few units of round-off of the coordinates' magnitude: far below this.
-        margin = 1e-9 * (float(np.max(np.abs(self.center))) + float(np.max(np.abs(center))) + shift + outer)
-        index, squared, gathered_low, gathered_high = self._gather(name, shift + outer + 2.0 * margin)
-        low, high = center - outer, center + outer
-        if not (np.all(low >= gathered_low) and np.all(high <= gathered_high)):
+        margin = 1e-9 * (max(abs(at_x), abs(at_y)) + max(abs(x), abs(y)) + shift + outer)
+        index, squared, (low_x, low_y, high_x, high_y) = self._gather(name, shift + outer + 2.0 * margin)
+        if not (x - outer >= low_x and y - outer >= low_y and x + outer <= high_x and y + outer <= high_y):
             return self.scene.within(xy, center, inner, outer)
         # A point's distance from ``center`` differs from its distance from self.center by at most
         # ``shift``: certainly out beyond outer + shift or within inner - shift, certainly in between
@@ -412,10 +413,11 @@ class Neighbourhood:
                 sure &= squared >= (inner + shift + margin) ** 2
         else:
             sure = np.zeros(len(index), dtype=bool)
-        doubt = np.flatnonzero(maybe & ~sure)
+        doubt = np.flatnonzero(maybe ^ sure)  # (sure lies inside maybe)
         if len(doubt):
             # Scene.within's own tests: the box, then the distance.
             points = xy[index[doubt]]
+            low, high = center - outer, center + outer
             boxed = ((points[:, 0] >= low[0]) & (points[:, 0] <= high[0])
                      & (points[:, 1] >= low[1]) & (points[:, 1] <= high[1]))
             distance = np.hypot(points[:, 0] - center[0], points[:, 1] - center[1])
