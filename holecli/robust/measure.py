@@ -13,6 +13,7 @@ from scipy import ndimage
 
 from holecli.robust.acceptance import (EDGE_CHECKS, FIT_CHECKS, RIM_CHECKS, VOID_CHECKS, edge_below_min_diameter,
                                        first_refusal)
+from holecli.robust.assemble import shape_reach
 from holecli.robust.boundary import hole_rim, near_box_edge
 from holecli.robust.candidate import Candidate, FirstCircle, Measured, Refusal
 from holecli.robust.edge import fit_edge
@@ -238,7 +239,7 @@ def _around(scene, fit, settings):
     step = max(float(scene.sampling.gap), float(scene.sampling.spacing), period)  # (the offsets' unit)
     synthetic = max(settings.bias_offsets) * step + settings.margin_alphas * alpha + cell + period
     return Neighbourhood(scene, fit.center, {
-        "xy": settings.shape_search_radii * (1.0 + settings.shape_depth_radii * 0.2) * radius + slack,
+        "xy": shape_reach(radius, settings) + slack,
         "surface_xy": max(3.0, settings.crop_ring_radii) * radius + slack,
         "material_xy": radius + synthetic + slack,
         "above_xy": radius + slack,
