@@ -18,6 +18,7 @@ from holecli.results import Bore, Counterbore, Countersink, Hole, HoleNote, Reje
 from holecli.robust.doubts import Doubts, doubt_warnings, edge_bore_warning
 from holecli.robust.estimators import ESTIMATOR_NAMED
 from holecli.robust.hole_shape import measure_hole_shape
+from holecli.robust.scene import seen_from
 from holecli.robust.uncertainty import edge_uncertainty, resolution_uncertainty
 from holecli.vocabulary import ESTIMATOR_RIM_FIT, NOTE_CODES, REJECTION_REASONS
 
@@ -94,11 +95,12 @@ def _uncertainty(scene, measured):
 
 def with_shape(scene, hole, measured, gauge_depth, settings):
     """The hole with what its points below the edge show (:mod:`holecli.robust.hole_shape`)."""
+    scene = seen_from(scene, measured)  # (its points from those gathered around the hole)
     center = np.asarray(hole.center)
     center2d = (scene.rotation @ (center - scene.origin))[:2]
     # The plane frame's disk holds every point within the search radius of the hole's axis, deep
     # points of a hole drilled off the normal or seen on a tilted part included.
-    reach = settings.shape_search_radii * hole.radius * (1.0 + settings.shape_depth_radii * 0.2)
+    reach = shape_reach(hole.radius, settings)
     index = scene.within(scene.xy, center2d, 0.0, reach)
     shape = measure_hole_shape(scene.points[index], center, np.asarray(hole.normal), hole.radius,
                                noise=scene.height_noise, spacing=scene.sampling.spacing,
@@ -116,6 +118,13 @@ def with_shape(scene, hole, measured, gauge_depth, settings):
                    "counterbore": shape.counterbore, "bore": shape.bore, "axis": shape.axis,
                    "perpendicularity_deg": shape.perpendicularity_deg, "warnings": shape.warnings + doubts,
                    "notes": shape.notes, "uncertainty": _with_shape_uncertainty(hole.uncertainty, shape, scene.resolution)})
+
+
+def shape_reach(radius, settings):
+    """The radius about a hole's center (plane frame) within which :func:`with_shape` takes the
+    points of its shape: ``shape_search_radii`` edge radii, widened for a hole whose points down to
+    ``shape_depth_radii`` radii deep lie off the normal (drilled off it, or seen on a tilted part)."""
+    return settings.shape_search_radii * radius * (1.0 + settings.shape_depth_radii * 0.2)
 
 
 def _at_least(values, least):

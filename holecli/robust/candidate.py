@@ -143,3 +143,4 @@ class Measured:
     fringe: tuple = (0.0, 0.0, 0.0)  # the edge's fringe of mixed points: (width, shift, hidden) (_edge_fringe)
     radius_range: Optional[tuple] = None   # (low, high): the radii every lattice bracket allows (estimator lattice)
     surface_uncertainty: tuple = (None, None)  # of the local plane's height at the hole and of its normal (rad)
+    around: object = None  # the scene around the hole (holecli.robust.scene.Neighbourhood; None: the scene)

@@ -16,7 +16,7 @@ from holecli.robust.assemble import to_hole
 from holecli.robust.candidate import Refusal
 from holecli.robust.candidates import find_voids
 from holecli.robust.measure import measure_candidate
-from holecli.robust.scene import build_scene
+from holecli.robust.scene import build_scene, seen_from
 from holecli.robust.surface import plane_frame_at, ring_plane
 
 __all__ = ["on_curved_surface"]
@@ -38,7 +38,8 @@ def on_curved_surface(scene, measured, settings, view_dir, rng):
     the hole's center.
     """
     center, radius = measured.center, measured.radius
-    ring = ring_plane(scene, center, radius, settings.crop_ring_radii)
+    around = seen_from(scene, measured)  # (the ring and the crop from the points gathered around the hole)
+    ring = ring_plane(around, center, radius, settings.crop_ring_radii)
     if ring is None:
         return None
     ring_points, plane = ring
@@ -52,7 +53,7 @@ def on_curved_surface(scene, measured, settings, view_dir, rng):
     quadric = curved_quadric((ring_points - foot) @ basis.T, radius, settings.curvature_sigmas, scene.resolution)
     if quadric is None:
         return None
-    crop = scene.points[scene.within(scene.xy, center, 0.0, settings.crop_radii * radius)]
+    crop = scene.points[around.within(scene.xy, center, 0.0, settings.crop_radii * radius)]
     local = (crop - foot) @ basis.T
     local[:, 2] -= quadric.height(local[:, :2])
     slide = None if view_dir is None else basis @ (np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir))

@@ -13,10 +13,12 @@ from scipy import ndimage
 
 from holecli.robust.acceptance import (EDGE_CHECKS, FIT_CHECKS, RIM_CHECKS, VOID_CHECKS, edge_below_min_diameter,
                                        first_refusal)
+from holecli.robust.assemble import shape_reach
 from holecli.robust.boundary import hole_rim, near_box_edge
 from holecli.robust.candidate import Candidate, FirstCircle, Measured, Refusal
 from holecli.robust.edge import fit_edge
 from holecli.robust.estimators import CONE, estimate_edge
+from holecli.robust.scene import Neighbourhood, seen_from
 from holecli.robust.surface import local_normal, surface_height
 
 __all__ = ["measure_candidate", "measure_candidates"]
@@ -190,6 +192,8 @@ def _measure_void(scene, void, settings):
         if refused is not None:
             return refused
     candidate = _with_coverage(scene, candidate, settings)
+    # From here on every question about the points around the hole is answered from one gathering.
+    scene = _around(scene, candidate.fit, settings)
     refused = first_refusal(EDGE_CHECKS, scene, candidate, settings)
     if refused is not None:
         return refused
@@ -201,7 +205,7 @@ def _measure_void(scene, void, settings):
         # A countersunk hole: its edge is where the cone meets the surface.
         return Measured(center=edge.center, radius=edge.radius, bias=edge.bias, fit=fit, rim_xy=rim_xy[used],
                         partial=partial, arc_deg=arc, cone_slope=edge.cone_slope, estimator=CONE.name,
-                        cone_covariance=edge.cone_covariance)
+                        cone_covariance=edge.cone_covariance, around=scene)
     center, bias, estimator = edge.center, edge.bias, edge.estimator.name
     synthetic, radii = edge.synthetic, edge.radius_range
     refused = edge_below_min_diameter(scene, center, radius - bias)
@@ -213,7 +217,33 @@ def _measure_void(scene, void, settings):
     bias += fringe[1]
     return Measured(center=center, radius=radius - bias, bias=bias, fit=fit, rim_xy=rim_xy[used],
                      partial=partial, arc_deg=arc, estimator=estimator, synthetic=synthetic, fringe=fringe,
-                     radius_range=radii)
+                     radius_range=radii, around=scene)
+
+
+def _around(scene, fit, settings):
+    """The :class:`holecli.robust.scene.Neighbourhood` of a hole whose rim's circle is ``fit``: what
+    its measurement asks of the scan, from here to its shape, gathered once.
+
+    Each array's reach is the farthest any step of every hole asks, for an edge up to a
+    countersink's window (``2 alpha``) outside the rim and a center that moves by as much: the
+    surface ring of the tangent plane and of the curvature test (``crop_ring_radii``), the points of
+    the hole's shape (:func:`holecli.robust.assemble.with_shape`), the material that synthetic holes
+    are cut into (:func:`holecli.robust.estimators.rim_fit.synthetic_ring`), a boss. What only a hole
+    of a curved panel asks (the crop of ``crop_radii``, the shape about the center moved onto the
+    surface: :mod:`holecli.robust.curved`) is answered by the scene, as is any step that asks farther.
+    """
+    alpha, cell = scene.alpha, scene.cell
+    radius = fit.radius + 2.0 * alpha
+    slack = 2.0 * alpha + cell
+    period = scene.sampling.period or 0.5 * alpha
+    step = max(float(scene.sampling.gap), float(scene.sampling.spacing), period)  # (the offsets' unit)
+    synthetic = max(settings.bias_offsets) * step + settings.margin_alphas * alpha + cell + period
+    return Neighbourhood(scene, fit.center, {
+        "xy": shape_reach(radius, settings) + slack,
+        "surface_xy": max(3.0, settings.crop_ring_radii) * radius + slack,
+        "material_xy": radius + synthetic + slack,
+        "above_xy": radius + slack,
+    })
 
 
 def _edge_fringe(scene, center, radius, arc_deg, settings):
@@ -262,7 +292,7 @@ def measure_candidate(scene, void, settings):
     measured = _measure_void(scene, void, settings)
     if isinstance(measured, Refusal):
         return measured
-    plane, surface_uncertainty = local_normal(scene, measured.center, measured.radius, settings)
+    plane, surface_uncertainty = local_normal(seen_from(scene, measured), measured.center, measured.radius, settings)
     return replace(measured, surface_plane=plane, surface_uncertainty=surface_uncertainty)
 
 

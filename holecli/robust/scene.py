@@ -311,3 +311,126 @@ def _nothing_behind(heights, surface, band, view):
     """
     behind = np.count_nonzero(~surface & (heights * np.sign(view[2]) > band))
     return behind <= SEEN_MIN_POINTS
+
+
+class Neighbourhood:
+    """The scene as one hole sees it: every attribute and question of its :class:`Scene`, the
+    neighbourhood questions (``box``, ``within``, ``count_in_disk``) answered from the points
+    gathered once around the hole.
+
+    A hole's measurement asks a dozen questions of the points around it (the surface ring of its
+    tangent plane and of the height of a countersink's top, the fringe of its edge, the reflections
+    inside it, a boss, the points of its shape, the crop of a curved panel), each of them a pass over
+    the whole scan when asked of the scene. Here each of the scene's point arrays (``xy``,
+    ``surface_xy``, ``material_xy``, ``above_xy``) is gathered once, when first asked: its points in
+    the box of its reach about ``center`` (or farther, when the first question needs it), with their
+    squared distances from ``center``. A question whose box lies inside what was gathered is
+    answered from those points alone: the points clearly inside or outside its ring by their
+    distance from ``center`` (the triangle inequality, with a margin a million times the round-off),
+    the few near its circles by the scene's own box test and distance, so that the answer is the
+    scene's, the same indices in the same order. Any other question goes to the scene.
+
+    Parameters
+    ----------
+    scene : Scene
+    center : (2,) float
+        Plane frame.
+    reaches : dict
+        Per array's name (``"xy"``, ``"surface_xy"``, ``"material_xy"``, ``"above_xy"``), the
+        half side of the box its points are gathered in when first asked (an array not named: as
+        far as its first question needs).
+    """
+
+    ARRAYS = ("xy", "surface_xy", "material_xy", "above_xy")
+
+    def __init__(self, scene, center, reaches):
+        self.scene = scene
+        self.center = np.array(center, dtype=np.float64)
+        self.reaches = dict(reaches)
+        self._gathered = {}  # name -> (indices, their squared distances from center, low, high)
+
+    def __getattr__(self, name):
+        if name.startswith("_"):  # (copy and pickle ask before __init__ has run)
+            raise AttributeError(name)
+        return getattr(self.scene, name)
+
+    def _name_of(self, xy):
+        for name in self.ARRAYS:
+            if xy is getattr(self.scene, name):
+                return name
+        return None
+
+    def _gather(self, name, need):
+        """The points of the array ``name`` in the box of its reach (at least ``need``) about the
+        center, their squared distances from it, and the box's corners ``(low x, low y, high x,
+        high y)``."""
+        gathered = self._gathered.get(name)
+        if gathered is None:
+            reach = max(float(self.reaches.get(name, 0.0)), need)
+            xy, center = getattr(self.scene, name), self.center
+            low, high = center - reach, center + reach
+            index = self.scene.box(xy, low, high)
+            dx, dy = xy[index, 0] - center[0], xy[index, 1] - center[1]
+            corners = (float(low[0]), float(low[1]), float(high[0]), float(high[1]))
+            gathered = self._gathered[name] = (index, dx * dx + dy * dy, corners)
+        return gathered
+
+    def box(self, xy, low, high):
+        """:meth:`Scene.box`, from the gathered points when the box lies inside theirs."""
+        name = self._name_of(xy)
+        gathered = None if name is None else self._gathered.get(name)
+        if gathered is not None:
+            index, _, (low_x, low_y, high_x, high_y) = gathered
+            if low[0] >= low_x and low[1] >= low_y and high[0] <= high_x and high[1] <= high_y:
+                points = xy[index]
+                return index[(points[:, 0] >= low[0]) & (points[:, 0] <= high[0])
+                             & (points[:, 1] >= low[1]) & (points[:, 1] <= high[1])]
+        return self.scene.box(xy, low, high)
+
+    def within(self, xy, center, inner, outer):
+        """:meth:`Scene.within`: the same indices, from the gathered points when the box of the disk
+        of ``outer`` lies inside theirs."""
+        name = self._name_of(xy)
+        x, y = float(center[0]), float(center[1])
+        at_x, at_y = float(self.center[0]), float(self.center[1])
+        shift = ((x - at_x) ** 2 + (y - at_y) ** 2) ** 0.5
+        if name is None or not 0.0 < outer < np.inf or not shift < np.inf:
+            return self.scene.within(xy, center, inner, outer)
+        # The distances carry a few units of round-off of the coordinates' magnitude: far below this.
+        margin = 1e-9 * (max(abs(at_x), abs(at_y)) + max(abs(x), abs(y)) + shift + outer)
+        index, squared, (low_x, low_y, high_x, high_y) = self._gather(name, shift + outer + 2.0 * margin)
+        if not (x - outer >= low_x and y - outer >= low_y and x + outer <= high_x and y + outer <= high_y):
+            return self.scene.within(xy, center, inner, outer)
+        # A point's distance from ``center`` differs from its distance from self.center by at most
+        # ``shift``: certainly out beyond outer + shift or within inner - shift, certainly in between
+        # inner + shift and outer - shift; the rest is tested as the scene tests it.
+        maybe = squared < (outer + shift + margin) ** 2
+        if inner - shift - margin > 0:
+            maybe &= squared >= (inner - shift - margin) ** 2
+        if outer - shift - margin > 0:
+            sure = maybe & (squared < (outer - shift - margin) ** 2)
+            if inner > 0:
+                sure &= squared >= (inner + shift + margin) ** 2
+        else:
+            sure = np.zeros(len(index), dtype=bool)
+        doubt = np.flatnonzero(maybe ^ sure)  # (sure lies inside maybe)
+        if len(doubt):
+            # Scene.within's own tests: the box, then the distance.
+            points = xy[index[doubt]]
+            low, high = center - outer, center + outer
+            boxed = ((points[:, 0] >= low[0]) & (points[:, 0] <= high[0])
+                     & (points[:, 1] >= low[1]) & (points[:, 1] <= high[1]))
+            distance = np.hypot(points[:, 0] - center[0], points[:, 1] - center[1])
+            sure[doubt] = boxed & (distance >= inner) & (distance < outer)
+        return index[sure]
+
+    def count_in_disk(self, xy, center, radius):
+        """:meth:`Scene.count_in_disk`, from the gathered points."""
+        return len(self.within(xy, center, 0.0, radius))
+
+
+def seen_from(scene, measured):
+    """The scene as the hole ``measured`` sees it: the :class:`Neighbourhood` its measurement
+    gathered (``measured.around``), else ``scene``."""
+    around = getattr(measured, "around", None)
+    return scene if around is None else around

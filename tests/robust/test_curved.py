@@ -1,6 +1,8 @@
 """Tests of holecli.robust.curved: a hole of a curved panel measured again on its flattened
 neighbourhood, which puts its center on the surface and its normal along the surface's."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -43,3 +45,12 @@ def test_a_curved_panels_hole_lies_on_the_surface_along_its_normal():
     radial = np.array([x, 0.0, np.sqrt(R ** 2 - x ** 2)]) / R
     assert float(np.asarray(found.normal) @ radial) == pytest.approx(1.0, abs=1e-5)
     assert found.diameter == pytest.approx(2 * RADIUS, abs=0.1)
+
+
+def test_the_ring_and_the_crop_from_the_holes_neighbourhood_are_the_scenes():
+    """Measured again from the points its measurement gathered around it (``Measured.around``) or
+    from the whole scan: the same hole to the last bit."""
+    scene, hole = _scene(curved=True)
+    assert hole.around is not None
+    gathered = on_curved_surface(scene, hole, DEFAULT_SETTINGS, None, 0)
+    assert gathered == on_curved_surface(scene, replace(hole, around=None), DEFAULT_SETTINGS, None, 0)

@@ -1,15 +1,19 @@
 """Tests of holecli.robust.measure: one candidate void measured, a hole or the named check that refused
 it, and every candidate of a scan alike one at a time or in threads."""
 
-from dataclasses import replace
+import json
+from dataclasses import asdict, replace
 
 import numpy as np
 import pytest
 
+from holecli.robust import measure
 from holecli.robust.candidate import Measured, Refusal
 from holecli.robust.candidates import find_voids
 from holecli.robust.measure import measure_candidate, measure_candidates
-from holecli.robust.scene import build_scene
+from holecli.robust.method import detect_robust
+from holecli.robust.scene import Neighbourhood, build_scene, seen_from
+from holecli.simulation.synth import HoleSpec, SceneSpec, make_scan
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.vocabulary import ESTIMATORS, REJECTION_REASONS
 
@@ -64,3 +68,32 @@ def test_every_candidate_is_measured_alike_in_threads(measured):
         assert type(one) is type(other)
         np.testing.assert_array_equal(one.center, other.center)
         assert one.radius == other.radius
+
+
+def test_a_hole_carries_the_neighbourhood_its_measurement_gathered(measured):
+    scene, _, results = measured
+    hole = next(m for m in results if isinstance(m, Measured))
+    assert isinstance(hole.around, Neighbourhood) and hole.around.scene is scene
+    assert np.hypot(*(hole.around.center - hole.center)) < 0.05
+    assert seen_from(scene, hole) is hole.around
+    assert seen_from(scene, replace(hole, around=None)) is scene
+
+
+def test_the_neighbourhood_changes_no_record(monkeypatch):
+    """Every question the measurement of a hole asks about the points around it answered from its
+    neighbourhood (:class:`holecli.robust.scene.Neighbourhood`) or from the whole scan: the same
+    records to the last bit (a countersunk hole, a through hole with reflections, a tilted scan)."""
+    spec = SceneSpec(holes=(HoleSpec(center=(0.0, 0.0), diameter=3.0, countersink_diameter=5.0, bore_depth=2.0),
+                            HoleSpec(center=(7.0, 0.0), diameter=4.0, bore_depth=3.0, inside_points=40)),
+                     extent=(-5.0, 12.0, -5.0, 5.0), spacing=0.06, noise_world_z=0.004)
+    points = make_scan(spec, 0).points
+    points = points[np.all(np.isfinite(points), axis=1)]
+
+    def records():
+        result = detect_robust(points)
+        return [json.dumps(asdict(hole), default=repr, sort_keys=True) for hole in result.holes], result
+
+    gathered, result = records()
+    assert len(result.holes) == 2 and {hole.type for hole in result.holes} >= {"countersunk"}
+    monkeypatch.setattr(measure, "_around", lambda scene, fit, settings: scene)
+    assert records()[0] == gathered

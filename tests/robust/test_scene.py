@@ -4,7 +4,7 @@ neighbourhood queries."""
 import numpy as np
 import pytest
 
-from holecli.robust.scene import build_scene
+from holecli.robust.scene import Neighbourhood, build_scene
 
 
 def _plate(seed=1, radius=3.0, count=12_000):
@@ -72,3 +72,84 @@ def test_the_hole_is_scanned_all_round(scene):
     # a disk centred on the plate's corner: about a quarter of it is scanned
     corner = (scene.rotation @ (np.array([10.0, 10.0, 0.0]) - scene.origin))[:2]
     assert scene.scanned_fraction(corner, 3.0) == pytest.approx(0.25, abs=0.1)
+
+
+class _Counted:
+    """A scene's arrays and queries, counting the passes over its points (box and within)."""
+
+    def __init__(self, scene):
+        self.scene, self.passes = scene, 0
+        for name in Neighbourhood.ARRAYS:
+            setattr(self, name, getattr(scene, name))
+
+    def box(self, xy, low, high):
+        self.passes += 1
+        return self.scene.box(xy, low, high)
+
+    def within(self, xy, center, inner, outer):
+        self.passes += 1
+        return self.scene.within(xy, center, inner, outer)
+
+
+def _queries(rng, center, count):
+    """Rings about centers near ``center``: inner 0 or not, some of them through a point of the plate."""
+    for k in range(count):
+        near = center + rng.uniform(-0.3, 0.3, 2)
+        inner, outer = sorted(rng.uniform(0.0, 4.0, 2))
+        yield near, (0.0 if k % 3 == 0 else inner), outer
+
+
+@pytest.mark.parametrize("indexed", [False, True])
+def test_a_neighbourhood_answers_as_its_scene_to_the_last_index(scene, indexed):
+    """The same indices in the same order as the scene's own queries, for rings about centers
+    near the hole's, on circles through points (the boundary cases) and beyond what was gathered."""
+    queried = scene.with_cell_indices() if indexed else scene
+    center = np.array([0.1, -0.2])
+    around = Neighbourhood(queried, center, {"xy": 4.5, "surface_xy": 3.0})
+    rng = np.random.default_rng(3)
+    for xy in (queried.xy, queried.surface_xy, queried.material_xy, queried.above_xy):
+        for near, inner, outer in _queries(rng, center, 30):
+            np.testing.assert_array_equal(around.within(xy, near, inner, outer), queried.within(xy, near, inner, outer))
+            assert around.count_in_disk(xy, near, outer) == queried.count_in_disk(xy, near, outer)
+        # circles through points: a point at exactly the inner or the outer radius
+        rows = np.flatnonzero(np.hypot(*(xy - center).T) < 3.5)
+        for row in rng.choice(rows, min(20, len(rows)), replace=False):
+            distance = float(np.hypot(*(xy[row] - center)))
+            for inner, outer in ((distance, distance + 0.5), (0.0, distance), (distance / 2.0, distance)):
+                np.testing.assert_array_equal(around.within(xy, center, inner, outer),
+                                              queried.within(xy, center, inner, outer))
+        # boxes inside what was gathered and beyond it (then the scene's)
+        for low, high in ((center - 1.0, center + 0.5), (center - 6.0, center + 6.0)):
+            np.testing.assert_array_equal(around.box(xy, low, high), queried.box(xy, low, high))
+        # a disk reaching beyond what was gathered
+        np.testing.assert_array_equal(around.within(xy, center, 1.0, 9.0), queried.within(xy, center, 1.0, 9.0))
+
+
+def test_a_neighbourhood_gathers_each_array_once(scene):
+    """Every question inside its reach answered from one pass over the array; one beyond, by the scene."""
+    counted = _Counted(scene)
+    center = np.array([0.1, -0.2])
+    around = Neighbourhood(counted, center, {"surface_xy": 3.5})
+    rng = np.random.default_rng(4)
+    for near, inner, outer in _queries(rng, center, 20):
+        around.within(counted.surface_xy, near, inner, min(outer, 3.0))
+        around.count_in_disk(counted.surface_xy, near, 0.5 * outer)
+    assert counted.passes == 1
+    around.within(counted.surface_xy, center, 0.0, 5.0)
+    assert counted.passes == 2
+    # an array not given a reach: gathered as far as its first question asks
+    around.within(counted.xy, center, 1.0, 2.0)
+    around.within(counted.xy, center + 0.1, 0.0, 1.5)
+    assert counted.passes == 3
+    # what is not one of the scene's arrays: the scene's
+    np.testing.assert_array_equal(around.within(counted.xy.copy(), center, 0.0, 1.0),
+                                  scene.within(scene.xy, center, 0.0, 1.0))
+    assert counted.passes == 4
+
+
+def test_a_neighbourhood_is_its_scene_for_everything_else(scene):
+    around = Neighbourhood(scene, np.zeros(2), {})
+    assert around.cell == scene.cell and around.sampling is scene.sampling and around.xy is scene.xy
+    assert around.scanned_fraction(np.zeros(2), 3.0) == scene.scanned_fraction(np.zeros(2), 3.0)
+    with pytest.raises(AttributeError):
+        around.not_an_attribute
