@@ -4,6 +4,7 @@ sign convention of normals."""
 
 from __future__ import annotations
 
+import math
 import threading
 
 import numpy as np
@@ -200,23 +201,24 @@ class CellIndex:
     pass_share : float, optional
         Share of the points, estimated from the box's part of the points' bounding box, above which a
         query is a pass over the points (default :data:`PASS_SHARE`; above 1, every query reads the
-        cells).
+        cells, but one across more columns of cells than there are points).
     """
 
     def __init__(self, xy, cell, pass_share=None):
         self.xy = xy
         self.pass_share = PASS_SHARE if pass_share is None else float(pass_share)
-        n = len(xy)
         self.cell = float(cell)
-        if n == 0:
-            self.low, self.high, self.rows = np.zeros(2), np.zeros(2), 1
-            self._sorted = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
-            return
-        self.low, self.high = xy.min(axis=0), xy.max(axis=0)
-        self.cell = max(self.cell, float(np.max(self.high - self.low)) / 2.0**30)
-        self.rows = int(np.floor((self.high[1] - self.low[1]) / self.cell)) + 1
         self._sorted = None
         self._lock = threading.Lock()
+        if len(xy) == 0:
+            self.low, self.rows, self.columns = np.zeros(2), 1, 1
+            self._bounds = (0.0, 0.0, 0.0, 0.0)
+            return
+        self.low, high = xy.min(axis=0), xy.max(axis=0)
+        self.cell = max(self.cell, float(np.max(high - self.low)) / 2.0**30)
+        # the last cell's column and row (a point's cell is floor((xy - low) / cell))
+        self.columns, self.rows = (int(c) + 1 for c in np.floor((high - self.low) / self.cell))
+        self._bounds = (float(self.low[0]), float(self.low[1]), float(high[0]), float(high[1]))
 
     def _keys_and_order(self):
         """The points' cell keys in increasing order and the rows of ``xy`` in that order, sorted at
@@ -232,15 +234,24 @@ class CellIndex:
                     self._sorted = (keys[order], order)
         return self._sorted
 
-    def _share(self, low, high):
-        """The box's part of the points' bounding box (area), the share of points it holds on a
-        uniformly covered scan."""
-        span = self.high - self.low
-        side = np.minimum(high, self.high) - np.maximum(low, self.low)
-        if np.any(side < 0):
+    def _share(self, x0, y0, x1, y1):
+        """The part of the points' bounding box (area) that the box ``[x0, x1] x [y0, y1]`` covers:
+        the share of the points it holds on a uniformly covered scan."""
+        left, bottom, right, top = self._bounds
+        width, height = min(x1, right) - max(x0, left), min(y1, top) - max(y0, bottom)
+        if width < 0 or height < 0:
             return 0.0
-        covered = np.where(span > 0, side / np.where(span > 0, span, 1.0), 1.0)
-        return float(covered[0] * covered[1])
+        return (width / (right - left) if right > left else 1.0) * (height / (top - bottom) if top > bottom else 1.0)
+
+    def _cell_range(self, start, stop, origin, count):
+        """First and last cell (along one axis, ``count`` cells from ``origin``) of ``[start, stop]``,
+        clipped to the points' cells; None when the span misses them."""
+        # clipped before the floor, so that an infinite side is a finite cell
+        first = math.floor(min(max((start - origin) / self.cell, -1.0), float(count)))
+        last = math.floor(min(max((stop - origin) / self.cell, -1.0), float(count)))
+        if last < 0 or first > count - 1:
+            return None
+        return max(first, 0), min(last, count - 1)
 
     def box(self, low, high):
         """Indices of the points inside the closed box ``[low, high]``, ascending (as
@@ -254,31 +265,28 @@ class CellIndex:
         -------
         (k,) int64
         """
-        if len(self.xy) == 0:
+        x0, y0, x1, y1 = float(low[0]), float(low[1]), float(high[0]), float(high[1])
+        if len(self.xy) == 0 or not (x0 <= x1 and y0 <= y1):  # (also a NaN side)
             return np.zeros(0, dtype=np.int64)
-        low = np.asarray(low, dtype=np.float64)
-        high = np.asarray(high, dtype=np.float64)
-        if self._share(low, high) > self.pass_share:
+        columns = self._cell_range(x0, x1, self._bounds[0], self.columns)
+        rows = self._cell_range(y0, y1, self._bounds[1], self.rows)
+        if columns is None or rows is None:
+            return np.zeros(0, dtype=np.int64)
+        # a search per column of cells: more columns than points (a stray point far away makes up to
+        # 2^30 of them) cost more than the pass
+        if self._share(x0, y0, x1, y1) > self.pass_share or columns[1] - columns[0] >= len(self.xy):
             return box_indices(self.xy, low, high)
         keys, order = self._keys_and_order()
-        first = np.floor((low - self.low) / self.cell)
-        last = np.floor((high - self.low) / self.cell)
-        top = np.array([keys[-1] // self.rows, self.rows - 1], dtype=np.float64)
-        if np.any(last < 0) or np.any(first > top) or np.any(first > last):
-            return np.zeros(0, dtype=np.int64)
-        first = np.maximum(first, 0).astype(np.int64)
-        last = np.minimum(last, top).astype(np.int64)
-        columns = np.arange(first[0], last[0] + 1, dtype=np.int64) * self.rows
-        starts = np.searchsorted(keys, columns + first[1], side="left")
-        ends = np.searchsorted(keys, columns + last[1], side="right")
+        column_keys = np.arange(columns[0], columns[1] + 1, dtype=np.int64) * self.rows
+        starts = np.searchsorted(keys, column_keys + rows[0], side="left")
+        ends = np.searchsorted(keys, column_keys + rows[1], side="right")
         lengths = ends - starts
         total = int(lengths.sum())
         if total == 0:
             return np.zeros(0, dtype=np.int64)
         # positions starts[c] .. ends[c] - 1 of every column c, in one vector
-        offsets = np.repeat(starts - np.concatenate([[0], np.cumsum(lengths)[:-1]]), lengths)
-        candidates = order[offsets + np.arange(total)].astype(np.int64)
-        points = self.xy[candidates]
-        inside = ((points[:, 0] >= low[0]) & (points[:, 0] <= high[0])
-                  & (points[:, 1] >= low[1]) & (points[:, 1] <= high[1]))
-        return np.sort(candidates[inside])
+        offsets = np.repeat(starts - (np.cumsum(lengths) - lengths), lengths)
+        candidates = order[offsets + np.arange(total)]
+        x, y = self.xy[candidates, 0], self.xy[candidates, 1]
+        inside = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
+        return np.sort(candidates[inside]).astype(np.int64)

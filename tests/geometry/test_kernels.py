@@ -65,6 +65,11 @@ def test_cell_index_answers_box_queries_as_a_pass_over_the_points(pass_share):
             half = rng.uniform(0, 30, 2)
             low, high = center - half, center + half * rng.uniform(-0.5, 2.0)
             np.testing.assert_array_equal(index.box(low, high), box_indices(xy, low, high), err_msg=str(trial))
+        # sides at infinity (everything on that side) and NaN (nothing)
+        for low, high in (([-np.inf, -np.inf], [np.inf, np.inf]), ([np.nan, 0.0], [1.0, 1.0]),
+                          ([-np.inf, 0.0], [0.0, np.inf]), (xy[0] if n else [0.0, 0.0], [np.inf, np.inf])):
+            low, high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
+            np.testing.assert_array_equal(index.box(low, high), box_indices(xy, low, high), err_msg=str(trial))
 
 
 def test_circumradii_of_a_right_triangle_and_a_degenerate_one():
