@@ -268,18 +268,18 @@ class CellIndex:
         x0, y0, x1, y1 = float(low[0]), float(low[1]), float(high[0]), float(high[1])
         if len(self.xy) == 0 or not (x0 <= x1 and y0 <= y1):  # (also a NaN side)
             return np.zeros(0, dtype=np.int64)
-        columns = self._cell_range(x0, x1, self._bounds[0], self.columns)
-        rows = self._cell_range(y0, y1, self._bounds[1], self.rows)
-        if columns is None or rows is None:
+        across = self._cell_range(x0, x1, self._bounds[0], self.columns)
+        along = self._cell_range(y0, y1, self._bounds[1], self.rows)
+        if across is None or along is None:
             return np.zeros(0, dtype=np.int64)
         # a search per column of cells: more columns than points (a stray point far away makes up to
         # 2^30 of them) cost more than the pass
-        if self._share(x0, y0, x1, y1) > self.pass_share or columns[1] - columns[0] >= len(self.xy):
+        if self._share(x0, y0, x1, y1) > self.pass_share or across[1] - across[0] >= len(self.xy):
             return box_indices(self.xy, low, high)
         keys, order = self._keys_and_order()
-        column_keys = np.arange(columns[0], columns[1] + 1, dtype=np.int64) * self.rows
-        starts = np.searchsorted(keys, column_keys + rows[0], side="left")
-        ends = np.searchsorted(keys, column_keys + rows[1], side="right")
+        column_keys = np.arange(across[0], across[1] + 1, dtype=np.int64) * self.rows
+        starts = np.searchsorted(keys, column_keys + along[0], side="left")
+        ends = np.searchsorted(keys, column_keys + along[1], side="right")
         lengths = ends - starts
         total = int(lengths.sum())
         if total == 0:
