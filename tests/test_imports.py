@@ -149,3 +149,18 @@ def test_detect_and_plot_do_not_import_each_other(pair):
     top, inner = import_graph()
     first, second = pair
     assert first not in top[second] | inner[second]
+
+
+# The modules of the commands other than detect, and the packages behind them.
+OTHER_COMMANDS = ("holecli.cli.batch", "holecli.cli.simulate", "holecli.cli.plot", "holecli.cli.register",
+                  "holecli.cli.info", "holecli.cli.report", "holecli.cli.serve", "holecli.batch", "holecli.simulation",
+                  "holecli.registration", "holecli.serve", "holecli.quality", "holecli.store", "holecli.plot")
+
+
+def test_detect_imports_no_other_command(modules_imported_by, repo_root):
+    # holecli.cli imports a command's module when it runs (a one-shot detect paid for all of them);
+    # a global -v looks at the command that runs only
+    scan = repo_root / "sample_clouds" / "table1.ply"
+    assert modules_imported_by([["detect", scan], ["-v", "detect", scan, "--format", "csv"]], OTHER_COMMANDS) == "[]"
+    # the check sees them when they are imported
+    assert "holecli.cli.batch" in modules_imported_by([["--help"]], OTHER_COMMANDS)

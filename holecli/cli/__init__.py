@@ -7,7 +7,8 @@ Where things are:
 
 =========================  ===========================================================================
 ``holecli.cli``            the click group :func:`main` (the ``holecli`` program's entry point, run by
-                           :mod:`holecli.__main__` once the signal handlers are installed)
+                           :mod:`holecli.__main__` once the signal handlers are installed); it imports
+                           a command's module when the command runs (:data:`COMMAND_MODULES`)
 ``holecli.cli.detect``     ``holecli detect``
 ``holecli.cli.render``     what ``detect`` prints (JSON, CSV, the table) and says about a record on stderr
 ``holecli.cli.batch``      ``holecli batch``: the command, its measuring loop and its stop on signals
@@ -26,6 +27,9 @@ The names of those modules that other code uses (the exit codes, :func:`run_guar
 """
 
 from __future__ import annotations
+
+from collections.abc import MutableMapping
+from importlib import import_module
 
 import click
 
@@ -50,7 +54,81 @@ __all__ = [
 CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 
 
-@click.group(context_settings=CONTEXT, epilog=EXIT_CODES_HELP)
+# The commands, each in its module, imported when the command runs or is listed: ``holecli detect``
+# does not load batch's, simulate's, serve's, ... modules.
+COMMAND_MODULES = {"detect": "holecli.cli.detect", "batch": "holecli.cli.batch", "simulate": "holecli.cli.simulate",
+                   "plot": "holecli.cli.plot", "register": "holecli.cli.register", "info": "holecli.cli.info",
+                   "report": "holecli.cli.report", "serve": "holecli.cli.serve"}
+
+
+class LazyCommands(MutableMapping):
+    """A group's commands by name, each imported from its module at the first look-up.
+
+    Iterating gives the names without importing anything; ``commands[name]`` (and ``.get``,
+    ``.items()``) imports the module of that command: ``holecli.cli.NAME``'s ``NAME``.
+
+    Parameters
+    ----------
+    modules : dict
+        Command name -> the module that defines it under that name.
+    """
+
+    def __init__(self, modules):
+        self._modules = dict(modules)
+        self._loaded = {}
+
+    def __getitem__(self, name):
+        if name not in self._loaded:
+            if name not in self._modules:
+                raise KeyError(name)
+            self._loaded[name] = getattr(import_module(self._modules[name]), name)
+        return self._loaded[name]
+
+    def __setitem__(self, name, command):
+        self._loaded[name] = command
+
+    def __delitem__(self, name):
+        if name not in self:
+            raise KeyError(name)
+        self._loaded.pop(name, None)
+        self._modules.pop(name, None)
+
+    def __iter__(self):
+        return iter({**self._modules, **self._loaded})
+
+    def __len__(self):
+        return len({**self._modules, **self._loaded})
+
+    def __contains__(self, name):
+        return name in self._modules or name in self._loaded
+
+
+class LazyGroup(click.Group):
+    """A click group whose commands are imported when asked for (click's "lazily loading subcommands").
+
+    Listing the commands (``--help``, completion) imports them all, running one imports that one
+    only. The two look-ups click makes are overridden, as click's documentation does it; the
+    commands live in a :class:`LazyCommands`, so that ``group.commands`` still names them all.
+
+    Parameters
+    ----------
+    lazy_commands : dict, optional
+        Command name -> the module that defines it under that name.
+    """
+
+    def __init__(self, *args, lazy_commands=None, **kwargs):
+        super().__init__(*args, **kwargs)
+        commands, self.commands = self.commands, LazyCommands(lazy_commands or {})
+        self.commands.update(commands)
+
+    def list_commands(self, ctx):
+        return sorted(self.commands)
+
+    def get_command(self, ctx, cmd_name):
+        return self.commands.get(cmd_name)
+
+
+@click.group(cls=LazyGroup, lazy_commands=COMMAND_MODULES, context_settings=CONTEXT, epilog=EXIT_CODES_HELP)
 @click.version_option(__version__, "--version", "-V", prog_name="holecli")
 @click.option("--quiet", "-q", is_flag=True, help="As the command's --quiet: say nothing on stderr but errors.")
 @click.option("--verbose", "-v", is_flag=True, help="As the command's --verbose: also say what the run chose.")
@@ -97,26 +175,14 @@ def global_verbosity(context, quiet, verbose):
     chosen = {name: True for name, value in (("quiet", quiet), ("verbose", verbose)) if value}
     if not chosen:
         return
+    # Only the command that runs reads its defaults (looking at the others would import them all).
+    name = context.invoked_subcommand
+    command = context.command.get_command(context, name) if name else None
+    if command is None:
+        return
+    missing = set(chosen) - {param.name for param in command.params}
+    if missing:  # a command without --verbose refuses a global -v rather than ignoring it
+        raise click.UsageError(f"holecli {name} has no --{missing.pop()}")
     defaults = dict(context.default_map or {})
-    for name, command in context.command.commands.items():
-        params = {param.name for param in command.params}
-        missing = set(chosen) - params
-        if missing:  # a command without --verbose refuses a global -v rather than ignoring it
-            if context.invoked_subcommand == name:
-                raise click.UsageError(f"holecli {name} has no --{missing.pop()}")
-            continue
-        defaults[name] = {**defaults.get(name, {}), **chosen}
+    defaults[name] = {**defaults.get(name, {}), **chosen}
     context.default_map = defaults
-
-
-# The commands, each in its module (imported after main, which none of them needs).
-from holecli.cli import batch, detect, info, plot, register, report, serve, simulate  # noqa: E402
-
-main.add_command(detect.detect)
-main.add_command(batch.batch)
-main.add_command(simulate.simulate)
-main.add_command(plot.plot)
-main.add_command(register.register)
-main.add_command(info.info)
-main.add_command(report.report)
-main.add_command(serve.serve)

@@ -4,6 +4,9 @@ sign convention of normals."""
 
 from __future__ import annotations
 
+import math
+import threading
+
 import numpy as np
 from scipy.spatial import Delaunay
 
@@ -14,6 +17,10 @@ _WOBBLE = 1e-9
 MAD_TO_SIGMA = 1.4826
 # Below this magnitude a normal's component counts as zero for the sign convention.
 _ZERO_COMPONENT = 1e-12
+# Share of a scan's points above which a CellIndex query is a pass over them (box_indices): gathering
+# and sorting a box's points from the cells costs about 30-70 ns per point, the pass 1-2 ns per point
+# of the scan; the two cross at a share of 0.03-0.05 (random sampling, 10^5 to 2*10^6 points).
+PASS_SHARE = 1.0 / 30.0
 
 
 def robust_sigma(x):
@@ -180,7 +187,10 @@ class CellIndex:
     :func:`box_indices` reads every point, which is what a query costs once; a scan with many
     candidate holes (random sampling has natural gaps in proportion to its points) asks hundreds of
     them, and the work grows as points times candidates. The index costs one sort, and two integers
-    per point.
+    per point, paid at the first query that reads the cells: an array only ever asked wide boxes is
+    never sorted. A box expected to hold more than ``pass_share`` of the points is answered by
+    :func:`box_indices`, which is then cheaper than gathering and sorting that many points from the
+    cells.
 
     Parameters
     ----------
@@ -188,24 +198,60 @@ class CellIndex:
     cell : float
         Side of the cells, > 0. Made coarser when the points span more than 2^30 cells along an axis
         (a stray point far away), so that cell keys fit 64 bits.
+    pass_share : float, optional
+        Share of the points, estimated from the box's part of the points' bounding box, above which a
+        query is a pass over the points (default :data:`PASS_SHARE`; above 1, every query reads the
+        cells, but one across more columns of cells than there are points).
     """
 
-    def __init__(self, xy, cell):
+    def __init__(self, xy, cell, pass_share=None):
         self.xy = xy
-        n = len(xy)
-        if n == 0:
-            self.low, self.cell, self.rows = np.zeros(2), float(cell), 1
-            self.keys = np.zeros(0, dtype=np.int64)
-            self.order = np.zeros(0, dtype=np.int64)
+        self.pass_share = PASS_SHARE if pass_share is None else float(pass_share)
+        self.cell = float(cell)
+        self._sorted = None
+        self._lock = threading.Lock()
+        if len(xy) == 0:
+            self.low, self.rows, self.columns = np.zeros(2), 1, 1
+            self._bounds = (0.0, 0.0, 0.0, 0.0)
             return
-        self.low = xy.min(axis=0)
-        extent = float(np.max(xy.max(axis=0) - self.low))
-        self.cell = max(float(cell), extent / 2.0**30)
-        cells = np.floor((xy - self.low) / self.cell).astype(np.int64)
-        self.rows = int(cells[:, 1].max()) + 1
-        keys = cells[:, 0] * self.rows + cells[:, 1]
-        self.order = np.argsort(keys, kind="stable").astype(np.int32 if n < 2**31 else np.int64)
-        self.keys = keys[self.order]
+        self.low, high = xy.min(axis=0), xy.max(axis=0)
+        self.cell = max(self.cell, float(np.max(high - self.low)) / 2.0**30)
+        # the last cell's column and row (a point's cell is floor((xy - low) / cell))
+        self.columns, self.rows = (int(c) + 1 for c in np.floor((high - self.low) / self.cell))
+        self._bounds = (float(self.low[0]), float(self.low[1]), float(high[0]), float(high[1]))
+
+    def _keys_and_order(self):
+        """The points' cell keys in increasing order and the rows of ``xy`` in that order, sorted at
+        the first call (candidates may be measured in threads: one sort, under a lock)."""
+        if self._sorted is None:
+            with self._lock:
+                if self._sorted is None:
+                    cells = np.floor((self.xy - self.low) / self.cell).astype(np.int64)
+                    keys = cells[:, 0] * self.rows + cells[:, 1]
+                    # Not a stable sort (5x slower): the points of a cell come out in any order, and
+                    # box() sorts what it returns.
+                    order = np.argsort(keys).astype(np.int32 if len(keys) < 2**31 else np.int64)
+                    self._sorted = (keys[order], order)
+        return self._sorted
+
+    def _share(self, x0, y0, x1, y1):
+        """The part of the points' bounding box (area) that the box ``[x0, x1] x [y0, y1]`` covers:
+        the share of the points it holds on a uniformly covered scan."""
+        left, bottom, right, top = self._bounds
+        width, height = min(x1, right) - max(x0, left), min(y1, top) - max(y0, bottom)
+        if width < 0 or height < 0:
+            return 0.0
+        return (width / (right - left) if right > left else 1.0) * (height / (top - bottom) if top > bottom else 1.0)
+
+    def _cell_range(self, start, stop, origin, count):
+        """First and last cell (along one axis, ``count`` cells from ``origin``) of ``[start, stop]``,
+        clipped to the points' cells; None when the span misses them."""
+        # clipped before the floor, so that an infinite side is a finite cell
+        first = math.floor(min(max((start - origin) / self.cell, -1.0), float(count)))
+        last = math.floor(min(max((stop - origin) / self.cell, -1.0), float(count)))
+        if last < 0 or first > count - 1:
+            return None
+        return max(first, 0), min(last, count - 1)
 
     def box(self, low, high):
         """Indices of the points inside the closed box ``[low, high]``, ascending (as
@@ -219,26 +265,28 @@ class CellIndex:
         -------
         (k,) int64
         """
-        if len(self.keys) == 0:
+        x0, y0, x1, y1 = float(low[0]), float(low[1]), float(high[0]), float(high[1])
+        if len(self.xy) == 0 or not (x0 <= x1 and y0 <= y1):  # (also a NaN side)
             return np.zeros(0, dtype=np.int64)
-        first = np.floor((np.asarray(low, dtype=np.float64) - self.low) / self.cell)
-        last = np.floor((np.asarray(high, dtype=np.float64) - self.low) / self.cell)
-        top = np.array([self.keys[-1] // self.rows, self.rows - 1], dtype=np.float64)
-        if np.any(last < 0) or np.any(first > top) or np.any(first > last):
+        across = self._cell_range(x0, x1, self._bounds[0], self.columns)
+        along = self._cell_range(y0, y1, self._bounds[1], self.rows)
+        if across is None or along is None:
             return np.zeros(0, dtype=np.int64)
-        first = np.maximum(first, 0).astype(np.int64)
-        last = np.minimum(last, top).astype(np.int64)
-        columns = np.arange(first[0], last[0] + 1, dtype=np.int64) * self.rows
-        starts = np.searchsorted(self.keys, columns + first[1], side="left")
-        ends = np.searchsorted(self.keys, columns + last[1], side="right")
+        # a search per column of cells: more columns than points (a stray point far away makes up to
+        # 2^30 of them) cost more than the pass
+        if self._share(x0, y0, x1, y1) > self.pass_share or across[1] - across[0] >= len(self.xy):
+            return box_indices(self.xy, low, high)
+        keys, order = self._keys_and_order()
+        column_keys = np.arange(across[0], across[1] + 1, dtype=np.int64) * self.rows
+        starts = np.searchsorted(keys, column_keys + along[0], side="left")
+        ends = np.searchsorted(keys, column_keys + along[1], side="right")
         lengths = ends - starts
         total = int(lengths.sum())
         if total == 0:
             return np.zeros(0, dtype=np.int64)
         # positions starts[c] .. ends[c] - 1 of every column c, in one vector
-        offsets = np.repeat(starts - np.concatenate([[0], np.cumsum(lengths)[:-1]]), lengths)
-        candidates = self.order[offsets + np.arange(total)].astype(np.int64)
-        points = self.xy[candidates]
-        inside = ((points[:, 0] >= low[0]) & (points[:, 0] <= high[0])
-                  & (points[:, 1] >= low[1]) & (points[:, 1] <= high[1]))
-        return np.sort(candidates[inside])
+        offsets = np.repeat(starts - (np.cumsum(lengths) - lengths), lengths)
+        candidates = order[offsets + np.arange(total)]
+        x, y = self.xy[candidates, 0], self.xy[candidates, 1]
+        inside = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
+        return np.sort(candidates[inside]).astype(np.int64)

@@ -69,11 +69,14 @@ class Scene:
 
     def with_cell_indices(self):
         """The scene with a :class:`holecli.geometry.kernels.CellIndex` of ``xy``, ``surface_xy`` and
-        ``material_xy``: one sort per array, then every neighbourhood query reads only its own cells
-        instead of every point (many candidates: the natural gaps of random sampling)."""
-        return replace(self, xy_cells=CellIndex(self.xy, self.cell),
-                       surface_cells=CellIndex(self.surface_xy, self.cell),
-                       material_cells=CellIndex(self.material_xy, self.cell))
+        ``material_xy``: every narrow neighbourhood query then reads only its own cells instead of
+        every point (many candidates: the natural gaps of random sampling). Each index sorts its
+        points at its first narrow query; when making ``material_xy`` removed no point (no speck: the
+        usual case), it is ``surface_xy`` and the two share one index."""
+        surface_cells = CellIndex(self.surface_xy, self.cell)
+        same = len(self.material_xy) == len(self.surface_xy) and np.array_equal(self.material_xy, self.surface_xy)
+        return replace(self, xy_cells=CellIndex(self.xy, self.cell), surface_cells=surface_cells,
+                       material_cells=surface_cells if same else CellIndex(self.material_xy, self.cell))
 
     def _cells_of(self, xy):
         for array, index in ((self.xy, self.xy_cells), (self.surface_xy, self.surface_cells),

@@ -45,9 +45,11 @@ def test_orient_normal_is_the_library_convention_everywhere():
     np.testing.assert_array_equal(orient_normal([-1e-13, 0.0, 0.0]), [-1e-13, 0.0, 0.0])
 
 
-def test_cell_index_answers_box_queries_as_a_pass_over_the_points():
+@pytest.mark.parametrize("pass_share", [None, 2.0, 0.0])
+def test_cell_index_answers_box_queries_as_a_pass_over_the_points(pass_share):
     """Random clouds (empty, far from the origin, with a stray point 1e9 away), random cells and boxes
-    (reversed, beyond the points, covering everything): the same indices, in the same order."""
+    (reversed, beyond the points, covering everything): the same indices, in the same order, whether
+    the index reads its cells for every box (pass_share 2), for none (0) or for the narrow ones."""
     from holecli.geometry.kernels import CellIndex, box_indices
 
     rng = np.random.default_rng(0)
@@ -57,11 +59,16 @@ def test_cell_index_answers_box_queries_as_a_pass_over_the_points():
         if n and rng.random() < 0.2:
             xy[0] = [1e9, -1e9]
         xy = np.asfortranarray(xy)
-        index = CellIndex(xy, rng.uniform(0.01, 2.0))
+        index = CellIndex(xy, rng.uniform(0.01, 2.0), pass_share=pass_share)
         for _ in range(20):
             center = xy[rng.integers(n)] if n else np.zeros(2)
             half = rng.uniform(0, 30, 2)
             low, high = center - half, center + half * rng.uniform(-0.5, 2.0)
+            np.testing.assert_array_equal(index.box(low, high), box_indices(xy, low, high), err_msg=str(trial))
+        # sides at infinity (everything on that side) and NaN (nothing)
+        for low, high in (([-np.inf, -np.inf], [np.inf, np.inf]), ([np.nan, 0.0], [1.0, 1.0]),
+                          ([-np.inf, 0.0], [0.0, np.inf]), (xy[0] if n else [0.0, 0.0], [np.inf, np.inf])):
+            low, high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
             np.testing.assert_array_equal(index.box(low, high), box_indices(xy, low, high), err_msg=str(trial))
 
 
@@ -75,3 +82,17 @@ def test_circumradii_of_a_right_triangle_and_a_degenerate_one():
     # collinear: no circle; the radius is infinite and the centroid stands in for the center
     assert radii[1] == np.inf
     np.testing.assert_allclose(centers[1], [4.0 / 3.0, 0.0])
+
+
+def test_cell_index_sorts_only_when_a_narrow_box_is_asked():
+    """A box holding most of the points is a pass over them: the cells are not sorted for it."""
+    from holecli.geometry.kernels import PASS_SHARE, CellIndex, box_indices
+
+    xy = np.asfortranarray(np.random.default_rng(1).uniform(0.0, 10.0, (5000, 2)))
+    index = CellIndex(xy, 0.1)
+    wide = (np.array([1.0, 1.0]), np.array([9.0, 9.0]))
+    np.testing.assert_array_equal(index.box(*wide), box_indices(xy, *wide))
+    assert index._sorted is None
+    narrow = (np.array([4.0, 4.0]), np.array([4.0, 4.0]) + 10.0 * np.sqrt(PASS_SHARE) / 2)
+    np.testing.assert_array_equal(index.box(*narrow), box_indices(xy, *narrow))
+    assert index._sorted is not None

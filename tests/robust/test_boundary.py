@@ -119,3 +119,30 @@ def test_outer_envelope_keeps_a_noisy_edge():
         radius = RADIUS + rng.normal(0.0, 0.01, 200)
         rim = CENTER + radius[:, None] * np.column_stack([np.cos(angles), np.sin(angles)])
         assert outer_envelope(rim, CENTER, depth=ALPHA, sectors=len(rim) // 3).all(), seed
+
+
+def test_components_are_the_groups_a_search_through_shared_edges_finds():
+    """Random triangulations and random kept triangles: the same groups (labels are used as sets) as a
+    breadth-first search over the kept neighbours, and -1 on the triangles not kept."""
+    from scipy.spatial import Delaunay
+
+    from holecli.robust.boundary import _components
+
+    rng = np.random.default_rng(3)
+    for trial in range(30):
+        neighbors = Delaunay(rng.uniform(0.0, 10.0, (int(rng.integers(4, 400)), 2))).neighbors
+        keep = rng.random(len(neighbors)) < rng.uniform(0.1, 0.95)
+        expected = np.full(len(neighbors), -1)
+        for start in np.flatnonzero(keep):
+            if expected[start] >= 0:
+                continue
+            expected[start], queue = start, [start]
+            while queue:
+                for other in neighbors[queue.pop()]:
+                    if other >= 0 and keep[other] and expected[other] < 0:
+                        expected[other] = start
+                        queue.append(other)
+        labels = _components(neighbors, keep)
+        np.testing.assert_array_equal(labels < 0, ~keep, err_msg=str(trial))
+        pairs = set(zip(labels[keep], expected[keep]))
+        assert len(pairs) == len(set(labels[keep])) == len(set(expected[keep])), trial

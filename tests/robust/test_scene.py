@@ -1,6 +1,8 @@
 """Tests of holecli.robust.scene: the scene of a scan (its plane frame, scales and grid) and its
 neighbourhood queries."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -63,6 +65,20 @@ def test_within_and_box_answer_as_a_brute_force_query(scene, indexed):
             in_box = np.flatnonzero(np.all((xy >= low) & (xy <= high), axis=1))
             np.testing.assert_array_equal(np.sort(queried.box(xy, low, high)), in_box)
             assert queried.count_in_disk(xy, center, outer) == np.count_nonzero(distance < outer)
+
+
+def test_material_and_surface_share_their_index_when_no_speck_was_removed(scene):
+    """material_xy equal to surface_xy: one index for both; a point fewer: an index of its own, whose
+    queries are material_xy's."""
+    same = replace(scene, material_xy=scene.surface_xy.copy()).with_cell_indices()
+    assert same.material_cells is same.surface_cells
+    fewer = replace(scene, material_xy=np.asfortranarray(scene.surface_xy[1:])).with_cell_indices()
+    assert fewer.material_cells is not fewer.surface_cells
+    for queried in (same, fewer):
+        xy = queried.material_xy
+        center = xy[0]
+        expected = np.flatnonzero(np.hypot(*(xy - center).T) < 0.5)
+        np.testing.assert_array_equal(queried.within(xy, center, 0.0, 0.5), expected)
 
 
 def test_the_hole_is_scanned_all_round(scene):
