@@ -204,7 +204,9 @@ def sampling_errors(xy, center, radius, offsets, scales, allow_open=True, *, set
 
 def synthetic_ring(scene, center, radius, offsets, settings, floor):
     """The scales of a synthetic rim and the material points around a hole that synthetic holes of
-    ``radius + offsets`` are cut into."""
+    ``radius + offsets`` are cut into. The scales' ``trim`` is ``cut_alphas - synthetic_cut_alphas``
+    alphas: each synthetic rim is first extracted from the ring that much narrower
+    (:func:`synthetic_rim`)."""
     period = scene.sampling.period or 0.5 * scene.alpha
     reach = scene.alpha + 2.0 * scene.cell
     margin = settings.margin_alphas * scene.alpha + scene.cell
