@@ -270,6 +270,12 @@ class BiasSettings(_Group):
     # Points within this many alphas of the outer line of the triangulated ring are cut-zone
     # material (the cut, not a hole, leaves empty triangles there): an alpha disk's diameter.
     cut_alphas: float = number(2.0, 0.0, _INF)
+    # A synthetic hole's ring is first triangulated with a cut zone this many alphas wide instead of
+    # cut_alphas (its outer line that much nearer, its cut zone's inner line where it was): a triangle
+    # that the points left out could change has an empty circle reaching past the nearer outer line,
+    # and to touch the hole it would span 2 alphas of material. Where the material does not surround
+    # the hole (its rim then comes out open or not at all) the full ring is triangulated.
+    synthetic_cut_alphas: float = number(1.0, 0.0, _INF)
     # Fewest rim points of a synthetic hole that is fitted (points).
     bias_min_rim_points: int = count(5, 3, 10 ** 9)
     # A synthetic hole whose fitted radius is off its known one by this many alphas or more failed

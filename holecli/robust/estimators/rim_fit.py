@@ -43,6 +43,9 @@ class RimScales:
         Floor of the circle fit's residual scale.
     depth : float or None
         Envelope depth of :func:`holecli.robust.edge.fit_edge`; ``alpha`` when None.
+    trim : float
+        How much nearer the ring's outer line is drawn first (:func:`synthetic_rim`): ``margin - trim``,
+        the cut zone's inner line staying where it is; 0: the full ring only.
     """
 
     alpha: float
@@ -51,6 +54,7 @@ class RimScales:
     clip: float
     floor: float
     depth: Optional[float] = None
+    trim: float = 0.0
 
     @property
     def envelope(self) -> float:
@@ -75,12 +79,38 @@ class SyntheticRim:
     fit: object
 
 
+def _ring_rim(xy, distance, center, radius, outer, cut_from, alpha, inside):
+    """The rim (:func:`holecli.robust.boundary.hole_rim`) of a synthetic hole of ``radius`` cut at
+    ``center`` into the points ``xy`` at ``distance`` from it that lie closer than ``outer``; those
+    farther than ``cut_from`` are the cut zone. ``(local points, Rim or None)``."""
+    keep = (distance > radius) & (distance < outer)
+    local = xy[keep]
+    cut = distance[keep] > cut_from
+    if inside is not None and len(inside):
+        local = np.vstack([local, inside])
+        cut = np.concatenate([cut, np.zeros(len(inside), dtype=bool)])
+
+    def in_disk(positions):
+        return np.hypot(*(positions - center).T) < radius
+
+    return local, hole_rim(local, in_disk, alpha, cut=cut)
+
+
 def synthetic_rim(xy, center, radius, scales, allow_open=True, *, settings=DEFAULT_SETTINGS, inside=None):
     """Fit the rim of a synthetic hole of ``radius`` cut at ``center`` into ``xy``.
 
     Only the ring of points between ``radius`` and ``radius + margin`` is triangulated; rim points
     farther than ``radius + reach`` from the center (where a partial hole opens onto the scan's
     edge) are ignored.
+
+    With ``scales.trim``, the ring reaching only ``radius + margin - trim`` is triangulated first,
+    its cut zone starting where the full ring's does. Dropping points can change only the triangles
+    whose empty circle reaches past the nearer outer line; one that touched the hole region would
+    span the material between the rim and that line, which holds no empty circle as large as an
+    alpha disk wherever the material surrounds the hole (``settings.synthetic_cut_alphas``). So a
+    closed rim there is the full ring's; an open rim, or none, may come from a border or another
+    void crossing the ring, and the full ring is triangulated instead (at once when ``allow_open``:
+    the synthetic holes of a partial hole open onto the scan's edge).
 
     Parameters
     ----------
@@ -105,17 +135,12 @@ def synthetic_rim(xy, center, radius, scales, allow_open=True, *, settings=DEFAU
     """
     alpha, margin = scales.alpha, scales.margin
     distance = np.hypot(*(xy - center).T)
-    keep = (distance > radius) & (distance < radius + margin)
-    local = xy[keep]
-    cut = distance[keep] > radius + margin - settings.cut_alphas * alpha
-    if inside is not None and len(inside):
-        local = np.vstack([local, inside])
-        cut = np.concatenate([cut, np.zeros(len(inside), dtype=bool)])
-
-    def in_disk(positions):
-        return np.hypot(*(positions - center).T) < radius
-
-    rim = hole_rim(local, in_disk, alpha, cut=cut)
+    cut_from = radius + margin - settings.cut_alphas * alpha
+    rim = None
+    if scales.trim > 0.0 and not allow_open:
+        local, rim = _ring_rim(xy, distance, center, radius, radius + margin - scales.trim, cut_from, alpha, inside)
+    if rim is None or rim.open:
+        local, rim = _ring_rim(xy, distance, center, radius, radius + margin, cut_from, alpha, inside)
     if rim is None or (rim.open and not allow_open):
         return None
     rim_xy = local[rim.index]
@@ -179,14 +204,17 @@ def sampling_errors(xy, center, radius, offsets, scales, allow_open=True, *, set
 
 def synthetic_ring(scene, center, radius, offsets, settings, floor):
     """The scales of a synthetic rim and the material points around a hole that synthetic holes of
-    ``radius + offsets`` are cut into."""
+    ``radius + offsets`` are cut into. The scales' ``trim`` is ``cut_alphas - synthetic_cut_alphas``
+    alphas: each synthetic rim is first extracted from the ring that much narrower
+    (:func:`synthetic_rim`)."""
     period = scene.sampling.period or 0.5 * scene.alpha
     reach = scene.alpha + 2.0 * scene.cell
     margin = settings.margin_alphas * scene.alpha + scene.cell
+    trim = max(settings.cut_alphas - settings.synthetic_cut_alphas, 0.0) * scene.alpha
     ring = scene.material_xy[scene.within(scene.material_xy, center, radius - period,
                                           radius + offsets[-1] + margin + period)]
     scales = RimScales(alpha=scene.alpha, reach=reach, margin=margin, clip=settings.clip_sigmas, floor=floor,
-                       depth=scene.envelope)
+                       depth=scene.envelope, trim=trim)
     return scales, ring
 
 

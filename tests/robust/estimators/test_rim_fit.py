@@ -1,11 +1,13 @@
 """Tests of holecli.robust.estimators.rim_fit: the sampling bias of a rim fit, measured with synthetic holes."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from holecli.robust.boundary import hole_rim
 from holecli.robust.edge import fit_edge
-from holecli.robust.estimators.rim_fit import RimScales, sampling_bias, synthetic_rim_fit
+from holecli.robust.estimators.rim_fit import RimScales, _ring_rim, sampling_bias, synthetic_rim, synthetic_rim_fit
 from holecli.settings import DEFAULT_SETTINGS
 
 pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"
@@ -85,3 +87,64 @@ def test_bias_does_not_depend_on_the_point_order(rng):
     shuffled = sampling_bias(material[rng.permutation(len(material))], CENTER, RADIUS + 0.05, offsets,
                              rim_scales(3 * H))
     assert shuffled == pytest.approx(reference, abs=1e-9 * H)
+
+
+def trimmed_and_full(pitch):
+    """The pipeline's ring scales (a cut zone of 2 alphas) and the same ring first triangulated an
+    alpha narrower (settings.synthetic_cut_alphas 1)."""
+    full = rim_scales(pitch)
+    return replace(full, trim=full.alpha), full
+
+
+def same_rim(one, other):
+    """Both None, or the same rim points and the same fit."""
+    if one is None or other is None:
+        return one is None and other is None
+    return (np.array_equal(one.rim_xy, other.rim_xy) and one.fit.radius == other.fit.radius
+            and np.array_equal(one.fit.center, other.fit.center))
+
+
+@pytest.mark.parametrize("pitch", [H, 3 * H])
+@pytest.mark.parametrize("radius", [0.8, 1.55, 2.3])
+def test_a_ring_an_alpha_narrower_gives_the_same_synthetic_rim(pitch, radius):
+    """Where the material surrounds the synthetic hole, the points between the nearer and the full
+    outer line change no triangle at the rim: the rim points and their fit are the full ring's."""
+    trimmed, full = trimmed_and_full(pitch)
+    xy = lattice(pitch)
+    for center in (CENTER, CENTER + [0.031, -0.047]):
+        narrow = synthetic_rim(xy, center, radius, trimmed, allow_open=False)
+        wide = synthetic_rim(xy, center, radius, full, allow_open=False)
+        assert narrow is not None
+        assert same_rim(narrow, wide)
+        # The saving: the narrower ring was triangulated, not the full one after it.
+        assert len(narrow.local) < 0.8 * len(wide.local)
+
+
+def test_a_narrower_ring_is_the_same_on_random_points(rng):
+    """Random sampling: natural empty circles of every size up to about the gap scale."""
+    xy = rng.uniform(-6.0, 6.0, size=(14000, 2))
+    gap = 0.9 * np.sqrt(1.0 / (len(xy) / 144.0))  # about the 90th percentile of the empty-circle radii
+    alpha, cell = 2.5 * gap, 2.0 * gap
+    full = RimScales(alpha=alpha, reach=alpha + 2.0 * cell, margin=3.0 * alpha + cell, clip=CLIP, floor=FLOOR)
+    for radius in (1.0, 1.7, 2.4):
+        one = synthetic_rim(xy, CENTER, radius, replace(full, trim=alpha), allow_open=False)
+        assert one is not None
+        assert same_rim(one, synthetic_rim(xy, CENTER, radius, full, allow_open=False))
+
+
+def test_a_border_across_the_narrower_ring_falls_back_to_the_full_ring():
+    """A scan border crossing the narrower ring just outside the synthetic hole opens its rim (the
+    hole region reaches the border's gap past the nearer outer line) where the full ring's rim is
+    closed: the full ring is triangulated then, and the synthetic hole is measured as before."""
+    pitch = 3 * H
+    trimmed, full = trimmed_and_full(pitch)
+    radius = 1.5
+    xy = lattice(pitch)
+    xy = xy[xy[:, 0] < CENTER[0] + radius + 0.2 * full.alpha]
+    distance = np.hypot(*(xy - CENTER).T)
+    cut_from = radius + full.margin - DEFAULT_SETTINGS.cut_alphas * full.alpha
+    _, narrow = _ring_rim(xy, distance, CENTER, radius, radius + full.margin - trimmed.trim, cut_from, full.alpha, None)
+    assert narrow is not None and narrow.open
+    expected = synthetic_rim(xy, CENTER, radius, full, allow_open=False)
+    assert expected is not None
+    assert same_rim(synthetic_rim(xy, CENTER, radius, trimmed, allow_open=False), expected)
