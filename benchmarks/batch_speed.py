@@ -6,7 +6,7 @@ stripes, jittered grid, random sampling, a countersunk hole with bore-wall point
 light noise and a different pose per scan. It then runs ``python -m holecli batch`` on them with
 ``--jobs 1`` and with ``--jobs 2``: each the real command, start-up included, output to a file. It
 prints both wall times (the best of ``--repeats`` alternating runs, since other processes on the
-machine add noise) and their ratio. The target on a machine with 2 cores is a ratio >= 1.6.
+machine add noise) and their ratio. The target on an idle machine with 2 cores is a ratio >= 1.8.
 
 It also runs ``holecli batch --cluster local:N`` (N = ``--jobs``; a Dask LocalCluster started and
 stopped by the command, its start included) when Dask is installed, and prints the files per second
@@ -38,7 +38,7 @@ sys.path.insert(0, str(ROOT))
 from holecli.io import save_points  # noqa: E402
 from holecli.simulation import synth  # noqa: E402
 
-TARGET_RATIO = 1.6
+TARGET_RATIO = 1.8  # issue 29: on an idle 2-core machine
 
 
 def _scenes():
