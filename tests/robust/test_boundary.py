@@ -3,6 +3,7 @@
 import numpy as np
 
 from holecli.geometry.kernels import largest_angular_gap
+from holecli.robust import boundary
 from holecli.robust.boundary import Rim, hole_rim, hole_rim_within, near_box_edge, outer_envelope
 
 H = 0.1
@@ -163,8 +164,6 @@ def ring_window(xy, center, inner, outer, trim):
 
 def narrow_and_full(local, cut, near, encloses, in_hole, monkeypatch):
     """hole_rim_within's rim, whether it triangulated the whole ring again, and hole_rim's rim."""
-    import holecli.robust.boundary as boundary
-
     calls = []
 
     def counted(*args, **kwargs):
@@ -227,3 +226,19 @@ def test_the_narrower_window_must_leave_out_only_cut_points():
     assert not np.all(cut[~near])
     assert same(hole_rim_within(local, in_disk(), ALPHA, cut, near, encloses),
                 hole_rim(local, in_disk(), ALPHA, cut=cut))
+
+
+def test_a_box_window_takes_its_rim_from_the_narrower_box(monkeypatch):
+    """A bay's neighbourhood is a box: its narrower window an alpha inside every side."""
+    xy = holed(grid(-6.0, 6.0, -6.0, 6.0))
+    low, high = CENTER - 2.0, CENTER + 2.0
+    local = xy[np.all((xy >= low) & (xy <= high), axis=1)]
+    cut = near_box_edge(local, low, high, 2.0 * ALPHA)
+    near = ~near_box_edge(local, low, high, ALPHA)
+
+    def encloses(centers, radii):
+        return (np.all(centers - radii[:, None] > low + ALPHA, axis=1)
+                & np.all(centers + radii[:, None] < high - ALPHA, axis=1))
+
+    narrow, again, full = narrow_and_full(local, cut, near, encloses, in_disk(), monkeypatch)
+    assert full is not None and same(narrow, full) and not again
