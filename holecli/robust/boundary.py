@@ -63,7 +63,7 @@ def _components(neighbors, keep):
     return labels
 
 
-def hole_rim(xy, in_hole, alpha, cut=None):
+def hole_rim(xy, in_hole, alpha, cut=None, window=None):
     """Rim of the hole that holds the positions ``in_hole`` marks.
 
     Parameters
@@ -79,6 +79,9 @@ def hole_rim(xy, in_hole, alpha, cut=None):
     cut : (n,) bool, optional
         Points within ``2 alpha`` of the line along which the local points were cut out of the scan:
         triangles touching them are material (the cut, not a hole, leaves gaps there).
+    window : ((n,) bool, callable), optional
+        With ``cut``: ``(near, encloses)``, a narrower window triangulated first, the rim kept where
+        it provably is the same (:func:`hole_rim_within`).
 
     Returns
     -------
@@ -86,6 +89,8 @@ def hole_rim(xy, in_hole, alpha, cut=None):
         None when no hole triangle has its circumcenter in the marked region (the void is a natural
         gap smaller than alpha).
     """
+    if window is not None and cut is not None:
+        return hole_rim_within(xy, in_hole, alpha, cut, *window)
     return _hole_rim(xy, in_hole, alpha, cut)[0]
 
 
@@ -168,18 +173,18 @@ def hole_rim_within(xy, in_hole, alpha, cut, near, encloses):
         :func:`hole_rim` ``(xy, in_hole, alpha, cut)``.
     """
     if np.all(near) or not np.all(cut[~near]):
-        return hole_rim(xy, in_hole, alpha, cut=cut)
+        return _hole_rim(xy, in_hole, alpha, cut)[0]
     frame = wobble_frame(xy)
     chosen = np.flatnonzero(near)
     rim, triangulation, region, hull = _hole_rim(xy[chosen], in_hole, alpha, cut[chosen], frame)
     if triangulation is None or not np.all(cut[chosen[hull]]):
-        return hole_rim(xy, in_hole, alpha, cut=cut)
+        return _hole_rim(xy, in_hole, alpha, cut)[0]
     if rim is None:
         return None
     # The circles of the wobbled points the triangulation is of, a tolerance above their round-off.
     radius, centers = circumradii(triangulation.points, triangulation.simplices[region])
     if not np.all(encloses(centers, radius + _CIRCLE_TOLERANCE * frame[1])):
-        return hole_rim(xy, in_hole, alpha, cut=cut)
+        return _hole_rim(xy, in_hole, alpha, cut)[0]
     return Rim(index=chosen[rim.index], open=rim.open)
 
 

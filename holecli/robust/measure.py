@@ -14,7 +14,7 @@ from scipy import ndimage
 from holecli.robust.acceptance import (EDGE_CHECKS, FIT_CHECKS, RIM_CHECKS, VOID_CHECKS, edge_below_min_diameter,
                                        first_refusal)
 from holecli.robust.assemble import shape_reach
-from holecli.robust.boundary import hole_rim_within, near_box_edge
+from holecli.robust.boundary import hole_rim, near_box_edge
 from holecli.robust.candidate import Candidate, FirstCircle, Measured, Refusal
 from holecli.robust.edge import fit_edge
 from holecli.robust.estimators import CONE, estimate_edge
@@ -63,7 +63,8 @@ def _near_void(grid, void, cells):
 
 def _void_neighbourhood(scene, grid, void, void_mask, margin, settings):
     """Material points around a void, which of them lie near the line they were cut along, and the
-    narrower window :func:`holecli.robust.boundary.hole_rim_within` triangulates first.
+    narrower window :func:`holecli.robust.boundary.hole_rim` triangulates first
+    (:func:`holecli.robust.boundary.hole_rim_within`).
 
     An enclosed void takes a ring: from just inside its largest empty disk (the inside of a hole
     holds nothing the rim needs) to ``margin`` beyond its farthest cell. A bay takes its bounding box
@@ -117,7 +118,7 @@ def _with_rim(scene, candidate, in_void, void_mask, settings):
     ``encloses``)."""
     margin = settings.margin_alphas * scene.alpha + scene.cell
     local, cut, near, encloses = _void_neighbourhood(scene, scene.grid, candidate.void, void_mask, margin, settings)
-    rim = hole_rim_within(local, in_void, scene.alpha, cut, near, encloses)
+    rim = hole_rim(local, in_void, scene.alpha, cut=cut, window=(near, encloses))
     return replace(candidate, local=local, cut=cut, rim_xy=None if rim is None else local[rim.index]), (near, encloses)
 
 
@@ -143,7 +144,7 @@ def _without_deep_points(scene, candidate, deep, in_void, window, settings):
                         center=fit.center, radius=fit.radius, rim_xy=candidate.rim_xy)
     local, cut = local[~deep], candidate.cut[~deep]
     near, encloses = window
-    rim = hole_rim_within(local, in_void, scene.alpha, cut, near[~deep], encloses)
+    rim = hole_rim(local, in_void, scene.alpha, cut=cut, window=(near[~deep], encloses))
     rim_xy = None
     if rim is not None:
         # Keep rim points within two cells of the void: without this a 2 x 6 mm slot's outline comes

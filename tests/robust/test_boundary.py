@@ -4,7 +4,7 @@ import numpy as np
 
 from holecli.geometry.kernels import largest_angular_gap
 from holecli.robust import boundary
-from holecli.robust.boundary import Rim, hole_rim, hole_rim_within, near_box_edge, outer_envelope
+from holecli.robust.boundary import Rim, hole_rim, near_box_edge, outer_envelope
 
 H = 0.1
 ALPHA = 2.5 * H / np.sqrt(2)  # the pipeline's alpha on a grid: 2.5 gaps, a gap being 0.71 h
@@ -163,17 +163,19 @@ def ring_window(xy, center, inner, outer, trim):
 
 
 def narrow_and_full(local, cut, near, encloses, in_hole, monkeypatch):
-    """hole_rim_within's rim, whether it triangulated the whole ring again, and hole_rim's rim."""
+    """The rim from the narrower window (hole_rim_within), whether the whole ring was triangulated
+    again, and hole_rim's rim without the window."""
     calls = []
+    triangulated = boundary._hole_rim
 
     def counted(*args, **kwargs):
         calls.append(1)
-        return hole_rim(*args, **kwargs)
+        return triangulated(*args, **kwargs)
 
-    monkeypatch.setattr(boundary, "hole_rim", counted)
-    narrow = hole_rim_within(local, in_hole, ALPHA, cut, near, encloses)
+    monkeypatch.setattr(boundary, "_hole_rim", counted)
+    narrow = hole_rim(local, in_hole, ALPHA, cut=cut, window=(near, encloses))
     monkeypatch.undo()
-    return narrow, bool(calls), hole_rim(local, in_hole, ALPHA, cut=cut)
+    return narrow, len(calls) > 1, hole_rim(local, in_hole, ALPHA, cut=cut)
 
 
 def same(one, other):
@@ -224,7 +226,7 @@ def test_the_narrower_window_must_leave_out_only_cut_points():
     outer = RADIUS + 3.0 * ALPHA + 2.0 * H
     local, cut, near, encloses = ring_window(xy, CENTER, 0.5, outer, 3.0 * ALPHA)
     assert not np.all(cut[~near])
-    assert same(hole_rim_within(local, in_disk(), ALPHA, cut, near, encloses),
+    assert same(hole_rim(local, in_disk(), ALPHA, cut=cut, window=(near, encloses)),
                 hole_rim(local, in_disk(), ALPHA, cut=cut))
 
 
