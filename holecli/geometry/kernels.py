@@ -105,7 +105,15 @@ def orient_normal(normal):
     return normal
 
 
-def triangulate(xy):
+def wobble_frame(xy):
+    """The origin (lowest coordinates) and extent (largest side, 1 when none) of ``xy`` (n, 2) that
+    :func:`triangulate` wobbles its points in."""
+    scale = float(np.max(np.ptp(xy, axis=0))) if len(xy) else 1.0
+    scale = scale if scale > 0 else 1.0
+    return (xy.min(axis=0) if len(xy) else np.zeros(2)), scale
+
+
+def triangulate(xy, frame=None):
     """Delaunay triangulation of ``xy`` (n, 2), fast on regular grids as on random points.
 
     Four points of a square grid lie on one circle, and Qhull spends three times as long on such
@@ -118,15 +126,17 @@ def triangulate(xy):
     ----------
     xy : (n, 2) float
         Points to triangulate.
+    frame : ((2,) float, float), optional
+        The origin and the extent the wobble is a function of (:func:`wobble_frame`); those of ``xy``
+        when None. Points of a subset keep the whole set's wobble when given its frame.
 
     Returns
     -------
     scipy.spatial.Delaunay
         The triangulation of the wobbled points (its ``simplices`` index ``xy``).
     """
-    scale = float(np.max(np.ptp(xy, axis=0))) if len(xy) else 1.0
-    scale = scale if scale > 0 else 1.0
-    u = (xy - xy.min(axis=0)) / scale
+    origin, scale = wobble_frame(xy) if frame is None else frame
+    u = (xy - origin) / scale
     wobble = np.column_stack([np.sin(7.3e6 * u[:, 0] + 3.1e6 * u[:, 1]), np.sin(2.9e6 * u[:, 0] - 6.7e6 * u[:, 1])])
     return Delaunay(xy + (_WOBBLE * scale) * wobble)
 

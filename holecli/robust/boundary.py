@@ -17,7 +17,12 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import QhullError
 
-from holecli.geometry.kernels import circumradii, triangulate
+from holecli.geometry.kernels import circumradii, triangulate, wobble_frame
+
+
+# A circle of hole_rim_within's check is widened by this much of the points' extent: far above the
+# round-off of a circumcircle and the 1e-9 wobble of the triangulated points.
+_CIRCLE_TOLERANCE = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -58,7 +63,7 @@ def _components(neighbors, keep):
     return labels
 
 
-def hole_rim(xy, in_hole, alpha, cut=None):
+def hole_rim(xy, in_hole, alpha, cut=None, window=None):
     """Rim of the hole that holds the positions ``in_hole`` marks.
 
     Parameters
@@ -74,6 +79,9 @@ def hole_rim(xy, in_hole, alpha, cut=None):
     cut : (n,) bool, optional
         Points within ``2 alpha`` of the line along which the local points were cut out of the scan:
         triangles touching them are material (the cut, not a hole, leaves gaps there).
+    window : ((n,) bool, callable), optional
+        With ``cut``: ``(near, encloses)``, a narrower window triangulated first, the rim kept where
+        it provably is the same (:func:`hole_rim_within`).
 
     Returns
     -------
@@ -81,12 +89,22 @@ def hole_rim(xy, in_hole, alpha, cut=None):
         None when no hole triangle has its circumcenter in the marked region (the void is a natural
         gap smaller than alpha).
     """
+    if window is not None and cut is not None:
+        return hole_rim_within(xy, in_hole, alpha, cut, *window)
+    return _hole_rim(xy, in_hole, alpha, cut)[0]
+
+
+def _hole_rim(xy, in_hole, alpha, cut, frame=None):
+    """:func:`hole_rim`, and what :func:`hole_rim_within` checks of it: ``(rim, triangulation,
+    region, hull)`` -- the triangulation (None when there is none: too few points or a Qhull error),
+    the hole region's triangles (bool per triangle; None without seeds) and the vertices on the
+    triangulation's outer boundary (indices). ``frame``: :func:`triangulate`'s."""
     if len(xy) < 4:
-        return None
+        return None, None, None, None
     try:
-        triangulation = triangulate(xy)
+        triangulation = triangulate(xy, frame)
     except QhullError:
-        return None
+        return None, None, None, None
     simplices = triangulation.simplices
     neighbors = triangulation.neighbors
     radius, centers = circumradii(xy, simplices)
@@ -95,8 +113,8 @@ def hole_rim(xy, in_hole, alpha, cut=None):
     # large circle there shows the end of the scan, not a hole, unless the boundary edge itself is
     # wider than an alpha disk (the mouth of a hole cut by the border).
     t, k = np.nonzero(neighbors < 0)
+    ends = simplices[t][np.arange(3)[None, :] != k[:, None]].reshape(-1, 2)
     if len(t):
-        ends = simplices[t][np.arange(3)[None, :] != k[:, None]].reshape(-1, 2)
         narrow = np.hypot(*(xy[ends[:, 0]] - xy[ends[:, 1]]).T) < 2.0 * alpha
         big[t[narrow]] = False
     if cut is not None:
@@ -104,7 +122,7 @@ def hole_rim(xy, in_hole, alpha, cut=None):
     seed_triangles = np.flatnonzero(big)
     seed_triangles = seed_triangles[in_hole(centers[seed_triangles])]
     if len(seed_triangles) == 0:
-        return None
+        return None, triangulation, None, ends.ravel()
     big_labels = _components(neighbors, big)
     region = np.isin(big_labels, np.unique(big_labels[seed_triangles]))
     # Everything not in the region, grouped; the groups that reach the triangulation's boundary are
@@ -120,7 +138,54 @@ def hole_rim(xy, in_hole, alpha, cut=None):
     keep[np.arange(len(t)), k] = False
     index = np.unique(simplices[t][keep])
     is_open = bool(np.any(region & on_boundary))
-    return Rim(index=index, open=is_open)
+    return Rim(index=index, open=is_open), triangulation, region, ends.ravel()
+
+
+def hole_rim_within(xy, in_hole, alpha, cut, near, encloses):
+    """:func:`hole_rim` of ``xy``, from the triangulation of the points ``near`` alone where that
+    provably gives the same rim.
+
+    The points left out must all be ``cut`` (the outer part of the cut zone), and ``encloses`` must
+    say which disks hold none of them. Among the points ``near``, the hole region is the full set's
+    when (1) every vertex on the outer boundary of their triangulation is cut and (2) every
+    triangle of their hole region has its circumcircle within a disk ``encloses`` accepts. Proof
+    sketch (Delaunay triangles by their empty circles): a triangle without cut vertices of the full
+    triangulation has its vertices among the points near and is a triangle of theirs, by (1) not on
+    its outer boundary nor on the full one's, so the full hole region lies in theirs; by (2) each
+    triangle of theirs has an empty circle in the full set too, so the regions are the same. By (1)
+    the region keeps off both outer boundaries: the islands it encloses, the material outside it
+    and so the rim are the same, and neither rim is open. Otherwise (a border, a slot or another void
+    reaching the left-out points) the full set is triangulated.
+
+    Parameters
+    ----------
+    xy, in_hole, alpha, cut
+        As :func:`hole_rim` (``cut`` required).
+    near : (n,) bool
+        The points triangulated first.
+    encloses : callable
+        ``encloses(centers, radii) -> (k,) bool`` for (k, 2) centers and (k,) radii: True where the
+        disk holds none of the points not ``near``.
+
+    Returns
+    -------
+    Rim or None
+        :func:`hole_rim` ``(xy, in_hole, alpha, cut)``.
+    """
+    if np.all(near) or not np.all(cut[~near]):
+        return _hole_rim(xy, in_hole, alpha, cut)[0]
+    frame = wobble_frame(xy)
+    chosen = np.flatnonzero(near)
+    rim, triangulation, region, hull = _hole_rim(xy[chosen], in_hole, alpha, cut[chosen], frame)
+    if triangulation is None or not np.all(cut[chosen[hull]]):
+        return _hole_rim(xy, in_hole, alpha, cut)[0]
+    if rim is None:
+        return None
+    # The circles of the wobbled points the triangulation is of, a tolerance above their round-off.
+    radius, centers = circumradii(triangulation.points, triangulation.simplices[region])
+    if not np.all(encloses(centers, radius + _CIRCLE_TOLERANCE * frame[1])):
+        return _hole_rim(xy, in_hole, alpha, cut)[0]
+    return Rim(index=chosen[rim.index], open=rim.open)
 
 
 def outer_envelope(rim_xy, center, depth, sectors):

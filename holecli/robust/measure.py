@@ -23,6 +23,12 @@ from holecli.robust.surface import local_normal, surface_height
 
 __all__ = ["measure_candidate", "measure_candidates"]
 
+# A void's rim is triangulated first among the points of a window this many alphas narrower than
+# its neighbourhood (the outer part of the cut zone left out; cut_alphas 2 leaves a cut zone of one
+# alpha): the rim is the whole neighbourhood's wherever hole_rim_within's checks hold, and the
+# neighbourhood is triangulated where they do not.
+NARROW_TRIM_ALPHAS = 1.0
+
 
 def _near_void(grid, void, cells):
     """A test ``near(xy) -> bool``: within ``cells`` grid cells (8-connected) of the void.
@@ -56,13 +62,27 @@ def _near_void(grid, void, cells):
 
 
 def _void_neighbourhood(scene, grid, void, void_mask, margin, settings):
-    """Material points around a void, and which of them lie near the line they were cut along.
+    """Material points around a void, which of them lie near the line they were cut along, and the
+    narrower window :func:`holecli.robust.boundary.hole_rim` triangulates first
+    (:func:`holecli.robust.boundary.hole_rim_within`).
 
     An enclosed void takes a ring: from just inside its largest empty disk (the inside of a hole
     holds nothing the rim needs) to ``margin`` beyond its farthest cell. A bay takes its bounding box
-    grown by ``margin``.
+    grown by ``margin``. The narrower window's outer line is ``NARROW_TRIM_ALPHAS`` alphas nearer,
+    its cut zone starting where the full one's does.
+
+    Returns
+    -------
+    local : (n, 2) float
+    cut : (n,) bool
+    near : (n,) bool
+        The points inside the narrower window.
+    encloses : callable
+        ``encloses(centers, radii) -> (k,) bool``: True for the disks inside the narrower window
+        (holding none of the points not ``near``).
     """
     cell, alpha = scene.cell, scene.alpha
+    trim = NARROW_TRIM_ALPHAS * alpha
     centers = grid.center_of(void.cells)
     if void.enclosed:
         center = centers.mean(axis=0)
@@ -75,20 +95,31 @@ def _void_neighbourhood(scene, grid, void, void_mask, margin, settings):
         if np.all(np.hypot(*(centers - center).T) < outer - margin):
             index = scene.within(scene.material_xy, center, inner, outer)
             local = scene.material_xy[index]
-            return local, np.hypot(*(local - center).T) > outer - settings.cut_alphas * alpha
+            reach = np.hypot(*(local - center).T)
+
+            def in_ring(disk_centers, radii):
+                return np.hypot(*(disk_centers - center).T) + radii < outer - trim
+
+            return local, reach > outer - settings.cut_alphas * alpha, reach < outer - trim, in_ring
     low = centers.min(axis=0) - 0.5 * cell - margin
     high = centers.max(axis=0) + 0.5 * cell + margin
     local = scene.material_xy[scene.box(scene.material_xy, low, high)]
-    return local, near_box_edge(local, low, high, settings.cut_alphas * alpha)
+
+    def in_box(disk_centers, radii):
+        return (np.all(disk_centers - radii[:, None] > low + trim, axis=1)
+                & np.all(disk_centers + radii[:, None] < high - trim, axis=1))
+
+    return local, near_box_edge(local, low, high, settings.cut_alphas * alpha), ~near_box_edge(local, low, high, trim), in_box
 
 
 def _with_rim(scene, candidate, in_void, void_mask, settings):
     """The candidate with the material points around its void and the rim among them (``rim_xy``
-    None: no rim)."""
+    None: no rim), and the narrower window of those points (:func:`_void_neighbourhood`'s ``near``,
+    ``encloses``)."""
     margin = settings.margin_alphas * scene.alpha + scene.cell
-    local, cut = _void_neighbourhood(scene, scene.grid, candidate.void, void_mask, margin, settings)
-    rim = hole_rim(local, in_void, scene.alpha, cut=cut)
-    return replace(candidate, local=local, cut=cut, rim_xy=None if rim is None else local[rim.index])
+    local, cut, near, encloses = _void_neighbourhood(scene, scene.grid, candidate.void, void_mask, margin, settings)
+    rim = hole_rim(local, in_void, scene.alpha, cut=cut, window=(near, encloses))
+    return replace(candidate, local=local, cut=cut, rim_xy=None if rim is None else local[rim.index]), (near, encloses)
 
 
 def _with_fit(scene, candidate, floor, settings):
@@ -97,7 +128,7 @@ def _with_fit(scene, candidate, floor, settings):
     return replace(candidate, fit=fit, used=used)
 
 
-def _without_deep_points(scene, candidate, deep, in_void, settings):
+def _without_deep_points(scene, candidate, deep, in_void, window, settings):
     """The candidate without its ``deep`` points (inside its circle by more than the envelope), its rim
     extracted again and kept within two cells of the void, and its first circle kept
     (:class:`holecli.robust.candidate.FirstCircle`) with the material among the dropped points.
@@ -112,7 +143,8 @@ def _without_deep_points(scene, candidate, deep, in_void, settings):
                         allowed=scene.disk_allowance(fit.radius - scene.envelope, settings.max_material_dropped),
                         center=fit.center, radius=fit.radius, rim_xy=candidate.rim_xy)
     local, cut = local[~deep], candidate.cut[~deep]
-    rim = hole_rim(local, in_void, scene.alpha, cut=cut)
+    near, encloses = window
+    rim = hole_rim(local, in_void, scene.alpha, cut=cut, window=(near[~deep], encloses))
     rim_xy = None
     if rim is not None:
         # Keep rim points within two cells of the void: without this a 2 x 6 mm slot's outline comes
@@ -172,7 +204,7 @@ def _measure_void(scene, void, settings):
     def in_void(positions):
         return scene.grid.lookup(void_mask, positions)
 
-    candidate = _with_rim(scene, candidate, in_void, void_mask, settings)
+    candidate, window = _with_rim(scene, candidate, in_void, void_mask, settings)
     refused = first_refusal(RIM_CHECKS, scene, candidate, settings)
     if refused is not None:
         return refused
@@ -183,7 +215,7 @@ def _measure_void(scene, void, settings):
         return refused
     deep = np.hypot(*(candidate.local - candidate.fit.center).T) < candidate.fit.radius - scene.envelope
     if np.any(deep):
-        candidate = _without_deep_points(scene, candidate, deep, in_void, settings)
+        candidate = _without_deep_points(scene, candidate, deep, in_void, window, settings)
         refused = first_refusal(RIM_CHECKS, scene, candidate, settings)
         if refused is not None:
             return refused

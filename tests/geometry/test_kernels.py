@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from holecli.geometry import plane
-from holecli.geometry.kernels import box_indices, largest_angular_gap, orient_normal, robust_sigma
+from holecli.geometry.kernels import (box_indices, largest_angular_gap, orient_normal, robust_sigma, triangulate,
+                                     wobble_frame)
 
 
 def test_robust_sigma_is_the_scaled_median_absolute_value(rng):
@@ -96,3 +97,13 @@ def test_cell_index_sorts_only_when_a_narrow_box_is_asked():
     narrow = (np.array([4.0, 4.0]), np.array([4.0, 4.0]) + 10.0 * np.sqrt(PASS_SHARE) / 2)
     np.testing.assert_array_equal(index.box(*narrow), box_indices(xy, *narrow))
     assert index._sorted is not None
+
+
+def test_a_subset_triangulated_in_the_whole_set_s_frame_keeps_its_wobble(rng):
+    """triangulate wobbles each point as a function of its coordinates in a frame; given the whole
+    set's frame, a subset's points are wobbled exactly as in the whole set."""
+    xy = rng.uniform(-3.0, 5.0, size=(200, 2))
+    subset = np.flatnonzero(np.hypot(*xy.T) < 3.0)
+    whole = triangulate(xy).points
+    np.testing.assert_array_equal(triangulate(xy[subset], frame=wobble_frame(xy)).points, whole[subset])
+    assert not np.array_equal(triangulate(xy[subset]).points, whole[subset])

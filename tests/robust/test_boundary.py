@@ -3,6 +3,7 @@
 import numpy as np
 
 from holecli.geometry.kernels import largest_angular_gap
+from holecli.robust import boundary
 from holecli.robust.boundary import Rim, hole_rim, near_box_edge, outer_envelope
 
 H = 0.1
@@ -146,3 +147,100 @@ def test_components_are_the_groups_a_search_through_shared_edges_finds():
         np.testing.assert_array_equal(labels < 0, ~keep, err_msg=str(trial))
         pairs = set(zip(labels[keep], expected[keep]))
         assert len(pairs) == len(set(labels[keep])) == len(set(expected[keep])), trial
+
+
+def ring_window(xy, center, inner, outer, trim):
+    """A ring of ``xy`` cut like a void's neighbourhood (holecli.robust.measure): ``(local, cut, near,
+    encloses)`` with a cut zone of two alphas and a window ``trim`` narrower."""
+    distance = np.hypot(*(xy - center).T)
+    local = xy[(distance >= inner) & (distance < outer)]
+    reach = np.hypot(*(local - center).T)
+
+    def encloses(centers, radii):
+        return np.hypot(*(centers - center).T) + radii < outer - trim
+
+    return local, reach > outer - 2.0 * ALPHA, reach < outer - trim, encloses
+
+
+def narrow_and_full(local, cut, near, encloses, in_hole, monkeypatch):
+    """The rim from the narrower window (hole_rim_within), whether the whole ring was triangulated
+    again, and hole_rim's rim without the window."""
+    calls = []
+    triangulated = boundary._hole_rim
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return triangulated(*args, **kwargs)
+
+    monkeypatch.setattr(boundary, "_hole_rim", counted)
+    narrow = hole_rim(local, in_hole, ALPHA, cut=cut, window=(near, encloses))
+    monkeypatch.undo()
+    return narrow, len(calls) > 1, hole_rim(local, in_hole, ALPHA, cut=cut)
+
+
+def same(one, other):
+    if one is None or other is None:
+        return one is None and other is None
+    return np.array_equal(one.index, other.index) and one.open == other.open
+
+
+def test_a_hole_surrounded_by_material_takes_its_rim_from_the_narrower_ring(monkeypatch, rng):
+    """On a grid and on random points the narrower ring passes the checks and gives the full ring's
+    rim; so does a hole with no rim (a natural gap)."""
+    random = rng.uniform(-3.0, 3.0, size=(3600, 2))
+    for xy in (holed(grid()), holed(random), holed(grid(), radius=0.12)):
+        outer = RADIUS + 3.0 * ALPHA + 2.0 * H
+        local, cut, near, encloses = ring_window(xy, CENTER, 0.5, outer, ALPHA)
+        narrow, again, full = narrow_and_full(local, cut, near, encloses, in_disk(), monkeypatch)
+        assert same(narrow, full)
+        assert not again
+
+
+def test_a_border_a_slot_or_a_neighbour_across_the_ring_falls_back_to_the_full_ring(monkeypatch):
+    """Where the void's region or the end of the scan reaches the left-out points the checks fail
+    and the whole ring is triangulated (the scan's border, a wide slot, sparse points around the
+    hole); a second hole the region does not reach changes nothing. The rim is hole_rim's."""
+    outer = RADIUS + 3.0 * ALPHA + 2.0 * H
+    xy = holed(grid())
+    border = xy[xy[:, 0] < CENTER[0] + RADIUS + 0.5 * ALPHA]  # the scan ends just past the hole
+    slot = xy[~((np.abs(xy[:, 1] - CENTER[1]) < 0.5) & (xy[:, 0] > CENTER[0]))]  # a slot out of the hole
+    second = holed(xy, center=CENTER + [RADIUS + 2.2 * ALPHA + 0.3, 0.0], radius=0.3)  # a neighbour
+    # Burrs and reflections: sparse points (gaps wider than alpha) from just outside the edge outwards.
+    keep = np.random.default_rng(5).uniform(size=len(xy)) < 0.05
+    sparse = xy[keep | (np.hypot(*(xy - CENTER).T) < RADIUS + 0.5 * ALPHA)]
+    for cloud, falls_back in ((border, True), (slot, True), (second, False), (sparse, True)):
+        local, cut, near, encloses = ring_window(cloud, CENTER, 0.5, outer, ALPHA)
+        narrow, again, full = narrow_and_full(local, cut, near, encloses, in_disk(), monkeypatch)
+        assert full is not None and same(narrow, full)
+        assert again == falls_back
+    # A partial hole's rim is open: the narrower ring cannot give it.
+    partial = xy[xy[:, 0] < CENTER[0] + 0.5 * RADIUS]
+    local, cut, near, encloses = ring_window(partial, CENTER, 0.5, outer, ALPHA)
+    narrow, again, _ = narrow_and_full(local, cut, near, encloses, in_disk(), monkeypatch)
+    assert narrow.open and again
+
+
+def test_the_narrower_window_must_leave_out_only_cut_points():
+    """Points left out that are not cut could end the hole region: the full set is triangulated."""
+    xy = holed(grid())
+    outer = RADIUS + 3.0 * ALPHA + 2.0 * H
+    local, cut, near, encloses = ring_window(xy, CENTER, 0.5, outer, 3.0 * ALPHA)
+    assert not np.all(cut[~near])
+    assert same(hole_rim(local, in_disk(), ALPHA, cut=cut, window=(near, encloses)),
+                hole_rim(local, in_disk(), ALPHA, cut=cut))
+
+
+def test_a_box_window_takes_its_rim_from_the_narrower_box(monkeypatch):
+    """A bay's neighbourhood is a box: its narrower window an alpha inside every side."""
+    xy = holed(grid(-6.0, 6.0, -6.0, 6.0))
+    low, high = CENTER - 2.0, CENTER + 2.0
+    local = xy[np.all((xy >= low) & (xy <= high), axis=1)]
+    cut = near_box_edge(local, low, high, 2.0 * ALPHA)
+    near = ~near_box_edge(local, low, high, ALPHA)
+
+    def encloses(centers, radii):
+        return (np.all(centers - radii[:, None] > low + ALPHA, axis=1)
+                & np.all(centers + radii[:, None] < high - ALPHA, axis=1))
+
+    narrow, again, full = narrow_and_full(local, cut, near, encloses, in_disk(), monkeypatch)
+    assert full is not None and same(narrow, full) and not again
