@@ -79,21 +79,30 @@ class SyntheticRim:
     fit: object
 
 
-def _ring_rim(xy, distance, center, radius, outer, cut_from, alpha, inside):
+def _ring_rim(xy, distance, center, radius, outer, cut_from, alpha, inside, trim):
     """The rim (:func:`holecli.robust.boundary.hole_rim`) of a synthetic hole of ``radius`` cut at
     ``center`` into the points ``xy`` at ``distance`` from it that lie closer than ``outer``; those
-    farther than ``cut_from`` are the cut zone. ``(local points, Rim or None)``."""
+    farther than ``cut_from`` are the cut zone. With ``trim`` > 0 the points closer than
+    ``outer - trim`` are triangulated first, and kept where
+    :func:`holecli.robust.boundary.hole_rim_within` proves their rim is the whole ring's.
+    ``(local points, Rim or None)``."""
     keep = (distance > radius) & (distance < outer)
     local = xy[keep]
     cut = distance[keep] > cut_from
+    near = distance[keep] < outer - trim
     if inside is not None and len(inside):
         local = np.vstack([local, inside])
         cut = np.concatenate([cut, np.zeros(len(inside), dtype=bool)])
+        near = np.concatenate([near, np.ones(len(inside), dtype=bool)])
 
     def in_disk(positions):
         return np.hypot(*(positions - center).T) < radius
 
-    return local, hole_rim(local, in_disk, alpha, cut=cut)
+    def in_narrow_ring(disk_centers, radii):
+        return np.hypot(*(disk_centers - center).T) + radii < outer - trim
+
+    window = (near, in_narrow_ring) if trim > 0.0 else None
+    return local, hole_rim(local, in_disk, alpha, cut=cut, window=window)
 
 
 def synthetic_rim(xy, center, radius, scales, allow_open=True, *, settings=DEFAULT_SETTINGS, inside=None):
@@ -103,14 +112,14 @@ def synthetic_rim(xy, center, radius, scales, allow_open=True, *, settings=DEFAU
     farther than ``radius + reach`` from the center (where a partial hole opens onto the scan's
     edge) are ignored.
 
-    With ``scales.trim``, the ring reaching only ``radius + margin - trim`` is triangulated first,
-    its cut zone starting where the full ring's does. Dropping points can change only the triangles
-    whose empty circle reaches past the nearer outer line; one that touched the hole region would
-    span the material between the rim and that line, which holds no empty circle as large as an
-    alpha disk wherever the material surrounds the hole (``settings.synthetic_cut_alphas``). So a
-    closed rim there is the full ring's; an open rim, or none, may come from a border or another
-    void crossing the ring, and the full ring is triangulated instead (at once when ``allow_open``:
-    the synthetic holes of a partial hole open onto the scan's edge).
+    With ``scales.trim`` (``settings.synthetic_cut_alphas``), the points of the ring reaching only
+    ``radius + margin - trim`` are triangulated first, its cut zone starting where the full ring's
+    does, and their rim is kept only where :func:`holecli.robust.boundary.hole_rim_within` proves it
+    is the full ring's (every point on their outer boundary is cut, every triangle of the hole region
+    has its empty circle inside the nearer line); otherwise (a border or another void crossing the
+    ring) the full ring is triangulated. A partial hole's synthetic holes (``allow_open``) open onto
+    the scan's edge: their full ring is triangulated at once. The local points returned are the full
+    ring's either way.
 
     Parameters
     ----------
@@ -136,11 +145,8 @@ def synthetic_rim(xy, center, radius, scales, allow_open=True, *, settings=DEFAU
     alpha, margin = scales.alpha, scales.margin
     distance = np.hypot(*(xy - center).T)
     cut_from = radius + margin - settings.cut_alphas * alpha
-    rim = None
-    if scales.trim > 0.0 and not allow_open:
-        local, rim = _ring_rim(xy, distance, center, radius, radius + margin - scales.trim, cut_from, alpha, inside)
-    if rim is None or rim.open:
-        local, rim = _ring_rim(xy, distance, center, radius, radius + margin, cut_from, alpha, inside)
+    trim = 0.0 if allow_open else scales.trim  # a partial hole's rings open onto the scan's edge: whole at once
+    local, rim = _ring_rim(xy, distance, center, radius, radius + margin, cut_from, alpha, inside, trim)
     if rim is None or (rim.open and not allow_open):
         return None
     rim_xy = local[rim.index]

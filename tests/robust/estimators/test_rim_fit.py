@@ -7,7 +7,8 @@ import pytest
 
 from holecli.robust.boundary import hole_rim
 from holecli.robust.edge import fit_edge
-from holecli.robust.estimators.rim_fit import RimScales, _ring_rim, sampling_bias, synthetic_rim, synthetic_rim_fit
+from holecli.robust import boundary
+from holecli.robust.estimators.rim_fit import RimScales, sampling_bias, synthetic_rim, synthetic_rim_fit
 from holecli.settings import DEFAULT_SETTINGS
 
 pytestmark = pytest.mark.slow  # the quick loop: pytest -m "not slow"
@@ -104,20 +105,38 @@ def same_rim(one, other):
             and np.array_equal(one.fit.center, other.fit.center))
 
 
+@pytest.fixture
+def triangulated(monkeypatch):
+    """The sizes of the point sets the rim extraction triangulates, in order."""
+    sizes = []
+    original = boundary.triangulate
+
+    def counting(xy, *args, **kwargs):
+        sizes.append(len(xy))
+        return original(xy, *args, **kwargs)
+
+    monkeypatch.setattr(boundary, "triangulate", counting)
+    return sizes
+
+
 @pytest.mark.parametrize("pitch", [H, 3 * H])
 @pytest.mark.parametrize("radius", [0.8, 1.55, 2.3])
-def test_a_ring_an_alpha_narrower_gives_the_same_synthetic_rim(pitch, radius):
+def test_a_ring_an_alpha_narrower_gives_the_same_synthetic_rim(pitch, radius, triangulated):
     """Where the material surrounds the synthetic hole, the points between the nearer and the full
-    outer line change no triangle at the rim: the rim points and their fit are the full ring's."""
+    outer line change no triangle at the rim: the rim points and their fit are the full ring's, and
+    only the narrower ring was triangulated (hole_rim_within's checks held)."""
     trimmed, full = trimmed_and_full(pitch)
     xy = lattice(pitch)
     for center in (CENTER, CENTER + [0.031, -0.047]):
+        triangulated.clear()
         narrow = synthetic_rim(xy, center, radius, trimmed, allow_open=False)
+        assert len(triangulated) == 1
+        narrow_points = triangulated[0]
         wide = synthetic_rim(xy, center, radius, full, allow_open=False)
         assert narrow is not None
         assert same_rim(narrow, wide)
-        # The saving: the narrower ring was triangulated, not the full one after it.
-        assert len(narrow.local) < 0.8 * len(wide.local)
+        assert np.array_equal(narrow.local, wide.local)  # the full ring's points, for the lattice's rows
+        assert narrow_points < 0.8 * triangulated[-1]
 
 
 def test_a_narrower_ring_is_the_same_on_random_points(rng):
@@ -132,19 +151,18 @@ def test_a_narrower_ring_is_the_same_on_random_points(rng):
         assert same_rim(one, synthetic_rim(xy, CENTER, radius, full, allow_open=False))
 
 
-def test_a_border_across_the_narrower_ring_falls_back_to_the_full_ring():
-    """A scan border crossing the narrower ring just outside the synthetic hole opens its rim (the
-    hole region reaches the border's gap past the nearer outer line) where the full ring's rim is
-    closed: the full ring is triangulated then, and the synthetic hole is measured as before."""
+def test_a_border_across_the_narrower_ring_falls_back_to_the_full_ring(triangulated):
+    """A scan border crossing the narrower ring just outside the synthetic hole puts points that are
+    not cut on its triangulation's outer boundary (the hole region may reach the border's gap past the
+    nearer outer line): the full ring is triangulated then, and the synthetic hole is measured as
+    before."""
     pitch = 3 * H
     trimmed, full = trimmed_and_full(pitch)
     radius = 1.5
     xy = lattice(pitch)
     xy = xy[xy[:, 0] < CENTER[0] + radius + 0.2 * full.alpha]
-    distance = np.hypot(*(xy - CENTER).T)
-    cut_from = radius + full.margin - DEFAULT_SETTINGS.cut_alphas * full.alpha
-    _, narrow = _ring_rim(xy, distance, CENTER, radius, radius + full.margin - trimmed.trim, cut_from, full.alpha, None)
-    assert narrow is not None and narrow.open
     expected = synthetic_rim(xy, CENTER, radius, full, allow_open=False)
     assert expected is not None
+    triangulated.clear()
     assert same_rim(synthetic_rim(xy, CENTER, radius, trimmed, allow_open=False), expected)
+    assert len(triangulated) == 2 and triangulated[0] < triangulated[1]  # narrow first, then the full ring
