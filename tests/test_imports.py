@@ -166,18 +166,21 @@ def test_detect_imports_no_other_command(modules_imported_by, repo_root):
     assert "holecli.cli.batch" in modules_imported_by([["--help"]], OTHER_COMMANDS)
 
 
-# What a detect without tolerance options or --spec does not need: the tolerance checks (with tomllib,
-# which reads a spec) and the inspection of --spec, --registration and --name.
-TOLERANCE_MODULES = ("holecli.tolerance", "holecli.inspection", "tomllib")
+# What a detect of a PLY without tolerance options or --spec does not need: the tolerance checks (with
+# tomllib, which reads a spec), the inspection of --spec, --registration and --name, and the reader of
+# text tables.
+NOT_FOR_A_PLAIN_DETECT = ("holecli.tolerance", "holecli.inspection", "tomllib", "holecli.io.text")
 
 
-def test_a_plain_detect_imports_no_tolerance_module(modules_imported_by, repo_root):
-    # a one-shot detect of a file paid about 4 ms for them (the default coverage factor it needs is
+def test_a_plain_detect_imports_no_tolerance_module_and_no_text_reader(modules_imported_by, repo_root):
+    # a one-shot detect paid about 6 ms for them (the default coverage factor it needs is
     # holecli.vocabulary's); the table's and the CSV's renderers do not import them either
     scan = repo_root / "sample_clouds" / "table1.ply"
     plain = [["detect", scan], ["detect", scan, "--format", "table"], ["detect", scan, "--format", "csv"]]
-    assert modules_imported_by(plain, TOLERANCE_MODULES) == "[]"
-    # the check sees them when a tolerance is given
+    assert modules_imported_by(plain, NOT_FOR_A_PLAIN_DETECT) == "[]"
+    # the check sees them when a tolerance is given, and when a text table is read
     checked = modules_imported_by([["detect", scan, "--nominal-diameter", "3", "--tolerance", "0.1"]],
-                                  TOLERANCE_MODULES)
+                                  NOT_FOR_A_PLAIN_DETECT)
     assert "'holecli.tolerance'" in checked and "'tomllib'" in checked
+    table = repo_root / "sample_clouds" / "table1_inside100.csv"
+    assert "'holecli.io.text'" in modules_imported_by([["detect", table]], NOT_FOR_A_PLAIN_DETECT)
