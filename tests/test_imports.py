@@ -168,11 +168,11 @@ def test_detect_imports_no_other_command(modules_imported_by, repo_root):
 
 # What a detect of a PLY without tolerance options or --spec does not need: the tolerance checks (with
 # tomllib, which reads a spec), the inspection of --spec, --registration and --name, and the reader of
-# text tables.
-NOT_FOR_A_PLAIN_DETECT = ("holecli.tolerance", "holecli.inspection", "tomllib", "holecli.io.text")
+# text tables and of PCD.
+NOT_FOR_A_PLAIN_DETECT = ("holecli.tolerance", "holecli.inspection", "tomllib", "holecli.io.text", "holecli.io.pcd")
 
 
-def test_a_plain_detect_imports_no_tolerance_module_and_no_text_reader(modules_imported_by, repo_root):
+def test_a_plain_detect_imports_no_tolerance_module_and_no_other_reader(modules_imported_by, repo_root):
     # a one-shot detect paid about 6 ms for them (the default coverage factor it needs is
     # holecli.vocabulary's); the table's and the CSV's renderers do not import them either
     scan = repo_root / "sample_clouds" / "table1.ply"
