@@ -7,7 +7,7 @@ unless warnings were asked for with ``-W`` or ``PYTHONWARNINGS``. BLAS starts wi
 
 When the command is done, the garbage it left is collected and what is still alive is frozen
 (:func:`prepare_exit`): the interpreter's teardown then no longer walks and frees, object by object, the
-modules numpy and scipy are made of, which took a one-shot ``holecli detect`` about 30 ms of its 0.4 s.
+modules numpy and scipy are made of, which took a one-shot ``holecli detect`` some 20-30 ms of its 0.4 s.
 """
 
 import gc
@@ -42,7 +42,7 @@ def prepare_exit():
     """Make the interpreter's exit cheap: collect the garbage now, then freeze what is left.
 
     The collection finalizes every unreachable object as the interpreter's own last collection would
-    (a file left in a reference cycle is flushed and closed). :func:`gc.freeze` then moves the living
+    (``__del__`` methods and weak reference callbacks run). :func:`gc.freeze` then moves the living
     objects (mostly the imported modules' functions, classes and tables) out of the collector's reach,
     so that the collections of the teardown skip them: they are freed with the process, as they would be
     by ``os._exit``, but the exit stays the ordinary one (``atexit`` handlers run, threads are joined,
