@@ -9,9 +9,9 @@ from __future__ import annotations
 
 from holecli.io.formats import INPUT_EXTENSIONS, INPUT_FORMATS
 
-__all__ = ["DECISION_RULES", "DOUBT_CODES", "ESTIMATORS", "ESTIMATOR_CONE", "ESTIMATOR_EMPTY_CIRCLE",
-           "ESTIMATOR_LATTICE", "ESTIMATOR_RIM_FIT", "INPUT_EXTENSIONS", "INPUT_FORMATS", "LOOP_CHECKS",
-           "NOTE_CODES", "NOT_IN_SPEC_FRAME", "REJECTION_REASONS", "UNCERTAINTY_NOTE", "UNIT_MISMATCH",
+__all__ = ["DECISION_RULES", "DEFAULT_COVERAGE_FACTOR", "DOUBT_CODES", "ESTIMATORS", "ESTIMATOR_CONE",
+           "ESTIMATOR_EMPTY_CIRCLE", "ESTIMATOR_LATTICE", "ESTIMATOR_RIM_FIT", "INPUT_EXTENSIONS", "INPUT_FORMATS",
+           "LOOP_CHECKS", "NOTE_CODES", "NOT_IN_SPEC_FRAME", "REJECTION_REASONS", "UNCERTAINTY_NOTE", "UNIT_MISMATCH",
            "WARNING_CODES"]
 
 # INPUT_EXTENSIONS (what holecli.io.read_cloud reads, by extension) and INPUT_FORMATS (the formats by
@@ -20,6 +20,9 @@ __all__ = ["DECISION_RULES", "DOUBT_CODES", "ESTIMATORS", "ESTIMATOR_CONE", "EST
 # How a tolerance check is decided (ISO 14253-1): by the value alone, or by the value +- its
 # expanded uncertainty (holecli.tolerance, ``--decision-rule``).
 DECISION_RULES = ("simple", "guarded")
+# The default coverage factor of the expanded uncertainty (k = 2: about 95 % coverage for a normal
+# distribution, the usual choice of a calibration certificate; ``--coverage-factor``).
+DEFAULT_COVERAGE_FACTOR = 2.0
 
 #: How a hole's edge was measured (``uncertainty.estimator`` of a hole), each estimator's name: a
 #: countersink's cone, the brackets of a lattice, the largest empty circle of irregular sampling, and the

@@ -164,3 +164,23 @@ def test_detect_imports_no_other_command(modules_imported_by, repo_root):
     assert modules_imported_by([["detect", scan], ["-v", "detect", scan, "--format", "csv"]], OTHER_COMMANDS) == "[]"
     # the check sees them when they are imported
     assert "holecli.cli.batch" in modules_imported_by([["--help"]], OTHER_COMMANDS)
+
+
+# What a detect of a PLY without tolerance options or --spec does not need: the tolerance checks (with
+# tomllib, which reads a spec), the inspection of --spec, --registration and --name, and the reader of
+# text tables and of PCD.
+NOT_FOR_A_PLAIN_DETECT = ("holecli.tolerance", "holecli.inspection", "tomllib", "holecli.io.text", "holecli.io.pcd")
+
+
+def test_a_plain_detect_imports_no_tolerance_module_and_no_other_reader(modules_imported_by, repo_root):
+    # a one-shot detect paid about 6 ms for them (the default coverage factor it needs is
+    # holecli.vocabulary's); the table's and the CSV's renderers do not import them either
+    scan = repo_root / "sample_clouds" / "table1.ply"
+    plain = [["detect", scan], ["detect", scan, "--format", "table"], ["detect", scan, "--format", "csv"]]
+    assert modules_imported_by(plain, NOT_FOR_A_PLAIN_DETECT) == "[]"
+    # the check sees them when a tolerance is given, and when a text table is read
+    checked = modules_imported_by([["detect", scan, "--nominal-diameter", "3", "--tolerance", "0.1"]],
+                                  NOT_FOR_A_PLAIN_DETECT)
+    assert "'holecli.tolerance'" in checked and "'tomllib'" in checked
+    table = repo_root / "sample_clouds" / "table1_inside100.csv"
+    assert "'holecli.io.text'" in modules_imported_by([["detect", table]], NOT_FOR_A_PLAIN_DETECT)

@@ -29,9 +29,9 @@ from holecli.cli.files import (MAX_SPEC_BYTES, read_registration, read_small_byt
                                read_spec, refuse_same_files)
 from holecli.cli.types import Columns, CsvFields, Decimal, FloatTuple, HoleTie, ToleranceBand, WarningCodes  # noqa: F401
 from holecli.errors import SpecError
-# The formats of --input-format and the values of --decision-rule (standard library only: building
-# the options imports neither the readers nor numpy).
-from holecli.vocabulary import DECISION_RULES, INPUT_FORMATS
+# The formats of --input-format, the values of --decision-rule and the default --coverage-factor
+# (standard library only: building the options imports neither the readers nor numpy).
+from holecli.vocabulary import DECISION_RULES, DEFAULT_COVERAGE_FACTOR, INPUT_FORMATS
 
 
 def input_format_option(help_text):
@@ -395,8 +395,6 @@ def decision_from_options(decision_rule, coverage_factor, checked):
     click.UsageError
         When either is given without tolerances to check.
     """
-    from holecli.tolerance import DEFAULT_COVERAGE_FACTOR
-
     given = [name for name, value in (("--decision-rule", decision_rule), ("--coverage-factor", coverage_factor))
              if value is not None]
     if given and not checked:
@@ -431,9 +429,11 @@ def require_gauge_depth(spec, gauge_depth, spec_file=None):
     holecli.cli.exits.Failure
         Likewise for a hole of the spec file (exit 2; raised in the command's guarded body).
     """
-    from holecli.tolerance import gauge_checked
+    if spec is None or gauge_depth is not None:
+        return
+    from holecli.tolerance import gauge_checked  # here: a detect without tolerances does not import it
 
-    holes = [] if spec is None or gauge_depth is not None else gauge_checked(spec)
+    holes = gauge_checked(spec)
     if not holes:
         return
     if spec_file is None:
@@ -469,8 +469,6 @@ def nominal_from_options(spec_file=None, **options):
         For combinations that do not make sense (``--spec`` with the other options, ``--tolerance``
         without ``--nominal-diameter``, ...).
     """
-    from holecli.tolerance import nominal_spec
-
     values = {_NOMINAL_SPEC_KEYS.get(name, name): value for name, value in options.items()}
     unknown = sorted(set(values) - set(TOLERANCE_OPTION_NAMES))
     if unknown:
@@ -482,6 +480,8 @@ def nominal_from_options(spec_file=None, **options):
         return None
     if not given:
         return None
+    from holecli.tolerance import nominal_spec  # here: a detect without tolerances does not import it
+
     try:
         return nominal_spec(**values, names=TOLERANCE_OPTION_NAMES)
     except SpecError as error:
@@ -534,13 +534,13 @@ def inspection_from_options(spec, spec_file, registration_file, name_pairs, scan
         name (naming the spec and its holes), a ``--name`` SCAN that is not detect's SCAN; with the
         input code: a registration that cannot be read.
     """
-    from holecli.inspection import Inspection
-
     if spec_file is None:
         if registration_file is not None or name_pairs:
             option = "--registration" if registration_file is not None else "--name"
             raise Failure(f"{option} needs --spec (the part's nominal holes it applies to)", EXIT_USAGE)
         return spec
+    from holecli.inspection import Inspection  # here: a detect without --spec does not import it
+
     hole_names = [hole.name for hole in spec.holes]
     for scan, hole in name_pairs:
         shown = hole if scan is None else f"{scan}={hole}"

@@ -90,7 +90,7 @@ def render_table(records, width=None):
     """
     from rich.console import Console
 
-    from holecli.tolerance import DEFAULT_COVERAGE_FACTOR
+    from holecli.vocabulary import DEFAULT_COVERAGE_FACTOR
     from holecli.units import table_decimals
 
     width = table_width() if width is None else width

@@ -9,14 +9,16 @@ import os
 import stat
 import struct
 from dataclasses import dataclass
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 import numpy as np
 
 from holecli.errors import LoadError
 from holecli.io._common import _BadFile, _describe
 from holecli.io.formats import INPUT_EXTENSIONS, INPUT_FORMATS, TEXT_EXTENSIONS, expected, format_of, reader
-from holecli.io.text import TableColumns
+
+if TYPE_CHECKING:  # (only named in Cloud's fields: reading a PLY does not import the text tables' reader)
+    from holecli.io.text import TableColumns
 
 __all__ = ["Cloud", "file_kind", "load_points", "read_cloud"]
 

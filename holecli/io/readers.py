@@ -4,15 +4,16 @@ A reader is called ``read(path, scan, columns)`` after the checks every file goe
 (:func:`holecli.io.cloud.read_cloud`) and returns ``(rows, flagged, units, columns)``: every
 coordinate row, non-finite ones included, as (n, 3) float64; the points the file flags invalid; the
 unit the format declares (or None); the columns read of a text table (or None). A writer is called
-``encode(points, float32, extension)`` and returns the file's bytes. E57 and LAS import their
-optional libraries only when such a file is read.
+``encode(points, float32, extension)`` and returns the file's bytes. Each format's module is imported
+when a file of that format is read or written (E57 and LAS with their optional libraries): a one-shot
+``holecli detect`` of a PLY imports neither the PCD nor the text tables' reader.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from holecli.io import pcd, ply, text
+from holecli.io import ply
 from holecli.io._common import _BadFile
 
 # The first bytes the E57 and LAS readers check their signature in.
@@ -26,11 +27,15 @@ def read_ply(path, scan=None, columns=None):
 
 def read_pcd(path, scan=None, columns=None):
     """A PCD file's rows (see the module's docstring)."""
+    from holecli.io import pcd
+
     return pcd.read_pcd(path, _whole(path)), 0, None, None
 
 
 def read_table(path, scan=None, columns=None):
     """A CSV, TXT or XYZ table's rows, in the columns ``columns`` or those found (see the module's docstring)."""
+    from holecli.io import text
+
     points, read = text.read_table_columns(path, columns)
     return points, 0, read.unit, read
 
@@ -57,11 +62,15 @@ def encode_ply(points, float32, extension=".ply"):
 
 def encode_pcd(points, float32, extension=".pcd"):
     """``points`` as a ``DATA binary`` PCD file."""
+    from holecli.io import pcd
+
     return pcd.encode_pcd(points, float32)
 
 
 def encode_table(points, float32, extension):
     """``points`` as a text table: ``.csv`` with an ``x,y,z`` header, ``.txt`` and ``.xyz`` without."""
+    from holecli.io import text
+
     return text.encode_table(points.astype(np.float32) if float32 else points, header=extension == ".csv")
 
 

@@ -12,7 +12,7 @@ from typing import Optional
 from holecli.errors import SpecError
 from holecli.io.decimal_text import parse_decimal
 from holecli.units import declared_units
-from holecli.vocabulary import DECISION_RULES
+from holecli.vocabulary import DECISION_RULES, DEFAULT_COVERAGE_FACTOR
 
 __all__ = ["DECISION_RULES", "DEFAULT_COVERAGE_FACTOR", "Band", "NominalHole", "Spec", "gauge_checked", "load_toml", "nominal_spec", "parse_band", "parse_spec", "spec_number"]
 
@@ -66,9 +66,8 @@ _TOLERANCE_KEYS = ("tolerance", "position_tolerance", "max_tilt",
                    *(f"{feature.name}_tolerance" for feature in _FEATURE_CHECKS), "countersink_gauge_tolerance",
                    "max_perpendicularity")
 
-# The decision rules of ISO 14253-1 that check() applies, and the default coverage factor (k = 2: about
-# 95 % coverage for a normal distribution, the usual choice of a calibration certificate).
-DEFAULT_COVERAGE_FACTOR = 2.0
+# The decision rules of ISO 14253-1 that check() applies (DECISION_RULES), and the default coverage
+# factor (k = 2), are holecli.vocabulary's: the command line reads them without importing this module.
 
 # Where each check's standard uncertainty is in a hole's ``uncertainty`` (its value, or null).
 _UNCERTAINTY_PATHS = {
