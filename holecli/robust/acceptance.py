@@ -48,7 +48,7 @@ def void_below_min_diameter(scene, candidate, settings):
     """``below_min_diameter`` before any triangulation: no disk empty of material that is centred in
     the void may reach the smallest reported radius (the natural gaps of random sampling, which grow
     with the points). Placed at that largest empty disk."""
-    largest, where = _largest_empty_radius(scene, candidate.void_xy, scene.min_radius + scene.cell)
+    largest, where = _largest_empty_radius(scene, candidate.void_xy, scene.void_reach, candidate.void.cells)
     if largest < scene.min_radius:
         return _refusal("below_min_diameter", 2.0 * largest, 2.0 * scene.min_radius, (where, largest))
     return None
@@ -283,7 +283,7 @@ def _boss_points(scene, center, radius, settings):
     return above, allowed
 
 
-def _largest_empty_radius(scene, void_xy, reach):
+def _largest_empty_radius(scene, void_xy, reach, cells=None):
     """An upper bound of the radius of any disk empty of material points whose center lies in the void
     (its cells' centers ``void_xy``).
 
@@ -292,12 +292,20 @@ def _largest_empty_radius(scene, void_xy, reach):
     centers plus that half diagonal. Only the material within ``reach`` of the void's cells is looked
     at (a farther point would give a larger distance: the bound stays an upper bound), and a bound
     beyond ``reach`` is not refined. Returns the bound and the cell center it was found at.
+
+    A scene with cell indices (many candidates) reads the distances of the void's grid ``cells``
+    (their centers ``void_xy``) from :attr:`holecli.robust.scene.Scene.empty_cell_clearance`: the same
+    distances, from one query of every empty cell.
     """
-    low, high = void_xy.min(axis=0) - reach, void_xy.max(axis=0) + reach
-    near = scene.material_xy[scene.box(scene.material_xy, low, high)]
-    if len(near) == 0:
-        return np.inf, void_xy.mean(axis=0)
-    distance, _ = cKDTree(near).query(void_xy, distance_upper_bound=reach)
+    if (cells is not None and getattr(scene, "material_cells", None) is not None and reach == scene.void_reach
+            and np.array_equal(void_xy, scene.grid.center_of(cells))):
+        distance = scene.empty_cell_clearance[cells[:, 0], cells[:, 1]]
+    else:
+        low, high = void_xy.min(axis=0) - reach, void_xy.max(axis=0) + reach
+        near = scene.material_xy[scene.box(scene.material_xy, low, high)]
+        if len(near) == 0:
+            return np.inf, void_xy.mean(axis=0)
+        distance, _ = cKDTree(near).query(void_xy, distance_upper_bound=reach)
     best = int(np.argmax(distance))
     return float(distance[best]) + scene.cell / np.sqrt(2.0), void_xy[best]
 

@@ -12,7 +12,7 @@ import pytest
 from holecli.geometry.circle import CircleFit
 from holecli.robust import acceptance
 from holecli.robust.candidate import Candidate, FirstCircle, Measured, Refusal
-from holecli.robust.candidates import Void
+from holecli.robust.candidates import Void, find_voids
 from holecli.robust.scene import build_scene
 from holecli.settings import DEFAULT_SETTINGS
 from holecli.vocabulary import REJECTION_REASONS
@@ -187,3 +187,26 @@ def test_beyond_max_holes_keeps_the_largest(diameters, max_holes, kept, refused)
     assert [(r.value, r.limit) for r in refusals] == refused
     assert all(r.check == "beyond_max_holes" and r.radius == 0.5 * r.value for r in refusals)
     assert all(r.value < r.limit for r in refusals)
+
+
+def test_the_void_check_reads_the_same_distances_from_the_cell_indices():
+    """With the cell indices (many candidates), the void check reads its distances from the scene's
+    clearance of the empty cells: every void of a randomly sampled plate (its natural gaps) is refused
+    or passed as a box query of its own material points refuses or passes it, at the same place."""
+    rng = np.random.default_rng(3)
+    xy = rng.uniform(-5.0, 5.0, (20_000, 2))
+    xy = xy[np.hypot(*xy.T) >= 1.0]
+    plain = build_scene(np.column_stack([xy, 0.001 * rng.standard_normal(len(xy))]), view_dir=(0.0, 0.0, -1.0))
+    indexed = plain.with_cell_indices()
+    candidates = [Candidate.of(void, plain.grid, DEFAULT_SETTINGS) for void in find_voids(plain.grid)]
+    refused = 0
+    for candidate in candidates:
+        expected = acceptance.void_below_min_diameter(plain, candidate, DEFAULT_SETTINGS)
+        got = acceptance.void_below_min_diameter(indexed, candidate, DEFAULT_SETTINGS)
+        assert (got is None) == (expected is None)
+        if expected is not None:
+            assert (got.check, got.value, got.limit, got.radius) == (expected.check, expected.value,
+                                                                      expected.limit, expected.radius)
+            np.testing.assert_array_equal(got.center, expected.center)
+            refused += 1
+    assert 10 < refused < len(candidates)  # the gaps refused, the hole passed

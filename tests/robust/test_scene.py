@@ -5,7 +5,9 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from scipy.spatial import cKDTree
 
+from holecli.robust.candidates import Grid
 from holecli.robust.scene import Neighbourhood, build_scene
 
 
@@ -169,3 +171,36 @@ def test_a_neighbourhood_is_its_scene_for_everything_else(scene):
     assert around.scanned_fraction(np.zeros(2), 3.0) == scene.scanned_fraction(np.zeros(2), 3.0)
     with pytest.raises(AttributeError):
         around.not_an_attribute
+
+
+@pytest.mark.parametrize("min_diameter", [None, 0.1, 0.37, 1.5])
+def test_the_clearance_of_the_empty_cells_is_their_nearest_material(min_diameter):
+    """Each empty cell's clearance is the distance from its center to the nearest material point of
+    the whole scan when that is less than the reach, else inf (the default reach, 2.5 cells, puts
+    the farthest cells it can touch exactly half a cell beyond its span)."""
+    scene = build_scene(_plate(), view_dir=(0.0, 0.0, -1.0), min_diameter=min_diameter)
+    grid, reach = scene.grid, scene.void_reach
+    cells = np.argwhere(~grid.material)
+    distance, _ = cKDTree(scene.material_xy).query(grid.center_of(cells))
+    expected = np.full(grid.material.shape, np.inf)
+    near = distance < reach
+    expected[cells[near, 0], cells[near, 1]] = distance[near]
+    assert np.count_nonzero(np.isfinite(expected)) > 100  # (the gaps of random sampling, and the hole's rim)
+    np.testing.assert_array_equal(scene.empty_cell_clearance, expected)
+
+
+def test_the_clearance_finds_material_at_the_edge_of_its_reach(scene):
+    """One empty cell in a grid of material, whose only points stand on a ring just inside the reach
+    about its center (in the cells the farthest from it that the reach touches, diagonals included):
+    each cell's clearance is the nearest of them, as a brute force gives it."""
+    material = np.ones((21, 21), dtype=bool)
+    material[10, 10] = False
+    grid = Grid(origin=np.zeros(2), cell=1.0, material=material, solid=material)
+    angles = np.linspace(0.0, 2.0 * np.pi, 720, endpoint=False)
+    for radius in (2.5 - 1e-9, 2.45, 2.2):
+        ring = np.array([10.5, 10.5]) + radius * np.column_stack([np.cos(angles), np.sin(angles)])
+        made = replace(scene, grid=grid, material_xy=np.asfortranarray(ring), cell=1.0, min_radius=1.5)
+        assert made.void_reach == 2.5
+        expected, _ = cKDTree(ring).query([[10.5, 10.5]])
+        assert made.empty_cell_clearance[10, 10] == expected[0] < 2.5
+        assert np.count_nonzero(np.isfinite(made.empty_cell_clearance)) == 1
