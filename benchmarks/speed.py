@@ -209,7 +209,8 @@ def _child_cpu(command, **kwargs):
 
 
 def _environment(source, cache):
-    """The environment of a whole holecli process: ``source``'s holecli, byte-compiled into ``cache``."""
+    """The environment of a whole holecli process: ``source``'s holecli, byte-compiled into ``cache``.
+    (``python -m holecli`` puts its working folder first on the path: run it in ``source``.)"""
     environment = dict(os.environ, PYTHONPATH=str(source), PYTHONPYCACHEPREFIX=str(cache))
     for name in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "PYTHONDONTWRITEBYTECODE"):
         environment.pop(name, None)  # as a user's shell has them: unset
@@ -226,7 +227,7 @@ def one_shot_split(source, cache, runs=7):
     _child_cpu([sys.executable, "-c", SPLIT, str(source), path], env=environment)
     totals, parts = [], []
     for _ in range(runs):
-        totals.append(_child_cpu([sys.executable, "-m", "holecli", "detect", path], env=environment)[0])
+        totals.append(_child_cpu([sys.executable, "-m", "holecli", "detect", path], env=environment, cwd=source)[0])
         parts.append(json.loads(_child_cpu([sys.executable, "-c", SPLIT, str(source), path], env=environment)[1]))
     split = {key: float(np.median([part[key] for part in parts])) for key in ("interpreter", "imports", "load", "detect")}
     split["total"] = float(np.median(totals))
@@ -263,8 +264,8 @@ def whole_process(source, cache, path, runs=7):
     run that fills the bytecode ``cache``."""
     environment = _environment(source, cache)
     command = [sys.executable, "-m", "holecli", "detect", path]
-    _child_cpu(command, env=environment)
-    return float(np.median([_child_cpu(command, env=environment)[0] for _ in range(runs)]))
+    _child_cpu(command, env=environment, cwd=source)
+    return float(np.median([_child_cpu(command, env=environment, cwd=source)[0] for _ in range(runs)]))
 
 
 def main(argv=None):
