@@ -7,7 +7,8 @@ unless warnings were asked for with ``-W`` or ``PYTHONWARNINGS``. BLAS starts wi
 
 When the command is done, the garbage it left is collected and what is still alive is frozen
 (:func:`prepare_exit`): the interpreter's teardown then no longer walks and frees, object by object, the
-modules numpy and scipy are made of, which took a one-shot ``holecli detect`` some 20-30 ms of its 0.4 s.
+modules numpy and scipy are made of, which took a one-shot ``holecli detect`` some 20-30 ms of its 0.4 s
+(not after a command that used process pools).
 """
 
 import gc
@@ -48,10 +49,16 @@ def prepare_exit():
     by ``os._exit``, but the exit stays the ordinary one (``atexit`` handlers run, threads are joined,
     and standard output and error are flushed).
 
+    Not after a command that used process pools (``batch``, ``serve``: :mod:`multiprocessing` is
+    imported): their semaphores, pipes and shared memory are released by finalizers at the exit, which
+    must see every object; the few milliseconds matter only to a one-shot ``detect``.
+
     Returns
     -------
     None
     """
+    if "multiprocessing" in sys.modules:
+        return
     gc.collect()
     gc.freeze()
 

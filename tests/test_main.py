@@ -42,3 +42,16 @@ def test_the_program_writes_its_whole_record_and_exits_with_its_code(tmp_path, r
     shown, written = json.loads(shown.stdout), json.loads(output.read_text())
     shown.pop("timing"), written.pop("timing")
     assert shown["holes"] and written == shown
+
+
+def test_the_exit_freezes_nothing_after_a_command_that_used_processes(repo_root):
+    # batch and serve start process pools: the exit's finalizers of their semaphores and pipes must see
+    # every object, so prepare_exit leaves the collector alone once multiprocessing is imported
+    code = ("import gc, sys\n"
+            "from holecli.__main__ import prepare_exit\n"
+            "if sys.argv[1] == 'pool':\n"
+            "    import multiprocessing\n"
+            "prepare_exit()\n"
+            "print(gc.get_freeze_count() > 0)\n")
+    assert run_python(code, "pool", repo_root=repo_root).stdout.strip() == "False"
+    assert run_python(code, "plain", repo_root=repo_root).stdout.strip() == "True"
