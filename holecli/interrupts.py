@@ -6,6 +6,9 @@ and ends the process with exit code 130 at once (no traceback, whatever is being
 body runs (:func:`raising`), a signal raises :class:`KeyboardInterrupt` instead, so that the body
 can clean up (an atomic write removes its temporary file) before the command exits with 130.
 
+Within :func:`deferred` a signal waits until the block ends, then acts as above: a worker process
+being launched is never cut off between its start and the data it starts from.
+
 A KeyboardInterrupt raised where Python cannot pass it on (a weak reference's callback, such as the
 one importlib's module locks use, or a ``__del__``) is "ignored" by the interpreter. The signal is
 still recorded: :func:`check`, called before anything is committed (an atomic rename) and when a body
@@ -21,7 +24,7 @@ import signal
 import sys
 from contextlib import contextmanager
 
-__all__ = ["EXIT_INTERRUPTED", "check", "install", "installed", "raising", "received", "record"]
+__all__ = ["EXIT_INTERRUPTED", "check", "deferred", "install", "installed", "raising", "received", "record"]
 
 EXIT_INTERRUPTED = 130
 SIGNALS = ("SIGINT", "SIGTERM")
@@ -29,9 +32,15 @@ SIGNALS = ("SIGINT", "SIGTERM")
 _raise = False
 _installed = False
 _received = None
+_deferring = False
+_pending = None
 
 
 def _handle(number, frame):
+    global _pending
+    if _deferring:
+        _pending = number
+        return
     if _raise:
         record(number)
         raise KeyboardInterrupt
@@ -157,3 +166,34 @@ def raising():
         yield
     finally:
         _raise = previous
+
+
+@contextmanager
+def deferred():
+    """Within this block SIGINT and SIGTERM wait: when it ends, the first that came acts as it would
+    have (exit 130 at once, or :class:`KeyboardInterrupt` inside :func:`raising`).
+
+    For steps that must not be cut in the middle: a spawned worker process launched but not yet sent
+    the data it starts from would die of an ``EOFError`` with a traceback on the shared stderr, and its
+    pool's semaphores would be left to multiprocessing's resource tracker. Blocks nest (the outermost
+    acts). Without :func:`install` it changes nothing.
+
+    Returns
+    -------
+    context manager
+        Yields None.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        At the block's end, when a signal came inside it within :func:`raising`.
+    """
+    global _deferring, _pending
+    previous, _deferring = _deferring, True
+    try:
+        yield
+    finally:
+        _deferring = previous
+        if not previous and _pending is not None:
+            number, _pending = _pending, None
+            _handle(number, None)

@@ -169,3 +169,28 @@ def test_an_interrupt_the_interpreter_swallowed_still_stops_the_command(monkeypa
     assert exit_info.value.code == interrupts.EXIT_INTERRUPTED
     assert capsys.readouterr().err == "Error: interrupted\n"
     assert os.listdir(tmp_path) == []
+
+
+def test_deferred_holds_a_signal_until_its_block_ends(monkeypatch):
+    # serve's workers are launched inside deferred(): a SIGTERM in the middle of a launch waits, so that
+    # no process is cut off between its start and its start-up data; at the block's end it acts
+    previous = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    monkeypatch.setattr(interrupts, "_installed", False)
+    interrupts.install()
+    finished = []
+    try:
+        with interrupts.raising():
+            with pytest.raises(KeyboardInterrupt):
+                with interrupts.deferred():
+                    with interrupts.deferred():  # nested: only the outermost acts
+                        os.kill(os.getpid(), signal.SIGTERM)
+                        time.sleep(0.2)  # the handler has run: the signal is pending, not raised
+                        finished.append("inner")
+                    time.sleep(0.05)
+                    finished.append("outer")
+        assert finished == ["inner", "outer"]
+        assert interrupts.received() == signal.SIGTERM
+        assert interrupts._pending is None and interrupts._deferring is False
+    finally:
+        signal.signal(signal.SIGINT, previous[0])
+        signal.signal(signal.SIGTERM, previous[1])

@@ -20,6 +20,8 @@ import os
 import threading
 import time
 
+from holecli.interrupts import deferred
+
 __all__ = ["JobResult", "WorkerDied", "WorkerPool", "measure_job"]
 
 
@@ -157,8 +159,13 @@ class WorkerPool:
     def warm(self):
         """Start every worker now and wait until each has paid its imports (the service says it is ready
         only then)."""
-        # More jobs than workers: every process is started, and each job waits for an initialized one.
-        list(self._executor.map(_ready, range(self.workers * 2)))
+        # More jobs than workers: every process is started (by the submissions, in this thread), and each
+        # job waits for an initialized one. A signal waits until every process is launched and has its
+        # start-up data (a process cut off in between dies with a traceback on the shared stderr).
+        with deferred():
+            jobs = [self._executor.submit(_ready, index) for index in range(self.workers * 2)]
+        for job in jobs:
+            job.result()
 
     def submit(self, path, how):
         """Measure ``path`` in a worker: a :class:`concurrent.futures.Future` of a :class:`JobResult`
