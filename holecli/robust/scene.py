@@ -100,8 +100,7 @@ class Scene:
         A box test first: on a million points it is several times cheaper than the distances.
         """
         index = self.box(xy, center - outer, center + outer)
-        distance = np.hypot(xy[index, 0] - center[0], xy[index, 1] - center[1])
-        return index[(distance >= inner) & (distance < outer)]
+        return index[in_ring(xy[index], center, inner, outer)]
 
     def count_in_disk(self, xy, center, radius):
         """How many points of ``xy`` (one of the scene's arrays) lie within ``radius`` of ``center``."""
@@ -360,6 +359,14 @@ def _nothing_behind(heights, surface, band, view):
     return behind <= SEEN_MIN_POINTS
 
 
+def in_ring(points, center, inner, outer):
+    """Whether each of ``points`` (m, 2) lies at a distance in [inner, outer) from ``center``: the
+    distance test of :meth:`Scene.within` and :meth:`Neighbourhood.within` (one expression, so that
+    both give the same answer to the last bit)."""
+    distance = np.hypot(points[:, 0] - center[0], points[:, 1] - center[1])
+    return (distance >= inner) & (distance < outer)
+
+
 class Neighbourhood:
     """The scene as one hole sees it: every attribute and question of its :class:`Scene`, the
     neighbourhood questions (``box``, ``within``, ``count_in_disk``) answered from the points
@@ -467,8 +474,7 @@ class Neighbourhood:
             low, high = center - outer, center + outer
             boxed = ((points[:, 0] >= low[0]) & (points[:, 0] <= high[0])
                      & (points[:, 1] >= low[1]) & (points[:, 1] <= high[1]))
-            distance = np.hypot(points[:, 0] - center[0], points[:, 1] - center[1])
-            sure[doubt] = boxed & (distance >= inner) & (distance < outer)
+            sure[doubt] = boxed & in_ring(points, center, inner, outer)
         return index[sure]
 
     def count_in_disk(self, xy, center, radius):
